@@ -1,0 +1,61 @@
+//! Brute-force visibility: every surface is tested against every shadow
+//! segment, as in Wallace, Elmquist & Haines (1989). Kept as the oracle for
+//! the BSP and BVH (design.md section 3).
+
+use glam::DVec3;
+
+use super::{Occluder, segment_crosses};
+use crate::scene::Surface;
+
+/// Tests every surface.
+pub struct BruteForce<'a> {
+    surfaces: &'a [Surface],
+}
+
+impl<'a> BruteForce<'a> {
+    /// Wraps the scene's surfaces.
+    #[must_use]
+    pub fn new(surfaces: &'a [Surface]) -> Self {
+        BruteForce { surfaces }
+    }
+}
+
+impl Occluder for BruteForce<'_> {
+    fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool {
+        self.surfaces.iter().enumerate().any(|(i, s)| {
+            let i = i as u32;
+            i != skip[0] && i != skip[1] && segment_crosses(s, from, to)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square_at(z: f64) -> Surface {
+        let p = vec![
+            DVec3::new(-1.0, -1.0, z),
+            DVec3::new(1.0, -1.0, z),
+            DVec3::new(1.0, 1.0, z),
+            DVec3::new(-1.0, 1.0, z),
+        ];
+        Surface::new(p, DVec3::splat(0.5), DVec3::ZERO, 0).unwrap()
+    }
+
+    #[test]
+    fn blocks_only_segments_through_the_polygon() {
+        let surfaces = vec![square_at(1.0)];
+        let occ = BruteForce::new(&surfaces);
+        let none = [u32::MAX; 2];
+        assert!(occ.occluded(DVec3::ZERO, DVec3::new(0.0, 0.0, 2.0), none));
+        assert!(!occ.occluded(DVec3::ZERO, DVec3::new(0.0, 0.0, 0.9), none));
+        assert!(!occ.occluded(DVec3::new(3.0, 0.0, 0.0), DVec3::new(3.0, 0.0, 2.0), none));
+        // Edges count as blocking.
+        assert!(occ.occluded(DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 2.0), none));
+        // Skipped surfaces never block.
+        assert!(!occ.occluded(DVec3::ZERO, DVec3::new(0.0, 0.0, 2.0), [0, u32::MAX]));
+        // A segment ending on the plane does not cross it.
+        assert!(!occ.occluded(DVec3::ZERO, DVec3::new(0.0, 0.0, 1.0), none));
+    }
+}

@@ -1,0 +1,351 @@
+//! One render job from scene to files: load, mesh, solve (design.md
+//! section 2), then write the picture, the vertex CSV and the statistics of
+//! design.md section 6. The binary only parses flags into a [`Job`] and
+//! calls [`run`].
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use crate::export::{self, Staged};
+use crate::mesh::{Mesh, MeshError};
+use crate::render::{self, Exposure, RenderSettings};
+use crate::scene::{self, Camera, Scene, SceneError};
+use crate::solver::{Settings, Solver, Stats, StopReason};
+
+/// What to draw and where.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageJob {
+    /// `.png` (tone-mapped sRGB) or `.pfm` (linear radiosity).
+    pub path: PathBuf,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The view; `None` takes the scene's camera or frames the scene.
+    pub camera: Option<Camera>,
+    /// Supersampling factor per axis.
+    pub supersampling: u32,
+    /// Brightness.
+    pub exposure: Exposure,
+    /// Add the ambient term for display.
+    pub ambient: bool,
+}
+
+/// A whole run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    /// A built-in scene's name or an `.obj` path.
+    pub scene: String,
+    /// Solver settings; its mesh sizes are replaced by the two below.
+    pub settings: Settings,
+    /// `--patch-size`; `None` takes the scene's suggestion.
+    pub patch_size: Option<f64>,
+    /// `--element-size`; `None` takes the scene's suggestion.
+    pub element_size: Option<f64>,
+    /// The picture, if any.
+    pub image: Option<ImageJob>,
+    /// `--vertices FILE.csv`.
+    pub vertices_csv: Option<PathBuf>,
+    /// `--stats FILE.json`.
+    pub stats_json: Option<PathBuf>,
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The scene could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The scene could not be meshed.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// A setting is out of range.
+    #[error("{0}")]
+    Settings(String),
+    /// An output file could not be written.
+    #[error("{path}: cannot write: {source}", path = path.display())]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+}
+
+/// Progress after a shot, for a progress display.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// Patches shot so far.
+    pub shots: u64,
+    /// Subsources shot so far.
+    pub subsources: u64,
+    /// Unshot power over emitted power.
+    pub unshot_fraction: f64,
+    /// Estimated completion in [0, 1], from whichever stopping rule is
+    /// nearest.
+    pub completion: f64,
+}
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Scene name.
+    pub scene: String,
+    /// Surface, patch, element and vertex counts.
+    pub counts: Counts,
+    /// Solver counters.
+    pub stats: Stats,
+    /// Why the solve stopped.
+    pub stop: StopReason,
+    /// Unshot fraction at the end.
+    pub unshot_fraction: f64,
+    /// Time of the solve alone.
+    pub solve_time: Duration,
+    /// Time of the whole run.
+    pub total_time: Duration,
+    /// Worker threads.
+    pub threads: usize,
+    /// Files written.
+    pub written: Vec<PathBuf>,
+    /// Warnings from loading.
+    pub warnings: Vec<String>,
+}
+
+/// Sizes of a meshed scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Counts {
+    /// Planar convex input surfaces.
+    pub surfaces: usize,
+    /// Shooting patches.
+    pub patches: usize,
+    /// Receiving elements.
+    pub elements: usize,
+    /// Shared vertices.
+    pub vertices: usize,
+}
+
+impl Counts {
+    /// Counts of a meshed scene.
+    #[must_use]
+    pub fn of(scene: &Scene, mesh: &Mesh) -> Counts {
+        Counts {
+            surfaces: scene.surfaces.len(),
+            patches: mesh.patches.len(),
+            elements: mesh.elements.len(),
+            vertices: mesh.vertices.len(),
+        }
+    }
+}
+
+/// Checks outputs before any work: known picture format, existing folder.
+fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Error> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if !extensions.contains(&extension.as_str()) {
+        return Err(Error::Settings(format!(
+            "{flag} {}: the file name must end in .{}",
+            path.display(),
+            extensions.join(" or .")
+        )));
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        return Err(Error::Output {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("folder {} does not exist", folder.display()),
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Validates a job's settings and outputs without doing any work.
+pub fn validate(job: &Job) -> Result<(), Error> {
+    job.settings.validate().map_err(Error::Settings)?;
+    if let Some(image) = &job.image {
+        check_output(&image.path, &["png", "pfm"], "--output")?;
+        for (name, side) in [("--width", image.width), ("--height", image.height)] {
+            if !(1..=render::MAX_SIDE).contains(&side) {
+                return Err(Error::Settings(format!(
+                    "{name} must be between 1 and {}, not {side}",
+                    render::MAX_SIDE
+                )));
+            }
+        }
+        if !(1..=8).contains(&image.supersampling) {
+            return Err(Error::Settings(format!(
+                "--supersampling must be between 1 and 8, not {}",
+                image.supersampling
+            )));
+        }
+        if let Some(camera) = &image.camera {
+            camera
+                .validate()
+                .map_err(|m| Error::Settings(format!("--camera: {m}")))?;
+        }
+    }
+    if let Some(path) = &job.vertices_csv {
+        check_output(path, &["csv"], "--vertices")?;
+    }
+    if let Some(path) = &job.stats_json {
+        check_output(path, &["json"], "--stats")?;
+    }
+    Ok(())
+}
+
+/// Runs a job in the current rayon pool.
+pub fn run(job: &Job, progress: &mut dyn FnMut(Progress)) -> Result<Outcome, Error> {
+    let start = Instant::now();
+    validate(job)?;
+    let scene = scene::load(&job.scene)?;
+    let mut settings = job.settings.clone();
+    let suggested = scene.default_mesh_sizes();
+    settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
+    settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
+    let mesh = Mesh::build(&scene, &settings.mesh)?;
+    let counts = Counts::of(&scene, &mesh);
+
+    let solve_start = Instant::now();
+    let mut solver = Solver::new(&scene, &mesh, settings.clone());
+    let stop = solver.run(|s| progress(progress_of(s)));
+    let solve_time = solve_start.elapsed();
+
+    let mut staged = Vec::new();
+    let stage = |path: &Path,
+                 write: &mut dyn FnMut(
+        &mut std::io::BufWriter<std::fs::File>,
+    ) -> std::io::Result<()>| {
+        Staged::write(path, write).map_err(|source| Error::Output {
+            path: path.to_path_buf(),
+            source,
+        })
+    };
+    if let Some(image_job) = &job.image {
+        let colours = solver.display_radiosity(image_job.ambient);
+        let settings = RenderSettings {
+            width: image_job.width,
+            height: image_job.height,
+            camera: image_job
+                .camera
+                .unwrap_or_else(|| scene.camera_or_framing()),
+            supersampling: image_job.supersampling,
+        };
+        let image = render::render(&scene, &mesh, &colours, &settings);
+        let is_pfm = image_job
+            .path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
+        staged.push(if is_pfm {
+            stage(&image_job.path, &mut |w| export::write_pfm(w, &image))?
+        } else {
+            let rgb = image.to_srgb8(image.exposure_scale(image_job.exposure));
+            stage(&image_job.path, &mut |w| {
+                export::write_png(w, image.width, image.height, &rgb)
+            })?
+        });
+    }
+    if let Some(path) = &job.vertices_csv {
+        staged.push(stage(path, &mut |w| {
+            export::write_vertices_csv(w, &scene, &mesh, solver.radiosity())
+        })?);
+    }
+    let threads = rayon::current_num_threads();
+    let mut outcome = Outcome {
+        scene: scene.name.clone(),
+        counts,
+        stats: solver.stats().clone(),
+        stop,
+        unshot_fraction: solver.unshot_fraction(),
+        solve_time,
+        total_time: Duration::ZERO,
+        threads,
+        written: Vec::new(),
+        warnings: scene.warnings.clone(),
+    };
+    if let Some(path) = &job.stats_json {
+        outcome.total_time = start.elapsed();
+        let json = stats_json(&settings, &outcome);
+        staged.push(stage(path, &mut |w| {
+            serde_json::to_writer_pretty(&mut *w, &json)?;
+            std::io::Write::write_all(w, b"\n")
+        })?);
+    }
+    for file in staged {
+        let path = file.destination().to_path_buf();
+        file.commit().map_err(|source| Error::Output {
+            path: path.clone(),
+            source,
+        })?;
+        outcome.written.push(path);
+    }
+    outcome.total_time = start.elapsed();
+    Ok(outcome)
+}
+
+/// Progress of a solver, with completion estimated from the nearest
+/// stopping rule (convergence on a log scale).
+fn progress_of(solver: &Solver<'_>) -> Progress {
+    let stats = solver.stats();
+    let settings = solver.settings();
+    let fraction = solver.unshot_fraction();
+    let mut completion: f64 = 0.0;
+    if settings.converge > 0.0 {
+        completion =
+            completion.max((fraction.max(1e-300).ln() / settings.converge.ln()).clamp(0.0, 1.0));
+    }
+    if let Some(m) = settings.max_shots {
+        completion = completion.max(stats.shots as f64 / m.max(1) as f64);
+    }
+    if let Some(m) = settings.max_subsources {
+        completion = completion.max(stats.subsources as f64 / m.max(1) as f64);
+    }
+    Progress {
+        shots: stats.shots,
+        subsources: stats.subsources,
+        unshot_fraction: fraction,
+        completion: completion.min(1.0),
+    }
+}
+
+/// The `--stats` object of design.md section 6.
+fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
+    let s = &outcome.stats;
+    serde_json::json!({
+        "scene": outcome.scene,
+        "surfaces": outcome.counts.surfaces,
+        "patches": outcome.counts.patches,
+        "elements": outcome.counts.elements,
+        "vertices": outcome.counts.vertices,
+        "shots": s.shots,
+        "subsources": s.subsources,
+        "pairs": s.pairs,
+        "rays_cast": s.rays_cast,
+        "pretest_visible": s.pretest_visible,
+        "pretest_hidden": s.pretest_hidden,
+        "unshot_fraction": outcome.unshot_fraction,
+        "stop_reason": outcome.stop.describe(),
+        "solve_seconds": outcome.solve_time.as_secs_f64(),
+        "gather_seconds": s.gather_time.as_secs_f64(),
+        "bookkeeping_seconds": s.bookkeeping_time.as_secs_f64(),
+        "total_seconds": outcome.total_time.as_secs_f64(),
+        "threads": outcome.threads,
+        "settings": {
+            "form_factor": settings.form_factor.name(),
+            "accel": settings.accel.name(),
+            "subsources": settings.subsources,
+            "patch_size": settings.mesh.patch_size,
+            "element_size": settings.mesh.element_size,
+            "converge": settings.converge,
+            "max_shots": settings.max_shots,
+            "max_subsources": settings.max_subsources,
+        },
+    })
+}

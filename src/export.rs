@@ -1,0 +1,123 @@
+//! Results out (design.md section 6): the picture as PNG (tone-mapped sRGB)
+//! or PFM (linear radiosity), the per-vertex radiosities as CSV, and the
+//! run's counters as JSON.
+//!
+//! Every file is written to a temporary name beside its destination and
+//! renamed only once all of a run's outputs are complete, so a failed run
+//! leaves no half-written file behind.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+use crate::mesh::Mesh;
+use crate::render::Image;
+use crate::scene::Scene;
+
+/// A file being written under a temporary name; [`Staged::commit`] moves it
+/// into place, dropping it uncommitted deletes it.
+pub struct Staged {
+    temporary: PathBuf,
+    destination: PathBuf,
+    committed: bool,
+}
+
+impl Staged {
+    /// Writes `contents` through `write` to a temporary file beside `path`.
+    pub fn write(
+        path: &Path,
+        write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+    ) -> io::Result<Staged> {
+        let name = path
+            .file_name()
+            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
+        let mut temporary_name = std::ffi::OsString::from(".");
+        temporary_name.push(name);
+        temporary_name.push(format!(".{}.tmp", std::process::id()));
+        let temporary = path.with_file_name(temporary_name);
+        let staged = Staged {
+            temporary,
+            destination: path.to_path_buf(),
+            committed: false,
+        };
+        let mut writer = BufWriter::new(File::create(&staged.temporary)?);
+        write(&mut writer)?;
+        writer
+            .into_inner()
+            .map_err(|e| e.into_error())?
+            .sync_all()?;
+        Ok(staged)
+    }
+
+    /// Renames the temporary file to its destination.
+    pub fn commit(mut self) -> io::Result<()> {
+        std::fs::rename(&self.temporary, &self.destination)?;
+        self.committed = true;
+        Ok(())
+    }
+
+    /// Where the file will end up.
+    #[must_use]
+    pub fn destination(&self) -> &Path {
+        &self.destination
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.temporary);
+        }
+    }
+}
+
+/// Writes 8-bit sRGB pixels as PNG.
+pub fn write_png(out: &mut impl Write, width: u32, height: u32, rgb: &[u8]) -> io::Result<()> {
+    let mut encoder = png::Encoder::new(out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header().map_err(io::Error::other)?;
+    writer.write_image_data(rgb).map_err(io::Error::other)?;
+    writer.finish().map_err(io::Error::other)
+}
+
+/// Writes the linear picture as a Portable Float Map (little-endian RGB
+/// floats, bottom row first), readable by most HDR tools.
+pub fn write_pfm(out: &mut impl Write, image: &Image) -> io::Result<()> {
+    write!(out, "PF\n{} {}\n-1.0\n", image.width, image.height)?;
+    for row in image.pixels.chunks(image.width as usize).rev() {
+        for p in row {
+            for c in p.to_array() {
+                out.write_all(&c.to_le_bytes())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The CSV header of `--vertices`.
+pub const VERTEX_CSV_HEADER: &str = "x,y,z,nx,ny,nz,surface,r,g,b";
+
+/// Writes one row per vertex: position, unit normal, surface id (input face
+/// order) and radiosity `B`.
+pub fn write_vertices_csv(
+    out: &mut impl Write,
+    scene: &Scene,
+    mesh: &Mesh,
+    radiosity: &[DVec3],
+) -> io::Result<()> {
+    writeln!(out, "{VERTEX_CSV_HEADER}")?;
+    for (v, b) in mesh.vertices.iter().zip(radiosity) {
+        let (p, n) = (v.position, v.normal);
+        let face = scene.surfaces[v.surface as usize].face;
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{}",
+            p.x, p.y, p.z, n.x, n.y, n.z, face, b.x, b.y, b.z
+        )?;
+    }
+    Ok(())
+}

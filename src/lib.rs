@@ -1,0 +1,25 @@
+//! # radiosity
+//!
+//! Progressive-refinement radiosity with ray-traced visibility: the algorithm
+//! of Wallace, Elmquist & Haines (SIGGRAPH 1989) with the three improvements
+//! of Wong & Tsang, *Three Improvements in the Ray Tracing Algorithm for
+//! Progressive Radiosity* (HKU TR-93-05, 1993).
+
+pub mod accel;
+pub mod form_factor;
+pub mod geometry;
+pub mod mesh;
+pub mod scene;
+
+use glam::DVec3;
+
+/// Luminance of a linear Rec. 709 / sRGB colour: the weight that ranks
+/// patches by unshot power and measures convergence.
+#[must_use]
+pub fn luminance(rgb: DVec3) -> f64 {
+    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
+}
+pub mod app;
+pub mod export;
+pub mod render;
+pub mod solver;

@@ -1,0 +1,282 @@
+//! The `radiosity` command: parses flags into a validated [`Job`] and calls
+//! [`radiosity::app::run`]. All logic lives in the library.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, anyhow};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use radiosity::app::{self, ImageJob, Job, Outcome};
+use radiosity::form_factor::FormFactor;
+use radiosity::render::Exposure;
+use radiosity::scene::{Camera, builtin};
+use radiosity::solver::{DEFAULT_CONVERGE, Settings};
+
+/// Diffuse global illumination by progressive radiosity with ray-traced
+/// visibility (Wallace et al. 1989; Wong & Tsang 1993).
+///
+/// With no arguments, renders the built-in room to room.png.
+#[derive(Parser, Debug)]
+#[command(name = "radiosity", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Solve a scene and write its picture (and optionally vertex radiosities
+    /// and statistics).
+    Render(RenderArgs),
+    /// List the built-in scenes.
+    Scenes,
+}
+
+#[derive(Parser, Debug)]
+struct RenderArgs {
+    /// A built-in scene (see `radiosity scenes`) or an .obj file with its
+    /// .mtl.
+    #[arg(default_value = "room")]
+    scene: String,
+
+    /// The picture: .png (tone-mapped sRGB) or .pfm (linear radiosity).
+    /// Default: SCENE-NAME.png in the current folder.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+
+    /// Write one CSV row per vertex: x,y,z,nx,ny,nz,surface,r,g,b.
+    #[arg(long, value_name = "FILE.csv")]
+    vertices: Option<PathBuf>,
+
+    /// Write the run's counters and settings as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    stats: Option<PathBuf>,
+
+    /// Named settings: wallace89 (ray per pair, brute force, eq. 1).
+    #[arg(long, default_value = "wallace89", value_parser = ["wallace89"])]
+    preset: String,
+
+    /// Point-to-polygon form factor (overrides the preset).
+    #[arg(long, value_name = "NAME", value_parser = form_factor_names())]
+    form_factor: Option<String>,
+
+    /// A shooting patch is split into N x N subsources.
+    #[arg(long, value_name = "N")]
+    subsources: Option<u32>,
+
+    /// Longest patch edge, metres (default: the scene's #@mesh suggestion,
+    /// else a third of the scene's bounding-box diagonal).
+    #[arg(long, value_name = "METRES")]
+    patch_size: Option<f64>,
+
+    /// Longest element edge, metres (default: the scene's #@mesh
+    /// suggestion, else 1/40 of the scene's bounding-box diagonal).
+    #[arg(long, value_name = "METRES")]
+    element_size: Option<f64>,
+
+    /// Stop when unshot power falls below this fraction of emitted power.
+    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_CONVERGE)]
+    converge: f64,
+
+    /// Stop after N patches have shot.
+    #[arg(long, value_name = "N")]
+    max_shots: Option<u64>,
+
+    /// Stop once N subsources have shot.
+    #[arg(long, value_name = "N")]
+    max_subsources: Option<u64>,
+
+    /// Worker threads (default: every core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+
+    /// Picture width in pixels.
+    #[arg(long, default_value_t = 800)]
+    width: u32,
+
+    /// Picture height in pixels.
+    #[arg(long, default_value_t = 600)]
+    height: u32,
+
+    /// The view as eye,target,up,fov: ten numbers, e.g.
+    /// 0,1.6,4,0,1,0,0,1,0,60 (default: the scene's camera, or one framing
+    /// the scene).
+    #[arg(long, value_name = "EYE,TARGET,UP,FOV", allow_hyphen_values = true)]
+    camera: Option<String>,
+
+    /// Anti-aliasing: N x N samples a pixel.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    supersampling: u32,
+
+    /// Exposure adjustment in stops, on top of automatic exposure.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    exposure: f64,
+
+    /// Show the solution without the ambient term.
+    #[arg(long)]
+    no_ambient: bool,
+
+    /// No progress bar and no summary.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+fn form_factor_names() -> Vec<&'static str> {
+    FormFactor::ALL.iter().map(|f| f.name()).collect()
+}
+
+impl RenderArgs {
+    /// The validated job (second stage after clap's raw values).
+    fn job(&self) -> Result<Job> {
+        let mut settings = match self.preset.as_str() {
+            "wallace89" => Settings::wallace89(),
+            other => return Err(anyhow!("unknown preset '{other}'")),
+        };
+        if let Some(name) = &self.form_factor {
+            settings.form_factor = FormFactor::from_name(name)
+                .ok_or_else(|| anyhow!("unknown form factor '{name}'"))?;
+        }
+        if let Some(n) = self.subsources {
+            settings.subsources = n;
+        }
+        settings.converge = self.converge;
+        settings.max_shots = self.max_shots;
+        settings.max_subsources = self.max_subsources;
+        let camera = self
+            .camera
+            .as_deref()
+            .map(Camera::parse)
+            .transpose()
+            .map_err(|m| anyhow!("--camera: {m}"))?;
+        if !self.exposure.is_finite() {
+            return Err(anyhow!("--exposure must be a finite number of stops"));
+        }
+        let stem = std::path::Path::new(&self.scene)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "render".into());
+        Ok(Job {
+            scene: self.scene.clone(),
+            settings,
+            patch_size: self.patch_size,
+            element_size: self.element_size,
+            image: Some(ImageJob {
+                path: self
+                    .output
+                    .clone()
+                    .unwrap_or_else(|| PathBuf::from(format!("{stem}.png"))),
+                width: self.width,
+                height: self.height,
+                camera,
+                supersampling: self.supersampling,
+                exposure: Exposure::Auto { ev: self.exposure },
+                ambient: !self.no_ambient,
+            }),
+            vertices_csv: self.vertices.clone(),
+            stats_json: self.stats.clone(),
+        })
+    }
+}
+
+fn main() -> ExitCode {
+    match real_main() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn real_main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Some(Command::Scenes) => {
+            for (name, description) in builtin::list() {
+                println!("{name:10} {description}");
+            }
+            Ok(())
+        }
+        Some(Command::Render(args)) => render(&args),
+        None => render(&RenderArgs::parse_from(["radiosity"])),
+    }
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let job = args.job()?;
+    app::validate(&job)?;
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(threads) = args.threads {
+        if threads == 0 {
+            return Err(anyhow!("--threads must be at least 1"));
+        }
+        pool = pool.num_threads(threads);
+    }
+    let pool = pool.build().context("cannot start worker threads")?;
+
+    let bar = if !args.quiet && std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(1000);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} eta {eta} {msg}",
+            )
+            .expect("static template"),
+        );
+        Some(bar)
+    } else {
+        None
+    };
+    let outcome = pool.install(|| {
+        app::run(&job, &mut |p| {
+            if let Some(bar) = &bar {
+                bar.set_position((p.completion * 1000.0) as u64);
+                bar.set_message(format!(
+                    "{} shots, {} subsources, unshot {:.2}%",
+                    p.shots,
+                    p.subsources,
+                    100.0 * p.unshot_fraction
+                ));
+            }
+        })
+    });
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    let outcome = outcome?;
+    for warning in &outcome.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if !args.quiet {
+        print_summary(&outcome);
+    }
+    Ok(())
+}
+
+fn print_summary(o: &Outcome) {
+    let c = o.counts;
+    println!(
+        "{}: {} surfaces, {} patches, {} elements, {} vertices",
+        o.scene, c.surfaces, c.patches, c.elements, c.vertices
+    );
+    println!(
+        "solved: {} shots, {} subsources, {} rays, unshot {:.2}% ({}) in {:.2} s on {} thread(s)",
+        o.stats.shots,
+        o.stats.subsources,
+        o.stats.rays_cast,
+        100.0 * o.unshot_fraction,
+        o.stop.describe(),
+        o.solve_time.as_secs_f64(),
+        o.threads
+    );
+    for path in &o.written {
+        println!("wrote {}", path.display());
+    }
+}

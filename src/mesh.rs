@@ -1,0 +1,592 @@
+//! Meshing: surfaces -> patches (the shooting units) -> elements (the
+//! receiving mesh) -> shared vertices (design.md section 1; Wallace et al.
+//! 1989, section 3: sources are patches, receivers are element vertices).
+//!
+//! Each surface gets one regular grid: a quad a bilinear `Nu x Nv` grid, a
+//! triangle a barycentric grid of `N^2` triangles, a convex n-gon a fan of
+//! such triangles with one common `N`. Patches are blocks of that grid, so
+//! elements of one surface share their vertices and no T-vertices arise.
+//! Vertices are never shared between surfaces (their normals differ).
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use glam::DVec3;
+
+use crate::geometry;
+use crate::scene::Scene;
+
+/// How finely to cut surfaces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshSettings {
+    /// Longest edge of a patch, metres.
+    pub patch_size: f64,
+    /// Longest edge of an element, metres.
+    pub element_size: f64,
+    /// Refuse meshes with more elements than this.
+    pub max_elements: usize,
+}
+
+impl Default for MeshSettings {
+    fn default() -> Self {
+        MeshSettings {
+            patch_size: DEFAULT_PATCH_SIZE,
+            element_size: DEFAULT_ELEMENT_SIZE,
+            max_elements: 4_000_000,
+        }
+    }
+}
+
+/// Default `--patch-size`: the built-in room then has about the paper's 181
+/// patches.
+pub const DEFAULT_PATCH_SIZE: f64 = 2.5;
+/// Default `--element-size`: the built-in room then has about the paper's
+/// 5,562 elements and 7,167 vertices.
+pub const DEFAULT_ELEMENT_SIZE: f64 = 0.2;
+
+/// A shooting unit: a surface or a block of its grid.
+#[derive(Clone, Debug)]
+pub struct Patch {
+    /// Index of its surface.
+    pub surface: u32,
+    /// Corners (3 or 4), counter-clockwise seen from the front.
+    pub polygon: Vec<DVec3>,
+    /// Area, m^2.
+    pub area: f64,
+    /// The elements cut from it.
+    pub elements: Range<usize>,
+}
+
+/// A receiving element: a quad or triangle of its surface's grid.
+#[derive(Clone, Copy, Debug)]
+pub struct Element {
+    /// Vertex indices, counter-clockwise; the 4th is unused for triangles.
+    pub corners: [u32; 4],
+    /// 3 or 4.
+    pub corner_count: u8,
+    /// Area, m^2.
+    pub area: f64,
+    /// The patch it belongs to.
+    pub patch: u32,
+}
+
+impl Element {
+    /// The used vertex indices.
+    #[must_use]
+    pub fn vertices(&self) -> &[u32] {
+        &self.corners[..self.corner_count as usize]
+    }
+}
+
+/// A node of the element mesh, where radiosity is gathered.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    /// Position, metres.
+    pub position: DVec3,
+    /// Unit normal of its surface.
+    pub normal: DVec3,
+    /// Index of its surface.
+    pub surface: u32,
+}
+
+/// The meshed scene.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Shooting units.
+    pub patches: Vec<Patch>,
+    /// Receiving elements, grouped by patch.
+    pub elements: Vec<Element>,
+    /// Shared vertices.
+    pub vertices: Vec<Vertex>,
+}
+
+/// Why a scene cannot be meshed.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    /// The settings would make too many elements.
+    #[error(
+        "meshing would create {elements} elements, more than the limit of {limit}; \
+         raise --element-size (now {element_size} m)"
+    )]
+    TooManyElements {
+        /// Elements the settings would create.
+        elements: u128,
+        /// The limit.
+        limit: usize,
+        /// The element size asked for.
+        element_size: f64,
+    },
+    /// A size is not a positive finite number.
+    #[error("{0} must be a positive number of metres")]
+    BadSize(&'static str),
+}
+
+/// Number of pieces a length is cut into so none exceeds `size`.
+fn pieces(length: f64, size: f64) -> u64 {
+    ((length / size) - 1e-9).ceil().max(1.0) as u64
+}
+
+/// The grid chosen for one surface.
+#[derive(Clone, Copy, Debug)]
+enum Grid {
+    /// Quad: patches `pu x pv`, elements per patch `mu x mv`.
+    Quad { pu: u64, pv: u64, mu: u64, mv: u64 },
+    /// Triangle fan of `fans` triangles: `p^2` patches of `m^2` elements each.
+    Fan { fans: u64, p: u64, m: u64 },
+}
+
+impl Grid {
+    fn choose(polygon: &[DVec3], settings: &MeshSettings) -> Grid {
+        if polygon.len() == 4 {
+            let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
+            let lu = v0.distance(v1).max(v3.distance(v2));
+            let lv = v0.distance(v3).max(v1.distance(v2));
+            let pu = pieces(lu, settings.patch_size);
+            let pv = pieces(lv, settings.patch_size);
+            Grid::Quad {
+                pu,
+                pv,
+                mu: pieces(lu / pu as f64, settings.element_size),
+                mv: pieces(lv / pv as f64, settings.element_size),
+            }
+        } else {
+            let v0 = polygon[0];
+            let longest = (1..polygon.len() - 1)
+                .map(|i| {
+                    let (a, b) = (polygon[i], polygon[i + 1]);
+                    v0.distance(a).max(a.distance(b)).max(b.distance(v0))
+                })
+                .fold(0.0, f64::max);
+            let p = pieces(longest, settings.patch_size);
+            Grid::Fan {
+                fans: polygon.len() as u64 - 2,
+                p,
+                m: pieces(longest / p as f64, settings.element_size),
+            }
+        }
+    }
+
+    fn element_count(self) -> u128 {
+        match self {
+            Grid::Quad { pu, pv, mu, mv } => (pu * mu) as u128 * (pv * mv) as u128,
+            Grid::Fan { fans, p, m } => fans as u128 * ((p * m) as u128).pow(2),
+        }
+    }
+}
+
+impl Mesh {
+    /// Cuts every surface of the scene into patches, elements and vertices.
+    pub fn build(scene: &Scene, settings: &MeshSettings) -> Result<Mesh, MeshError> {
+        if !(settings.patch_size.is_finite() && settings.patch_size > 0.0) {
+            return Err(MeshError::BadSize("--patch-size"));
+        }
+        if !(settings.element_size.is_finite() && settings.element_size > 0.0) {
+            return Err(MeshError::BadSize("--element-size"));
+        }
+        let grids: Vec<Grid> = scene
+            .surfaces
+            .iter()
+            .map(|s| Grid::choose(&s.polygon, settings))
+            .collect();
+        let total: u128 = grids.iter().map(|g| g.element_count()).sum();
+        if total > settings.max_elements as u128 {
+            return Err(MeshError::TooManyElements {
+                elements: total,
+                limit: settings.max_elements,
+                element_size: settings.element_size,
+            });
+        }
+        let mut mesh = Mesh::default();
+        for (index, (surface, grid)) in scene.surfaces.iter().zip(grids).enumerate() {
+            let mut builder = SurfaceBuilder {
+                mesh: &mut mesh,
+                surface: index as u32,
+                normal: surface.normal,
+                lookup: HashMap::new(),
+            };
+            match grid {
+                Grid::Quad { pu, pv, mu, mv } => builder.quad(&surface.polygon, pu, pv, mu, mv),
+                Grid::Fan { p, m, .. } => {
+                    let v0 = surface.polygon[0];
+                    for pair in surface.polygon[1..].windows(2) {
+                        builder.triangle([v0, pair[0], pair[1]], p, m);
+                    }
+                }
+            }
+        }
+        Ok(mesh)
+    }
+
+    /// Total area of all patches.
+    #[must_use]
+    pub fn total_area(&self) -> f64 {
+        self.patches.iter().map(|p| p.area).sum()
+    }
+}
+
+/// Adds one surface's patches, elements and vertices, sharing vertices by
+/// their exact coordinates (shared grid points are computed by identical
+/// arithmetic, see [`SurfaceBuilder::triangle`]).
+struct SurfaceBuilder<'a> {
+    mesh: &'a mut Mesh,
+    surface: u32,
+    normal: DVec3,
+    lookup: HashMap<[u64; 3], u32>,
+}
+
+impl SurfaceBuilder<'_> {
+    fn vertex(&mut self, p: DVec3) -> u32 {
+        // `+ 0.0` folds -0.0 into 0.0 so the sign of a zero cannot split a vertex.
+        let key = [
+            (p.x + 0.0).to_bits(),
+            (p.y + 0.0).to_bits(),
+            (p.z + 0.0).to_bits(),
+        ];
+        if let Some(&v) = self.lookup.get(&key) {
+            return v;
+        }
+        let v = self.mesh.vertices.len() as u32;
+        self.mesh.vertices.push(Vertex {
+            position: p,
+            normal: self.normal,
+            surface: self.surface,
+        });
+        self.lookup.insert(key, v);
+        v
+    }
+
+    fn push_patch(&mut self, polygon: Vec<DVec3>, elements: &[([DVec3; 4], u8)]) {
+        let patch = self.mesh.patches.len() as u32;
+        let start = self.mesh.elements.len();
+        for (corners, count) in elements {
+            let count = *count as usize;
+            let mut ids = [0u32; 4];
+            for (id, p) in ids.iter_mut().zip(&corners[..count]) {
+                *id = self.vertex(*p);
+            }
+            self.mesh.elements.push(Element {
+                corners: ids,
+                corner_count: count as u8,
+                area: geometry::area(&corners[..count]),
+                patch,
+            });
+        }
+        let area = geometry::area(&polygon);
+        self.mesh.patches.push(Patch {
+            surface: self.surface,
+            polygon,
+            area,
+            elements: start..self.mesh.elements.len(),
+        });
+    }
+
+    fn quad(&mut self, polygon: &[DVec3], pu: u64, pv: u64, mu: u64, mv: u64) {
+        let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
+        let (nu, nv) = (pu * mu, pv * mv);
+        let point = |i: u64, j: u64| {
+            let s = i as f64 / nu as f64;
+            let t = j as f64 / nv as f64;
+            v0 * ((1.0 - s) * (1.0 - t))
+                + v1 * (s * (1.0 - t))
+                + v2 * (s * t)
+                + v3 * ((1.0 - s) * t)
+        };
+        let mut cells = Vec::with_capacity((mu * mv) as usize);
+        for b in 0..pv {
+            for a in 0..pu {
+                cells.clear();
+                for j in b * mv..(b + 1) * mv {
+                    for i in a * mu..(a + 1) * mu {
+                        cells.push((
+                            [
+                                point(i, j),
+                                point(i + 1, j),
+                                point(i + 1, j + 1),
+                                point(i, j + 1),
+                            ],
+                            4,
+                        ));
+                    }
+                }
+                let outline = vec![
+                    point(a * mu, b * mv),
+                    point((a + 1) * mu, b * mv),
+                    point((a + 1) * mu, (b + 1) * mv),
+                    point(a * mu, (b + 1) * mv),
+                ];
+                self.push_patch(outline, &cells);
+            }
+        }
+    }
+
+    /// A triangle `v0 v1 v2` on a barycentric grid of `n = p m` steps; the
+    /// point `(i, j)` is `v0 + (i/n)(v1 - v0) + (j/n)(v2 - v0)`. In a fan,
+    /// the shared diagonal `v0 v_k` is `(0, k)` of one triangle and `(k, 0)`
+    /// of the next, which this formula computes to the same bits.
+    fn triangle(&mut self, tri: [DVec3; 3], p: u64, m: u64) {
+        let n = p * m;
+        let [v0, v1, v2] = tri;
+        let point = |i: u64, j: u64| {
+            v0 + (v1 - v0) * (i as f64 / n as f64) + (v2 - v0) * (j as f64 / n as f64)
+        };
+        // Coarse patch (I, J, up?) -> its fine triangles.
+        let mut groups: Vec<Vec<([DVec3; 4], u8)>> = vec![Vec::new(); (2 * p * p) as usize];
+        let group = |ci: u64, cj: u64, up: bool| ((ci * p + cj) * 2 + u64::from(!up)) as usize;
+        for j in 0..n {
+            for i in 0..n - j {
+                let (ci, cj, li, lj) = (i / m, j / m, i % m, j % m);
+                let up = [point(i, j), point(i + 1, j), point(i, j + 1), DVec3::ZERO];
+                groups[group(ci, cj, li + lj < m)].push((up, 3));
+                if i + j + 2 <= n {
+                    let down = [
+                        point(i + 1, j),
+                        point(i + 1, j + 1),
+                        point(i, j + 1),
+                        DVec3::ZERO,
+                    ];
+                    groups[group(ci, cj, li + lj + 2 <= m)].push((down, 3));
+                }
+            }
+        }
+        for cj in 0..p {
+            for ci in 0..p - cj {
+                let (i0, j0) = (ci * m, cj * m);
+                let up = vec![point(i0, j0), point(i0 + m, j0), point(i0, j0 + m)];
+                let cells = std::mem::take(&mut groups[group(ci, cj, true)]);
+                self.push_patch(up, &cells);
+                if ci + cj + 2 <= p {
+                    let down = vec![point(i0 + m, j0), point(i0 + m, j0 + m), point(i0, j0 + m)];
+                    let cells = std::mem::take(&mut groups[group(ci, cj, false)]);
+                    self.push_patch(down, &cells);
+                }
+            }
+        }
+    }
+}
+
+/// A piece of a patch that shoots as one: its polygon, area-weighted
+/// centroid `c_k`, area `A_k` (design.md section 2, step 2).
+#[derive(Clone, Debug)]
+pub struct Subsource {
+    /// Corners (3 or 4), counter-clockwise.
+    pub polygon: Vec<DVec3>,
+    /// Area-weighted centroid.
+    pub centroid: DVec3,
+    /// Area, m^2.
+    pub area: f64,
+}
+
+/// Splits a patch polygon into an `n x n` grid of subsources: `n^2`
+/// bilinear sub-quads of a quad, `n^2` sub-triangles of a triangle.
+#[must_use]
+pub fn subsources(polygon: &[DVec3], n: u32) -> Vec<Subsource> {
+    let n = u64::from(n.max(1));
+    let mut out = Vec::with_capacity((n * n) as usize);
+    let mut push = |polygon: Vec<DVec3>| {
+        out.push(Subsource {
+            centroid: geometry::centroid(&polygon),
+            area: geometry::area(&polygon),
+            polygon,
+        });
+    };
+    if polygon.len() == 4 {
+        let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
+        let point = |i: u64, j: u64| {
+            let s = i as f64 / n as f64;
+            let t = j as f64 / n as f64;
+            v0 * ((1.0 - s) * (1.0 - t))
+                + v1 * (s * (1.0 - t))
+                + v2 * (s * t)
+                + v3 * ((1.0 - s) * t)
+        };
+        for j in 0..n {
+            for i in 0..n {
+                push(vec![
+                    point(i, j),
+                    point(i + 1, j),
+                    point(i + 1, j + 1),
+                    point(i, j + 1),
+                ]);
+            }
+        }
+    } else {
+        let v0 = polygon[0];
+        let fans = polygon.len().saturating_sub(2);
+        for f in 0..fans {
+            let (v1, v2) = (polygon[f + 1], polygon[f + 2]);
+            let point = |i: u64, j: u64| {
+                v0 + (v1 - v0) * (i as f64 / n as f64) + (v2 - v0) * (j as f64 / n as f64)
+            };
+            for j in 0..n {
+                for i in 0..n - j {
+                    push(vec![point(i, j), point(i + 1, j), point(i, j + 1)]);
+                    if i + j + 2 <= n {
+                        push(vec![point(i + 1, j), point(i + 1, j + 1), point(i, j + 1)]);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Surface;
+
+    fn scene_of(polygons: Vec<Vec<DVec3>>) -> Scene {
+        Scene {
+            name: "t".into(),
+            surfaces: polygons
+                .into_iter()
+                .enumerate()
+                .map(|(i, p)| Surface::new(p, DVec3::splat(0.5), DVec3::ONE, i as u32).unwrap())
+                .collect(),
+            camera: None,
+            mesh_hint: None,
+            warnings: Vec::new(),
+        }
+    }
+
+    fn rect(w: f64, h: f64) -> Vec<DVec3> {
+        vec![
+            DVec3::ZERO,
+            DVec3::new(w, 0.0, 0.0),
+            DVec3::new(w, h, 0.0),
+            DVec3::new(0.0, h, 0.0),
+        ]
+    }
+
+    /// Each element's area sums to its patch's, each patch's to its
+    /// surface's; every interior edge is shared by exactly two elements
+    /// (no T-vertices, no cracks).
+    fn check_conforming(scene: &Scene, mesh: &Mesh) {
+        for (p, patch) in mesh.patches.iter().enumerate() {
+            let sum: f64 = mesh.elements[patch.elements.clone()]
+                .iter()
+                .map(|e| e.area)
+                .sum();
+            assert!((sum - patch.area).abs() < 1e-9 * patch.area.max(1.0));
+            assert!(
+                mesh.elements[patch.elements.clone()]
+                    .iter()
+                    .all(|e| e.patch as usize == p)
+            );
+        }
+        for (s, surface) in scene.surfaces.iter().enumerate() {
+            let sum: f64 = mesh
+                .patches
+                .iter()
+                .filter(|p| p.surface as usize == s)
+                .map(|p| p.area)
+                .sum();
+            assert!((sum - surface.area).abs() < 1e-9 * surface.area.max(1.0));
+        }
+        let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
+        for e in &mesh.elements {
+            let v = e.vertices();
+            for k in 0..v.len() {
+                let (a, b) = (v[k], v[(k + 1) % v.len()]);
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        // Boundary edges of a surface appear once, interior ones twice; a
+        // T-vertex would leave an interior edge used once, which shows as a
+        // boundary length exceeding the surface perimeter.
+        let mut boundary = vec![0.0; scene.surfaces.len()];
+        for ((a, b), count) in &edges {
+            assert!(*count <= 2);
+            if *count == 1 {
+                let va = mesh.vertices[*a as usize];
+                let vb = mesh.vertices[*b as usize];
+                boundary[va.surface as usize] += va.position.distance(vb.position);
+            }
+        }
+        for (s, surface) in scene.surfaces.iter().enumerate() {
+            let perimeter: f64 = (0..surface.polygon.len())
+                .map(|i| {
+                    surface.polygon[i].distance(surface.polygon[(i + 1) % surface.polygon.len()])
+                })
+                .sum();
+            assert!(
+                (boundary[s] - perimeter).abs() < 1e-9 * perimeter,
+                "surface {s}: boundary {} vs perimeter {perimeter}",
+                boundary[s]
+            );
+        }
+    }
+
+    #[test]
+    fn quad_grid_counts() {
+        let scene = scene_of(vec![rect(6.0, 3.0)]);
+        let settings = MeshSettings {
+            patch_size: 2.5,
+            element_size: 0.2,
+            max_elements: 1_000_000,
+        };
+        let mesh = Mesh::build(&scene, &settings).unwrap();
+        // 6 m: 3 patches of 2 m, 10 elements each; 3 m: 2 patches of 1.5 m,
+        // 8 elements each.
+        assert_eq!(mesh.patches.len(), 6);
+        assert_eq!(mesh.elements.len(), 30 * 16);
+        assert_eq!(mesh.vertices.len(), 31 * 17);
+        check_conforming(&scene, &mesh);
+    }
+
+    #[test]
+    fn triangle_and_fan_are_conforming() {
+        let tri = vec![
+            DVec3::ZERO,
+            DVec3::new(3.0, 0.0, 0.0),
+            DVec3::new(0.5, 2.0, 0.0),
+        ];
+        let hexagon: Vec<DVec3> = (0..6)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::PI / 3.0;
+                DVec3::new(a.cos(), 0.0, -a.sin()) * 2.0 + DVec3::Y
+            })
+            .collect();
+        let scene = scene_of(vec![tri, hexagon]);
+        let settings = MeshSettings {
+            patch_size: 1.0,
+            element_size: 0.3,
+            max_elements: 1_000_000,
+        };
+        let mesh = Mesh::build(&scene, &settings).unwrap();
+        check_conforming(&scene, &mesh);
+        // Triangle: p = 3, m = 4 -> 9 patches, 144 elements, 13*14/2 vertices.
+        let tri_vertices = mesh.vertices.iter().filter(|v| v.surface == 0).count();
+        assert_eq!(tri_vertices, 13 * 14 / 2);
+    }
+
+    #[test]
+    fn subsources_tile_the_patch() {
+        for polygon in [
+            rect(1.0, 2.0),
+            vec![DVec3::ZERO, DVec3::X, DVec3::new(0.3, 1.0, 0.0)],
+        ] {
+            for n in 1..5 {
+                let subs = subsources(&polygon, n);
+                assert_eq!(subs.len(), (n * n) as usize);
+                let total: f64 = subs.iter().map(|s| s.area).sum();
+                assert!((total - geometry::area(&polygon)).abs() < 1e-12);
+                // The area-weighted mean of the centroids is the centroid.
+                let c: DVec3 = subs.iter().map(|s| s.centroid * s.area).sum::<DVec3>() / total;
+                assert!((c - geometry::centroid(&polygon)).length() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn too_many_elements_is_an_error_not_an_allocation() {
+        let scene = scene_of(vec![rect(1000.0, 1000.0)]);
+        let settings = MeshSettings {
+            patch_size: 1.0,
+            element_size: 1e-4,
+            max_elements: 1_000_000,
+        };
+        let err = Mesh::build(&scene, &settings).unwrap_err();
+        assert!(err.to_string().contains("--element-size"), "{err}");
+    }
+}

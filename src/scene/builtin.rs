@@ -1,0 +1,86 @@
+//! The built-in scenes, kept as OBJ + MTL files under `scenes/` in the
+//! repository and embedded in the binary so `radiosity` works from any
+//! folder: `room`, a furnished room after the paper's Figure 5.1, and
+//! `cornell`, the Cornell box from Cornell's published measurements.
+
+use std::path::{Path, PathBuf};
+
+use super::{Location, Scene, SceneError, obj};
+
+/// One embedded scene.
+struct Builtin {
+    name: &'static str,
+    description: &'static str,
+    obj: &'static str,
+    mtl_name: &'static str,
+    mtl: &'static str,
+}
+
+const BUILTINS: [Builtin; 2] = [
+    Builtin {
+        name: "room",
+        description: "a furnished room after the paper's Figure 5.1 (ceiling lights of several sizes)",
+        obj: include_str!("../../scenes/room.obj"),
+        mtl_name: "room.mtl",
+        mtl: include_str!("../../scenes/room.mtl"),
+    },
+    Builtin {
+        name: "cornell",
+        description: "the Cornell box from Cornell's published measurements, with its camera",
+        obj: include_str!("../../scenes/cornell.obj"),
+        mtl_name: "cornell.mtl",
+        mtl: include_str!("../../scenes/cornell.mtl"),
+    },
+];
+
+/// Names of the built-in scenes.
+#[must_use]
+pub fn names() -> Vec<&'static str> {
+    BUILTINS.iter().map(|b| b.name).collect()
+}
+
+/// `(name, description)` of every built-in scene.
+#[must_use]
+pub fn list() -> Vec<(&'static str, &'static str)> {
+    BUILTINS.iter().map(|b| (b.name, b.description)).collect()
+}
+
+/// Loads a built-in scene by name; `None` if there is none of that name.
+#[must_use]
+pub fn load(name: &str) -> Option<Result<Scene, SceneError>> {
+    let builtin = BUILTINS.iter().find(|b| b.name == name)?;
+    let path = PathBuf::from(format!("<built-in>/{}.obj", builtin.name));
+    Some(obj::parse(
+        builtin.name,
+        &path,
+        builtin.obj,
+        &mut |lib: &str| {
+            if lib == builtin.mtl_name {
+                Ok((
+                    PathBuf::from(format!("<built-in>/{lib}")),
+                    builtin.mtl.to_string(),
+                ))
+            } else {
+                Err(SceneError::Io {
+                    location: Location::file(Path::new(lib)),
+                    source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+                })
+            }
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_loads_cleanly_with_an_emitter_and_camera() {
+        for name in names() {
+            let scene = load(name).expect("listed").expect("loads");
+            assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
+            assert!(scene.surfaces.iter().any(|s| s.is_emitter()), "{name}");
+            assert!(scene.camera.is_some(), "{name}");
+        }
+    }
+}

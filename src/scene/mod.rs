@@ -1,0 +1,304 @@
+//! Scenes: the input surfaces with their materials, and the camera that
+//! views them (design.md sections 1, 6 and 7).
+//!
+//! A [`Surface`] is one planar, convex, single-sided polygon carrying a
+//! reflectance `rho` and an emitted radiant exitance `E`. Loading turns an
+//! input file into surfaces: [`obj`] reads Wavefront OBJ + MTL and
+//! [`builtin`] holds the scenes shipped inside the binary.
+
+pub mod builtin;
+pub mod obj;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+use crate::geometry;
+
+/// One planar convex polygon of the input, the unit of visibility.
+#[derive(Clone, Debug)]
+pub struct Surface {
+    /// Corners, counter-clockwise seen from the front.
+    pub polygon: Vec<DVec3>,
+    /// Unit normal of the front side.
+    pub normal: DVec3,
+    /// Plane offset: `normal . p = offset` on the surface.
+    pub offset: f64,
+    /// Area in square metres.
+    pub area: f64,
+    /// Diffuse reflectance per channel, each in [0, 1).
+    pub rho: DVec3,
+    /// Emitted radiant exitance per channel, W/m^2.
+    pub emission: DVec3,
+    /// Index of the input face this surface came from (0-based, input
+    /// order); a concave face triangulated on loading gives several
+    /// surfaces with the same face index.
+    pub face: u32,
+}
+
+impl Surface {
+    /// Builds a surface from a planar convex polygon. Returns `None` if the
+    /// polygon has no area.
+    #[must_use]
+    pub fn new(polygon: Vec<DVec3>, rho: DVec3, emission: DVec3, face: u32) -> Option<Surface> {
+        let normal = geometry::normal(&polygon)?;
+        let offset = geometry::plane_offset(&polygon, normal);
+        let area = geometry::area(&polygon);
+        Some(Surface {
+            polygon,
+            normal,
+            offset,
+            area,
+            rho,
+            emission,
+            face,
+        })
+    }
+
+    /// True when the surface emits light.
+    #[must_use]
+    pub fn is_emitter(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// A pinhole camera: eye, target, up and vertical field of view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+    /// Approximate up direction.
+    pub up: DVec3,
+    /// Vertical field of view in degrees.
+    pub fov_degrees: f64,
+}
+
+impl Camera {
+    /// Parses `eye,target,up,fov` as ten numbers separated by commas or
+    /// white space, as `--camera` and the `#@camera` directive take it.
+    pub fn parse(text: &str) -> Result<Camera, String> {
+        let numbers: Vec<f64> = text
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(|t| {
+                t.parse::<f64>()
+                    .map_err(|_| format!("'{t}' is not a number"))
+                    .and_then(|v| {
+                        if v.is_finite() {
+                            Ok(v)
+                        } else {
+                            Err(format!("'{t}' is not a finite number"))
+                        }
+                    })
+            })
+            .collect::<Result<_, _>>()?;
+        if numbers.len() != 10 {
+            return Err(format!(
+                "a camera needs 10 numbers (eye x,y,z, target x,y,z, up x,y,z, fov in degrees), found {}",
+                numbers.len()
+            ));
+        }
+        let v = |i: usize| DVec3::new(numbers[i], numbers[i + 1], numbers[i + 2]);
+        let camera = Camera {
+            eye: v(0),
+            target: v(3),
+            up: v(6),
+            fov_degrees: numbers[9],
+        };
+        camera.validate()?;
+        Ok(camera)
+    }
+
+    /// Checks that the camera defines a view.
+    pub fn validate(&self) -> Result<(), String> {
+        let forward = self.target - self.eye;
+        if forward.length() <= 1e-12 {
+            return Err("the camera's eye and target coincide".into());
+        }
+        if forward.cross(self.up).length() <= 1e-12 * forward.length() * self.up.length() {
+            return Err("the camera's up direction is zero or along the view direction".into());
+        }
+        if !(self.fov_degrees > 0.0 && self.fov_degrees < 180.0) {
+            return Err(format!(
+                "field of view {} degrees is not between 0 and 180",
+                self.fov_degrees
+            ));
+        }
+        Ok(())
+    }
+
+    /// A camera that frames the whole bounding box `[lo, hi]` from the front
+    /// (+z side), a little above, for scenes that bring no camera.
+    #[must_use]
+    pub fn framing(lo: DVec3, hi: DVec3) -> Camera {
+        let centre = 0.5 * (lo + hi);
+        let radius = 0.5 * (hi - lo).length().max(1e-6);
+        let fov_degrees: f64 = 45.0;
+        let distance = radius / (0.5 * fov_degrees.to_radians()).sin();
+        let direction = DVec3::new(0.35, 0.3, 1.0).normalize();
+        Camera {
+            eye: centre + direction * distance,
+            target: centre,
+            up: DVec3::Y,
+            fov_degrees,
+        }
+    }
+}
+
+/// Patch and element sizes a scene file suggests, in metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHint {
+    /// Suggested `--patch-size`.
+    pub patch_size: f64,
+    /// Suggested `--element-size`.
+    pub element_size: f64,
+}
+
+/// A loaded scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Short name: the built-in's name or the file's stem.
+    pub name: String,
+    /// The planar convex surfaces.
+    pub surfaces: Vec<Surface>,
+    /// The camera the scene file suggests, if any.
+    pub camera: Option<Camera>,
+    /// The mesh sizes the scene file suggests (`#@mesh PATCH ELEMENT`).
+    pub mesh_hint: Option<MeshHint>,
+    /// Things a user should know that did not stop the load (dropped
+    /// degenerate faces, ignored statements).
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Axis-aligned bounding box of all surfaces.
+    #[must_use]
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in self.surfaces.iter().flat_map(|s| &s.polygon) {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        (lo, hi)
+    }
+
+    /// Patch and element sizes for this scene when the user gives none: the
+    /// file's `#@mesh` hint, or sizes relative to the scene's extent
+    /// (elements 1/40 and patches 1/3 of the bounding-box diagonal), so a
+    /// scene modelled in centimetres meshes as finely as one in metres.
+    #[must_use]
+    pub fn default_mesh_sizes(&self) -> MeshHint {
+        self.mesh_hint.unwrap_or_else(|| {
+            let (lo, hi) = self.bounds();
+            let diagonal = (hi - lo).length().max(1e-9);
+            MeshHint {
+                patch_size: diagonal / 3.0,
+                element_size: diagonal / 40.0,
+            }
+        })
+    }
+
+    /// The scene's camera, or one framing its bounds.
+    #[must_use]
+    pub fn camera_or_framing(&self) -> Camera {
+        self.camera.unwrap_or_else(|| {
+            let (lo, hi) = self.bounds();
+            Camera::framing(lo, hi)
+        })
+    }
+
+    /// Total emitted power, luminance-weighted (W).
+    #[must_use]
+    pub fn emitted_power(&self) -> f64 {
+        self.surfaces
+            .iter()
+            .map(|s| crate::luminance(s.emission) * s.area)
+            .sum()
+    }
+}
+
+/// Where in the input a problem is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Location {
+    /// The file (or built-in scene path).
+    pub path: PathBuf,
+    /// 1-based line, where the problem is on one line.
+    pub line: Option<usize>,
+}
+
+impl Location {
+    /// A whole file.
+    #[must_use]
+    pub fn file(path: &Path) -> Location {
+        Location {
+            path: path.to_path_buf(),
+            line: None,
+        }
+    }
+
+    /// One line of a file.
+    #[must_use]
+    pub fn line(path: &Path, line: usize) -> Location {
+        Location {
+            path: path.to_path_buf(),
+            line: Some(line),
+        }
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{}", self.path.display(), line),
+            None => write!(f, "{}", self.path.display()),
+        }
+    }
+}
+
+/// Why a scene could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{location}: {source}")]
+    Io {
+        /// The file.
+        location: Location,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The file was read but its content is wrong.
+    #[error("{location}: {message}")]
+    Invalid {
+        /// The file and line.
+        location: Location,
+        /// What is wrong, in words a user can act on.
+        message: String,
+    },
+    /// The name is neither a file nor a built-in scene.
+    #[error("'{0}' is neither a file nor a built-in scene (built-in scenes: {names})", names = builtin::names().join(", "))]
+    NotFound(String),
+}
+
+/// Loads a scene given on the command line: the name of a built-in scene,
+/// or the path of an `.obj` file.
+pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+    let path = Path::new(name_or_path);
+    let looks_like_path = path.extension().is_some() || path.components().count() > 1;
+    if !looks_like_path && let Some(scene) = builtin::load(name_or_path) {
+        return scene;
+    }
+    if path.exists() {
+        return obj::load_file(path);
+    }
+    if looks_like_path {
+        return Err(SceneError::Io {
+            location: Location::file(path),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    Err(SceneError::NotFound(name_or_path.to_string()))
+}

@@ -1,0 +1,57 @@
+//! Scenes built in code for the physics tests.
+
+#![allow(dead_code)]
+
+use glam::DVec3;
+use radiosity::scene::{Scene, Surface};
+
+/// A quad with corners `origin`, `origin + u`, `origin + u + v`,
+/// `origin + v`; its front is `u x v`.
+pub fn quad(origin: DVec3, u: DVec3, v: DVec3, rho: f64, emission: f64, face: u32) -> Surface {
+    Surface::new(
+        vec![origin, origin + u, origin + u + v, origin + v],
+        DVec3::splat(rho),
+        DVec3::splat(emission),
+        face,
+    )
+    .expect("quad has area")
+}
+
+/// The six inward faces of the cube `[0, side]^3`, all with the same
+/// reflectance and emission (the furnace).
+pub fn furnace(side: f64, rho: f64, emission: f64) -> Scene {
+    let (x, y, z) = (DVec3::X * side, DVec3::Y * side, DVec3::Z * side);
+    let o = DVec3::ZERO;
+    let faces = [
+        (o, z, x), // floor, normal +y
+        (y, x, z), // ceiling, normal -y
+        (o, y, z), // x = 0 wall, normal +x
+        (x, z, y), // x = side wall, normal -x
+        (o, x, y), // z = 0 wall, normal +z
+        (z, y, x), // z = side wall, normal -z
+    ];
+    let surfaces = faces
+        .iter()
+        .enumerate()
+        .map(|(i, (origin, u, v))| quad(*origin, *u, *v, rho, emission, i as u32))
+        .collect::<Vec<_>>();
+    let centre = DVec3::splat(0.5 * side);
+    for s in &surfaces {
+        assert!(
+            s.normal.dot(centre - s.polygon[0]) > 0.0,
+            "faces point inwards"
+        );
+    }
+    scene_of(surfaces)
+}
+
+/// A scene from surfaces.
+pub fn scene_of(surfaces: Vec<Surface>) -> Scene {
+    Scene {
+        name: "test".into(),
+        surfaces,
+        camera: None,
+        mesh_hint: None,
+        warnings: Vec::new(),
+    }
+}
