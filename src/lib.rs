@@ -6,10 +6,15 @@
 //! Progressive Radiosity* (HKU TR-93-05, 1993).
 
 pub mod accel;
+pub mod app;
+pub mod export;
 pub mod form_factor;
 pub mod geometry;
+pub mod hemicube;
 pub mod mesh;
+pub mod render;
 pub mod scene;
+pub mod solver;
 
 use glam::DVec3;
 
@@ -19,7 +24,3 @@ use glam::DVec3;
 pub fn luminance(rgb: DVec3) -> f64 {
     0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
 }
-pub mod app;
-pub mod export;
-pub mod render;
-pub mod solver;

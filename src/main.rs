@@ -9,11 +9,12 @@ use anyhow::{Context, Result, anyhow};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
+use radiosity::accel::Accel;
 use radiosity::app::{self, ImageJob, Job, Outcome};
 use radiosity::form_factor::FormFactor;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, builtin};
-use radiosity::solver::{DEFAULT_CONVERGE, Settings};
+use radiosity::solver::{DEFAULT_CONVERGE, Settings, Visibility};
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
 /// visibility (Wallace et al. 1989; Wong & Tsang 1993).
@@ -30,7 +31,7 @@ struct Cli {
 enum Command {
     /// Solve a scene and write its picture (and optionally vertex radiosities
     /// and statistics).
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// List the built-in scenes.
     Scenes,
 }
@@ -55,13 +56,29 @@ struct RenderArgs {
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
 
-    /// Named settings: wallace89 (ray per pair, brute force, eq. 1).
-    #[arg(long, default_value = "wallace89", value_parser = ["wallace89"])]
+    /// Named settings: wong-tsang93 (hemicube pre-test, BSP shadow rays,
+    /// analytic form factor: the paper's method) or wallace89 (a ray per
+    /// pair against every surface, Wallace's disk formula, eq. 1).
+    #[arg(long, default_value = "wong-tsang93", value_parser = ["wong-tsang93", "wallace89"])]
     preset: String,
 
-    /// Point-to-polygon form factor (overrides the preset).
-    #[arg(long, value_name = "NAME", value_parser = form_factor_names())]
+    /// Point-to-polygon form factor: wallace (eq. 1), disk (eq. 3) or
+    /// analytic (eq. 2). Overrides the preset.
+    #[arg(long, value_name = "NAME", value_parser = names(&FormFactor::ALL.map(FormFactor::name)))]
     form_factor: Option<String>,
+
+    /// Shadow-ray accelerator. Overrides the preset.
+    #[arg(long, value_name = "NAME", value_parser = names(&Accel::ALL.map(Accel::name)))]
+    accel: Option<String>,
+
+    /// Visibility: a ray for every pair, or the hemicube pre-test with rays
+    /// only where it cannot decide. Overrides the preset.
+    #[arg(long, value_name = "NAME", value_parser = names(&Visibility::ALL.map(Visibility::name)))]
+    visibility: Option<String>,
+
+    /// Pixels across the top face of the pre-test hemicube.
+    #[arg(long, value_name = "N")]
+    hemicube_resolution: Option<u32>,
 
     /// A shooting patch is split into N x N subsources.
     #[arg(long, value_name = "N")]
@@ -129,8 +146,8 @@ struct RenderArgs {
     quiet: bool,
 }
 
-fn form_factor_names() -> Vec<&'static str> {
-    FormFactor::ALL.iter().map(|f| f.name()).collect()
+fn names(names: &[&'static str]) -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(names.iter().copied())
 }
 
 impl RenderArgs {
@@ -138,11 +155,21 @@ impl RenderArgs {
     fn job(&self) -> Result<Job> {
         let mut settings = match self.preset.as_str() {
             "wallace89" => Settings::wallace89(),
+            "wong-tsang93" => Settings::wong_tsang93(),
             other => return Err(anyhow!("unknown preset '{other}'")),
         };
+        // clap has already checked the names against the lists above.
         if let Some(name) = &self.form_factor {
-            settings.form_factor = FormFactor::from_name(name)
-                .ok_or_else(|| anyhow!("unknown form factor '{name}'"))?;
+            settings.form_factor = FormFactor::from_name(name).context("form factor")?;
+        }
+        if let Some(name) = &self.accel {
+            settings.accel = Accel::from_name(name).context("accelerator")?;
+        }
+        if let Some(name) = &self.visibility {
+            settings.visibility = Visibility::from_name(name).context("visibility")?;
+        }
+        if let Some(n) = self.hemicube_resolution {
+            settings.hemicube_resolution = n;
         }
         if let Some(n) = self.subsources {
             settings.subsources = n;

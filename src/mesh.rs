@@ -42,7 +42,7 @@ impl Default for MeshSettings {
 pub const DEFAULT_PATCH_SIZE: f64 = 2.5;
 /// Default `--element-size`: the built-in room then has about the paper's
 /// 5,562 elements and 7,167 vertices.
-pub const DEFAULT_ELEMENT_SIZE: f64 = 0.2;
+pub const DEFAULT_ELEMENT_SIZE: f64 = 0.15;
 
 /// A shooting unit: a surface or a block of its grid.
 #[derive(Clone, Debug)]

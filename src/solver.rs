@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use crate::accel::{self, Accel, Occluder};
 use crate::form_factor::{FormFactor, Source};
 use crate::geometry;
+use crate::hemicube::{self, ItemBuffer, Pretest};
 use crate::luminance;
 use crate::mesh::{self, Mesh, MeshSettings};
 use crate::scene::Scene;
@@ -29,6 +30,10 @@ pub struct Settings {
     pub form_factor: FormFactor,
     /// Shadow-segment accelerator.
     pub accel: Accel,
+    /// How visibility is decided.
+    pub visibility: Visibility,
+    /// Pixels across the top face of the pre-test hemicube.
+    pub hemicube_resolution: u32,
     /// A shooting patch is split into `subsources x subsources` subsources.
     pub subsources: u32,
     /// Stop when the unshot power falls below this fraction of the emitted
@@ -52,10 +57,25 @@ impl Settings {
             mesh: MeshSettings::default(),
             form_factor: FormFactor::Wallace,
             accel: Accel::Brute,
+            visibility: Visibility::Ray,
+            hemicube_resolution: hemicube::DEFAULT_RESOLUTION,
             subsources: 3,
             converge: DEFAULT_CONVERGE,
             max_shots: None,
             max_subsources: None,
+        }
+    }
+
+    /// Wong & Tsang (1993), all three improvements: the hemicube pre-test
+    /// (section 2), BSP-ordered shadow rays (section 3) and the analytic
+    /// form factor of Baum et al. (section 4, equation 2).
+    #[must_use]
+    pub fn wong_tsang93() -> Settings {
+        Settings {
+            form_factor: FormFactor::Analytic,
+            accel: Accel::Bsp,
+            visibility: Visibility::HemicubePretest,
+            ..Settings::wallace89()
         }
     }
 
@@ -65,6 +85,12 @@ impl Settings {
             return Err(format!(
                 "--subsources must be between 1 and {MAX_SUBSOURCES_PER_SIDE}, not {}",
                 self.subsources
+            ));
+        }
+        if !(8..=MAX_HEMICUBE_RESOLUTION).contains(&self.hemicube_resolution) {
+            return Err(format!(
+                "--hemicube-resolution must be between 8 and {MAX_HEMICUBE_RESOLUTION}, not {}",
+                self.hemicube_resolution
             ));
         }
         if !(self.converge.is_finite() && (0.0..1.0).contains(&self.converge)) {
@@ -81,6 +107,39 @@ impl Settings {
         Ok(())
     }
 }
+
+/// How a shot decides whether a vertex sees a subsource.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Visibility {
+    /// A shadow ray for every pair (Wallace et al. 1989).
+    Ray,
+    /// The hemicube item-buffer pre-test of Wong & Tsang, section 2; rays
+    /// only where it cannot decide.
+    HemicubePretest,
+}
+
+impl Visibility {
+    /// Every mode, in the order the command line lists them.
+    pub const ALL: [Visibility; 2] = [Visibility::Ray, Visibility::HemicubePretest];
+
+    /// The name used on the command line and in statistics.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Visibility::Ray => "ray",
+            Visibility::HemicubePretest => "hemicube",
+        }
+    }
+
+    /// Parses a command-line name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Visibility> {
+        Visibility::ALL.into_iter().find(|v| v.name() == name)
+    }
+}
+
+/// Largest `--hemicube-resolution`.
+pub const MAX_HEMICUBE_RESOLUTION: u32 = 4096;
 
 /// Largest `--subsources` (per side): 64 x 64 = 4,096 subsources a shot.
 pub const MAX_SUBSOURCES_PER_SIDE: u32 = 64;
@@ -100,8 +159,18 @@ pub struct Stats {
     pub pretest_visible: u64,
     /// Pairs the hemicube pre-test found hidden without a ray.
     pub pretest_hidden: u64,
-    /// Time in shots (visibility and form factors, in parallel).
+    /// Wall time rasterising the hemicube item buffers.
+    pub hemicube_time: Duration,
+    /// Wall time gathering at vertices (the three phases below, in
+    /// parallel).
     pub gather_time: Duration,
+    /// Thread time pairing vertices with subsources and applying the
+    /// pre-test (summed over threads).
+    pub pretest_time: Duration,
+    /// Thread time casting shadow rays (summed over threads).
+    pub ray_time: Duration,
+    /// Thread time evaluating form factors (summed over threads).
+    pub form_factor_time: Duration,
     /// Time in book-keeping (selection, element and patch updates).
     pub bookkeeping_time: Duration,
 }
@@ -145,6 +214,8 @@ pub struct Solver<'a> {
     /// Where each vertex gathers: the vertex moved a hair into its own
     /// surface (see [`GATHER_NUDGE`]).
     gather_points: Vec<DVec3>,
+    /// One item buffer per subsource, reused from shot to shot.
+    item_buffers: Vec<ItemBuffer>,
     emitted_power: f64,
     stats: Stats,
 }
@@ -192,6 +263,7 @@ impl<'a> Solver<'a> {
             scene,
             mesh,
             gather_points,
+            item_buffers: Vec::new(),
             occluder: settings.accel.build(&scene.surfaces),
             settings,
             radiosity,
@@ -335,8 +407,27 @@ impl<'a> Solver<'a> {
         let surface = &self.scene.surfaces[surface_index as usize];
         let unshot = self.unshot[shooter];
         let subsources = mesh::subsources(&patch.polygon, self.settings.subsources);
+
+        let hemicube_start = Instant::now();
+        let item_buffers = match self.settings.visibility {
+            Visibility::Ray => None,
+            Visibility::HemicubePretest => {
+                let resolution = self.settings.hemicube_resolution;
+                self.item_buffers
+                    .resize_with(subsources.len(), || ItemBuffer::new(resolution));
+                let surfaces = &self.scene.surfaces;
+                self.item_buffers[..subsources.len()]
+                    .par_iter_mut()
+                    .zip(&subsources)
+                    .for_each(|(buffer, sub)| {
+                        buffer.render(surfaces, sub.centroid, surface.normal, surface_index);
+                    });
+                Some(&self.item_buffers[..subsources.len()])
+            }
+        };
         let context = ShotContext {
             occluder: self.occluder.as_ref(),
+            item_buffers,
             form_factor: self.settings.form_factor,
             subsources: &subsources,
             source_normal: surface.normal,
@@ -345,30 +436,35 @@ impl<'a> Solver<'a> {
             tolerance: 1e-9 * surface.area.sqrt().max(1e-9),
         };
         let gather_start = Instant::now();
-        let gathered: Vec<Gathered> = self
+        // Chunks of a fixed size (not a per-thread split) keep every sum in
+        // the same order whatever the thread count.
+        let chunk = (PAIRS_PER_CHUNK / subsources.len()).clamp(1, 256);
+        let gathered: Vec<(Vec<Gathered>, PhaseTimes)> = self
             .mesh
             .vertices
-            .par_iter()
-            .zip(&self.gather_points)
-            .with_min_len(64)
-            .map(|(v, x)| context.gather(v, *x))
+            .par_chunks(chunk)
+            .zip(self.gather_points.par_chunks(chunk))
+            .map(|(vertices, points)| context.gather(vertices, points))
             .collect();
         let gather_end = Instant::now();
 
-        let mut increments = Vec::with_capacity(gathered.len());
-        for ((v, g), b) in self
-            .mesh
-            .vertices
-            .iter()
-            .zip(&gathered)
-            .zip(&mut self.radiosity)
-        {
-            let rho = self.scene.surfaces[v.surface as usize].rho;
-            let increment = rho * unshot * g.factor;
-            *b += increment;
-            increments.push(increment);
-            self.stats.pairs += u64::from(g.pairs);
-            self.stats.rays_cast += u64::from(g.rays);
+        let mut increments = Vec::with_capacity(self.mesh.vertices.len());
+        let mut vertex = 0;
+        for (chunk, times) in &gathered {
+            self.stats.pretest_time += times.pretest;
+            self.stats.ray_time += times.rays;
+            self.stats.form_factor_time += times.form_factors;
+            for g in chunk {
+                let rho = self.scene.surfaces[self.mesh.vertices[vertex].surface as usize].rho;
+                let increment = rho * unshot * g.factor;
+                self.radiosity[vertex] += increment;
+                increments.push(increment);
+                self.stats.pairs += u64::from(g.pairs);
+                self.stats.rays_cast += u64::from(g.rays);
+                self.stats.pretest_visible += u64::from(g.pretest_visible);
+                self.stats.pretest_hidden += u64::from(g.pretest_hidden);
+                vertex += 1;
+            }
         }
         self.unshot[shooter] = DVec3::ZERO;
         for (p, patch) in self.mesh.patches.iter().enumerate() {
@@ -386,10 +482,14 @@ impl<'a> Solver<'a> {
         }
         self.stats.shots += 1;
         self.stats.subsources += subsources.len() as u64;
+        self.stats.hemicube_time += gather_start - hemicube_start;
         self.stats.gather_time += gather_end - gather_start;
-        self.stats.bookkeeping_time += (gather_start - start) + (Instant::now() - gather_end);
+        self.stats.bookkeeping_time += (hemicube_start - start) + (Instant::now() - gather_end);
     }
 }
+
+/// Vertex-subsource pairs handled together by one task.
+const PAIRS_PER_CHUNK: usize = 4096;
 
 /// What one vertex gathers in one shot.
 #[derive(Clone, Copy, Debug, Default)]
@@ -398,11 +498,35 @@ struct Gathered {
     factor: f64,
     pairs: u32,
     rays: u32,
+    pretest_visible: u32,
+    pretest_hidden: u32,
+}
+
+/// Thread time spent in each phase of gathering a chunk of vertices.
+#[derive(Clone, Copy, Debug, Default)]
+struct PhaseTimes {
+    pretest: Duration,
+    rays: Duration,
+    form_factors: Duration,
+}
+
+/// One vertex-subsource pair awaiting a visibility answer or its factor.
+#[derive(Clone, Copy, Debug)]
+struct Pair {
+    /// Index of the vertex within the chunk.
+    vertex: u32,
+    /// Index of the subsource.
+    subsource: u32,
+    /// Where the shadow segment starts.
+    origin: DVec3,
+    /// Decided visible (true) or still to be decided by a ray (false).
+    visible: bool,
 }
 
 /// Everything a vertex needs to gather from the shooting patch.
 struct ShotContext<'s> {
     occluder: &'s dyn Occluder,
+    item_buffers: Option<&'s [ItemBuffer]>,
     form_factor: FormFactor,
     subsources: &'s [mesh::Subsource],
     source_normal: DVec3,
@@ -412,54 +536,101 @@ struct ShotContext<'s> {
 }
 
 impl ShotContext<'_> {
-    fn gather(&self, vertex: &mesh::Vertex, x: DVec3) -> Gathered {
-        let mut out = Gathered::default();
-        if vertex.surface == self.source_surface {
-            return out;
-        }
-        let n = vertex.normal;
-        // The receiver must be in front of the source's plane.
-        if self.source_normal.dot(x) - self.source_offset <= 0.0 {
-            return out;
-        }
+    /// Gathers for a chunk of vertices in three timed phases: pairing with
+    /// the pre-test, shadow rays for the undecided pairs, form factors for
+    /// the visible ones. `points` are the vertices' gathering points.
+    fn gather(&self, vertices: &[mesh::Vertex], points: &[DVec3]) -> (Vec<Gathered>, PhaseTimes) {
+        let t0 = Instant::now();
+        let mut out = vec![Gathered::default(); vertices.len()];
+        let mut pairs: Vec<Pair> = Vec::with_capacity(vertices.len() * self.subsources.len());
         let mut clipped = Vec::with_capacity(8);
-        for sub in self.subsources {
-            // Some of the subsource must be in front of the receiver's plane.
-            let heights = sub.polygon.iter().map(|c| n.dot(*c - x));
-            let (mut any_front, mut all_front) = (false, true);
-            for h in heights {
-                any_front |= h > self.tolerance;
-                all_front &= h > self.tolerance;
-            }
-            if !any_front {
-                continue;
-            }
-            let origin = if all_front {
-                sub.centroid
-            } else {
-                geometry::clip_to_half_space(&sub.polygon, x, n, 0.0, &mut clipped);
-                if geometry::area(&clipped) <= 0.0 {
-                    continue;
-                }
-                geometry::centroid(&clipped)
-            };
-            out.pairs += 1;
-            out.rays += 1;
-            let (from, to) = accel::shorten(origin, x);
-            if self
-                .occluder
-                .occluded(from, to, [self.source_surface, vertex.surface])
+        for (i, (vertex, &x)) in vertices.iter().zip(points).enumerate() {
+            // The receiver must be in front of the source's plane.
+            if vertex.surface == self.source_surface
+                || self.source_normal.dot(x) - self.source_offset <= 0.0
             {
                 continue;
             }
+            let n = vertex.normal;
+            for (k, sub) in self.subsources.iter().enumerate() {
+                // Some of the subsource must be in front of the receiver's
+                // plane; if only some is, visibility is tested from the
+                // centroid of that part.
+                let (mut any_front, mut all_front) = (false, true);
+                for c in &sub.polygon {
+                    let h = n.dot(*c - x);
+                    any_front |= h > self.tolerance;
+                    all_front &= h > self.tolerance;
+                }
+                if !any_front {
+                    continue;
+                }
+                let origin = if all_front {
+                    sub.centroid
+                } else {
+                    geometry::clip_to_half_space(&sub.polygon, x, n, 0.0, &mut clipped);
+                    if geometry::area(&clipped) <= 0.0 {
+                        continue;
+                    }
+                    geometry::centroid(&clipped)
+                };
+                out[i].pairs += 1;
+                // The item buffer sits at the subsource's centre, so it can
+                // only speak for pairs that use that centre.
+                let visible = match self.item_buffers {
+                    Some(buffers) if all_front => match buffers[k].classify(x, vertex.surface) {
+                        Pretest::Visible => {
+                            out[i].pretest_visible += 1;
+                            true
+                        }
+                        Pretest::Hidden => {
+                            out[i].pretest_hidden += 1;
+                            continue;
+                        }
+                        Pretest::Uncertain => false,
+                    },
+                    _ => false,
+                };
+                pairs.push(Pair {
+                    vertex: i as u32,
+                    subsource: k as u32,
+                    origin,
+                    visible,
+                });
+            }
+        }
+        let t1 = Instant::now();
+        for pair in pairs.iter_mut().filter(|p| !p.visible) {
+            let i = pair.vertex as usize;
+            out[i].rays += 1;
+            let (from, to) = accel::shorten(pair.origin, points[i]);
+            pair.visible =
+                !self
+                    .occluder
+                    .occluded(from, to, [self.source_surface, vertices[i].surface]);
+        }
+        let t2 = Instant::now();
+        for pair in pairs.iter().filter(|p| p.visible) {
+            let i = pair.vertex as usize;
+            let sub = &self.subsources[pair.subsource as usize];
             let source = Source {
                 polygon: &sub.polygon,
                 centroid: sub.centroid,
                 normal: self.source_normal,
                 area: sub.area,
             };
-            out.factor += self.form_factor.evaluate(x, n, &source);
+            out[i].factor += self
+                .form_factor
+                .evaluate(points[i], vertices[i].normal, &source);
         }
-        out
+        let t3 = Instant::now();
+        (
+            out,
+            PhaseTimes {
+                pretest: t1 - t0,
+                rays: t2 - t1,
+                form_factors: t3 - t2,
+            },
+        )
     }
 }

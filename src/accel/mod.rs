@@ -2,10 +2,13 @@
 //! the open segment between a subsource point and a receiving vertex?
 //!
 //! [`brute::BruteForce`] tests every surface, as Wallace et al. (1989) did;
-//! it is the oracle every accelerator is tested against. The segment test
+//! it is the oracle every accelerator is tested against. [`bsp::Bsp`] walks
+//! a BSP tree front to back from the segment's origin (Wong & Tsang,
+//! section 3). The segment test
 //! itself, [`segment_crosses`], is shared by all of them.
 
 pub mod brute;
+pub mod bsp;
 
 use glam::DVec3;
 
@@ -17,17 +20,20 @@ use crate::scene::Surface;
 pub enum Accel {
     /// Every surface is tested (the oracle).
     Brute,
+    /// A BSP tree over the surfaces, walked front to back (paper section 3).
+    Bsp,
 }
 
 impl Accel {
     /// Every accelerator, in the order the command line lists them.
-    pub const ALL: [Accel; 1] = [Accel::Brute];
+    pub const ALL: [Accel; 2] = [Accel::Brute, Accel::Bsp];
 
     /// The name used on the command line and in statistics.
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Accel::Brute => "brute",
+            Accel::Bsp => "bsp",
         }
     }
 
@@ -42,6 +48,7 @@ impl Accel {
     pub fn build(self, surfaces: &[Surface]) -> Box<dyn Occluder + '_> {
         match self {
             Accel::Brute => Box::new(brute::BruteForce::new(surfaces)),
+            Accel::Bsp => Box::new(bsp::Bsp::new(surfaces)),
         }
     }
 }

@@ -23,6 +23,10 @@ use crate::geometry;
 /// well inside it; a visibly warped quad does not.
 pub const PLANARITY_TOLERANCE: f64 = 1e-3;
 
+/// Reads a material library named by `mtllib`, returning its path (for
+/// messages) and its text.
+pub type LibraryResolver<'a> = dyn FnMut(&str) -> Result<(PathBuf, String), SceneError> + 'a;
+
 /// A material as read from an MTL file.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
@@ -71,7 +75,7 @@ pub fn parse(
     name: &str,
     path: &Path,
     text: &str,
-    resolve: &mut dyn FnMut(&str) -> Result<(PathBuf, String), SceneError>,
+    resolve: &mut LibraryResolver<'_>,
 ) -> Result<Scene, SceneError> {
     let mut parser = ObjParser {
         path,
@@ -141,7 +145,7 @@ impl ObjParser<'_> {
         &mut self,
         line_no: usize,
         line: &str,
-        resolve: &mut dyn FnMut(&str) -> Result<(PathBuf, String), SceneError>,
+        resolve: &mut LibraryResolver<'_>,
     ) -> Result<(), SceneError> {
         let trimmed = line.trim();
         if let Some(rest) = trimmed.strip_prefix("#@camera") {
@@ -363,10 +367,7 @@ impl ObjParser<'_> {
     }
 }
 
-fn resolve_exists(
-    resolve: &mut dyn FnMut(&str) -> Result<(PathBuf, String), SceneError>,
-    name: &str,
-) -> bool {
+fn resolve_exists(resolve: &mut LibraryResolver<'_>, name: &str) -> bool {
     resolve(name).is_ok()
 }
 

@@ -1,0 +1,679 @@
+//! The BSP tree (Wong & Tsang 1993, section 3) against the brute-force
+//! oracle: the built-in room, random polygon soups and degenerate inputs,
+//! with every settings preset. Answers must be identical, not merely close.
+
+use glam::DVec3;
+use radiosity::accel::brute::BruteForce;
+use radiosity::accel::bsp::{Bsp, BspSettings, MAX_DEPTH};
+use radiosity::accel::{Occluder, shorten};
+use radiosity::mesh::{Mesh, MeshSettings, subsources};
+use radiosity::scene::{Scene, Surface};
+
+const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
+
+/// SplitMix64: a small, fixed-seed generator, so failures reproduce.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+
+    fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+
+    fn point_in(&mut self, lo: DVec3, hi: DVec3) -> DVec3 {
+        DVec3::new(
+            self.range(lo.x, hi.x),
+            self.range(lo.y, hi.y),
+            self.range(lo.z, hi.z),
+        )
+    }
+
+    /// Often a grid value (0, 0.25, ...), so points land exactly on
+    /// axis-aligned planes and edges.
+    fn snapped(&mut self, lo: f64, hi: f64) -> f64 {
+        if self.chance(0.3) {
+            let steps = ((hi - lo) / 0.25).floor().max(1.0) as usize;
+            lo + 0.25 * self.below(steps + 1) as f64
+        } else {
+            self.range(lo, hi)
+        }
+    }
+}
+
+fn surface(polygon: Vec<DVec3>) -> Option<Surface> {
+    Surface::new(polygon, DVec3::splat(0.5), DVec3::ZERO, 0)
+}
+
+fn room() -> Scene {
+    radiosity::scene::builtin::load("room")
+        .expect("the room is built in")
+        .expect("the room loads")
+}
+
+fn bounds(surfaces: &[Surface]) -> (DVec3, DVec3) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in surfaces.iter().flat_map(|s| &s.polygon) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo, hi)
+}
+
+/// Interesting points of a scene: corners, edge points, interior points of
+/// surfaces, and points anywhere in (a little beyond) the bounding box.
+fn random_point(rng: &mut Rng, surfaces: &[Surface], lo: DVec3, hi: DVec3) -> DVec3 {
+    let s = &surfaces[rng.below(surfaces.len())].polygon;
+    match rng.below(5) {
+        0 => s[rng.below(s.len())],
+        1 => {
+            let i = rng.below(s.len());
+            let t = if rng.chance(0.2) { 0.5 } else { rng.unit() };
+            s[i].lerp(s[(i + 1) % s.len()], t)
+        }
+        2 => {
+            // A random point of a fan triangle.
+            let i = 1 + rng.below(s.len() - 2);
+            let (mut a, mut b) = (rng.unit(), rng.unit());
+            if a + b > 1.0 {
+                (a, b) = (1.0 - a, 1.0 - b);
+            }
+            s[0] + (s[i] - s[0]) * a + (s[i + 1] - s[0]) * b
+        }
+        3 => {
+            let margin = (hi - lo) * 0.1;
+            let (lo, hi) = (lo - margin, hi + margin);
+            DVec3::new(
+                rng.snapped(lo.x, hi.x),
+                rng.snapped(lo.y, hi.y),
+                rng.snapped(lo.z, hi.z),
+            )
+        }
+        _ => rng.point_in(lo, hi),
+    }
+}
+
+fn random_skip(rng: &mut Rng, n: usize) -> [u32; 2] {
+    let mut one = || {
+        if rng.chance(0.3) {
+            u32::MAX
+        } else {
+            rng.below(n) as u32
+        }
+    };
+    [one(), one()]
+}
+
+/// Runs `count` random queries (raw and shortened, with and without
+/// skipped surfaces) and asserts the tree and the oracle agree on each.
+/// Returns `(queries, blocked, surfaces tested by the tree)`.
+fn agree_on_random_segments(
+    bsp: &Bsp,
+    surfaces: &[Surface],
+    rng: &mut Rng,
+    count: usize,
+) -> (usize, usize, u64) {
+    let brute = BruteForce::new(surfaces);
+    let (lo, hi) = bounds(surfaces);
+    let (mut blocked, mut tests) = (0, 0u64);
+    for _ in 0..count {
+        let a = random_point(rng, surfaces, lo, hi);
+        let b = random_point(rng, surfaces, lo, hi);
+        let (from, to) = if rng.chance(0.5) {
+            shorten(a, b)
+        } else {
+            (a, b)
+        };
+        let skip = if rng.chance(0.5) {
+            NOTHING_SKIPPED
+        } else {
+            random_skip(rng, surfaces.len())
+        };
+        let (answer, n) = bsp.occluded_counting(from, to, skip);
+        assert_eq!(
+            answer,
+            brute.occluded(from, to, skip),
+            "from {from:?} to {to:?} skipping {skip:?}"
+        );
+        assert_eq!(answer, bsp.occluded(from, to, skip));
+        blocked += usize::from(answer);
+        tests += u64::from(n);
+    }
+    (count, blocked, tests)
+}
+
+/// Every preset, plus a shallow tree that has to use leaf buckets.
+fn all_settings() -> Vec<(&'static str, BspSettings)> {
+    let mut all = BspSettings::presets().to_vec();
+    all.push((
+        "depth-4",
+        BspSettings {
+            max_depth: 4,
+            ..BspSettings::balanced()
+        },
+    ));
+    all
+}
+
+fn check_scene(name: &str, surfaces: &[Surface], seed: u64, count: usize) {
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(surfaces, settings);
+        if let Err(e) = bsp.validate() {
+            panic!("{name}, {preset}: {e}");
+        }
+        let stats = bsp.stats();
+        assert_eq!(
+            stats.fragments,
+            surfaces.len() + stats.splits,
+            "{name}, {preset}"
+        );
+        assert!(stats.depth <= settings.max_depth.min(MAX_DEPTH));
+        assert!(stats.nodes <= stats.fragments);
+        let mut rng = Rng(seed);
+        agree_on_random_segments(&bsp, surfaces, &mut rng, count);
+    }
+}
+
+// ---------------------------------------------------------------- the room
+
+#[test]
+fn room_tree_is_valid_and_small() {
+    let scene = room();
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(&scene.surfaces, settings);
+        bsp.validate().unwrap_or_else(|e| panic!("{preset}: {e}"));
+        let stats = bsp.stats();
+        println!(
+            "room, {preset}: {} surfaces, {stats:?}",
+            scene.surfaces.len()
+        );
+        assert_eq!(stats.fragments, scene.surfaces.len() + stats.splits);
+    }
+    let stats = Bsp::new(&scene.surfaces).stats();
+    // Splits are what a poor plane choice costs; the room's boxes and
+    // walls should need few of them.
+    assert!(stats.fragments < 2 * scene.surfaces.len(), "{stats:?}");
+    assert!(stats.depth < 40, "{stats:?}");
+}
+
+#[test]
+fn room_random_segments_agree_with_brute_force() {
+    let scene = room();
+    check_scene("room", &scene.surfaces, 1, 20_000);
+}
+
+/// Shadow segments as the solver casts them: from subsource centres to mesh
+/// vertices, shortened, skipping the source's and receiver's surfaces; and
+/// the same without skipping (ends exactly on surfaces and shared edges).
+#[test]
+fn room_subsource_to_vertex_segments_agree_with_brute_force() {
+    let scene = room();
+    let surfaces = &scene.surfaces;
+    let mesh = Mesh::build(&scene, &MeshSettings::default()).expect("the room meshes");
+    let brute = BruteForce::new(surfaces);
+    let mut rng = Rng(2);
+    let mut sources = Vec::new();
+    for patch in &mesh.patches {
+        for sub in subsources(&patch.polygon, 2) {
+            sources.push((sub.centroid, patch.surface));
+        }
+    }
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(surfaces, settings);
+        for _ in 0..15_000 {
+            let (c, source) = sources[rng.below(sources.len())];
+            let v = &mesh.vertices[rng.below(mesh.vertices.len())];
+            let raw = rng.chance(0.3);
+            let (from, to) = if raw {
+                (c, v.position)
+            } else {
+                shorten(c, v.position)
+            };
+            for skip in [[source, v.surface], NOTHING_SKIPPED, [v.surface, u32::MAX]] {
+                assert_eq!(
+                    bsp.occluded(from, to, skip),
+                    brute.occluded(from, to, skip),
+                    "{preset}: {from:?} -> {to:?} skipping {skip:?}"
+                );
+            }
+        }
+        // Vertex to vertex: both ends on surfaces, many on shared edges.
+        for _ in 0..15_000 {
+            let a = &mesh.vertices[rng.below(mesh.vertices.len())];
+            let b = &mesh.vertices[rng.below(mesh.vertices.len())];
+            for skip in [[a.surface, b.surface], NOTHING_SKIPPED] {
+                assert_eq!(
+                    bsp.occluded(a.position, b.position, skip),
+                    brute.occluded(a.position, b.position, skip),
+                    "{preset}: {:?} -> {:?} skipping {skip:?}",
+                    a.position,
+                    b.position
+                );
+            }
+        }
+    }
+}
+
+/// Not a timing: how many surfaces a query tests, against brute force's
+/// all of them. Run with `--nocapture` to see the figures.
+#[test]
+fn room_queries_test_far_fewer_surfaces_than_brute_force() {
+    let scene = room();
+    let surfaces = &scene.surfaces;
+    let mesh = Mesh::build(&scene, &MeshSettings::default()).expect("the room meshes");
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(surfaces, settings);
+        let mut rng = Rng(3);
+        let (count, blocked, tests) = agree_on_random_segments(&bsp, surfaces, &mut rng, 20_000);
+        // Solver-like queries: subsource centre of a patch to a vertex.
+        let (mut solver_tests, mut solver_count) = (0u64, 0u64);
+        for _ in 0..20_000 {
+            let patch = &mesh.patches[rng.below(mesh.patches.len())];
+            let v = &mesh.vertices[rng.below(mesh.vertices.len())];
+            let c = radiosity::geometry::centroid(&patch.polygon);
+            let (from, to) = shorten(c, v.position);
+            let (_, n) = bsp.occluded_counting(from, to, [patch.surface, v.surface]);
+            solver_tests += u64::from(n);
+            solver_count += 1;
+        }
+        let random_mean = tests as f64 / count as f64;
+        let solver_mean = solver_tests as f64 / solver_count as f64;
+        println!(
+            "room, {preset}: {:?}; random segments: {random_mean:.1} surfaces tested per query \
+             ({:.0}% blocked); patch-to-vertex: {solver_mean:.1}; brute force: {}",
+            bsp.stats(),
+            100.0 * blocked as f64 / count as f64,
+            surfaces.len()
+        );
+        assert!(
+            solver_mean < 0.5 * surfaces.len() as f64,
+            "{preset}: {solver_mean}"
+        );
+    }
+}
+
+#[test]
+fn queries_from_many_threads_agree() {
+    let scene = room();
+    let surfaces = &scene.surfaces;
+    let bsp = Bsp::new(surfaces);
+    let brute = BruteForce::new(surfaces);
+    let occluders: [&dyn Occluder; 2] = [&bsp, &brute];
+    std::thread::scope(|scope| {
+        for t in 0..4u64 {
+            scope.spawn(move || {
+                let mut rng = Rng(100 + t);
+                let (lo, hi) = bounds(surfaces);
+                for _ in 0..5_000 {
+                    let from = random_point(&mut rng, surfaces, lo, hi);
+                    let to = random_point(&mut rng, surfaces, lo, hi);
+                    assert_eq!(
+                        occluders[0].occluded(from, to, NOTHING_SKIPPED),
+                        occluders[1].occluded(from, to, NOTHING_SKIPPED)
+                    );
+                }
+            });
+        }
+    });
+}
+
+// ------------------------------------------------------------ polygon soups
+
+/// A random triangle or planar convex quad somewhere in the box `[0, 4]^3`.
+fn random_polygon(rng: &mut Rng) -> Option<Surface> {
+    let lo = DVec3::ZERO;
+    let hi = DVec3::splat(4.0);
+    let a = rng.point_in(lo, hi);
+    let size = rng.range(0.2, 2.0);
+    let mut dir = || {
+        DVec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ) * size
+    };
+    let (u, v) = (dir(), dir());
+    if rng.chance(0.5) {
+        surface(vec![a, a + u, a + v])
+    } else {
+        // A parallelogram, or a kite made convex by construction.
+        let (u, v) = if u.cross(v).length() > 0.0 {
+            (u, v)
+        } else {
+            (v, u)
+        };
+        let far = if rng.chance(0.5) {
+            a + u + v
+        } else {
+            a + (u + v) * rng.range(0.6, 1.5)
+        };
+        surface(vec![a, a + u, far, a + v])
+    }
+}
+
+/// An axis-aligned rectangle on a plane of a coarse grid, so several lie in
+/// the same plane, touch, overlap or share edges.
+fn grid_rectangle(rng: &mut Rng) -> Option<Surface> {
+    let axis = rng.below(3);
+    let level = 0.5 * rng.below(9) as f64;
+    let corner = |rng: &mut Rng| 0.5 * rng.below(9) as f64;
+    let (a0, a1) = (corner(rng), corner(rng));
+    let (b0, b1) = (corner(rng), corner(rng));
+    if a0 == a1 || b0 == b1 {
+        return None;
+    }
+    let at = |a: f64, b: f64| match axis {
+        0 => DVec3::new(level, a, b),
+        1 => DVec3::new(b, level, a),
+        _ => DVec3::new(a, b, level),
+    };
+    let mut polygon = vec![at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)];
+    if rng.chance(0.5) {
+        polygon.reverse();
+    }
+    surface(polygon)
+}
+
+/// A closed tetrahedron or a strip of triangles sharing edges.
+fn shared_edge_group(rng: &mut Rng, out: &mut Vec<Surface>) {
+    let base = rng.point_in(DVec3::ZERO, DVec3::splat(3.5));
+    if rng.chance(0.5) {
+        let p = [
+            base,
+            base + DVec3::new(rng.range(0.3, 1.0), 0.0, 0.0),
+            base + DVec3::new(0.0, rng.range(0.3, 1.0), 0.0),
+            base + DVec3::new(0.0, 0.0, rng.range(0.3, 1.0)),
+        ];
+        for [i, j, k] in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
+            out.extend(surface(vec![p[i], p[j], p[k]]));
+        }
+    } else {
+        let mut prev = [base, base + DVec3::new(0.0, rng.range(0.3, 1.0), 0.0)];
+        for _ in 0..rng.below(5) + 2 {
+            let next = prev[0]
+                + DVec3::new(
+                    rng.range(0.2, 0.8),
+                    rng.range(-0.3, 0.3),
+                    rng.range(-0.5, 0.5),
+                );
+            out.extend(surface(vec![prev[0], next, prev[1]]));
+            prev = [next, prev[1]];
+            prev.swap(0, 1);
+        }
+    }
+}
+
+fn soup(seed: u64, count: usize) -> Vec<Surface> {
+    let mut rng = Rng(seed);
+    let mut surfaces = Vec::new();
+    while surfaces.len() < count {
+        match rng.below(4) {
+            0 | 1 => surfaces.extend(random_polygon(&mut rng)),
+            2 => surfaces.extend(grid_rectangle(&mut rng)),
+            _ => shared_edge_group(&mut rng, &mut surfaces),
+        }
+    }
+    surfaces
+}
+
+#[test]
+fn random_soups_agree_with_brute_force() {
+    for seed in 0..12u64 {
+        let surfaces = soup(seed, 40 + 20 * seed as usize);
+        check_scene(&format!("soup {seed}"), &surfaces, 1000 + seed, 4_000);
+    }
+}
+
+#[test]
+fn soup_far_from_the_origin_agrees_with_brute_force() {
+    // Round-off grows with the coordinates, not with the scene's size.
+    let offset = DVec3::new(1.0e4, -3.0e3, 7.0e3);
+    let surfaces: Vec<Surface> = soup(77, 150)
+        .into_iter()
+        .filter_map(|s| surface(s.polygon.iter().map(|p| *p + offset).collect()))
+        .collect();
+    check_scene("far soup", &surfaces, 78, 6_000);
+}
+
+#[test]
+fn needles_and_near_coplanar_surfaces_agree_with_brute_force() {
+    let mut surfaces = Vec::new();
+    let mut rng = Rng(5);
+    for i in 0..30 {
+        // Slivers: a long edge and a tip angle down to 1e-6 radians.
+        let a = rng.point_in(DVec3::ZERO, DVec3::splat(4.0));
+        let u = DVec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
+        let w = u.any_orthonormal_vector() * u.length() * 10f64.powi(-(i % 7));
+        surfaces.extend(surface(vec![a, a + u * 3.0, a + u * 3.0 + w]));
+    }
+    for k in 0..30 {
+        // Squares tilted from z = 2 by 1e-12 .. 1e-5 radians, inside and
+        // just outside the coplanar tolerance.
+        let tilt = 10f64.powi(-5 - (k % 8));
+        let x0 = 0.13 * k as f64;
+        let p = vec![
+            DVec3::new(x0, 0.0, 2.0),
+            DVec3::new(x0 + 1.0, 0.0, 2.0 + tilt),
+            DVec3::new(x0 + 1.0, 1.0, 2.0 + tilt),
+            DVec3::new(x0, 1.0, 2.0),
+        ];
+        surfaces.extend(surface(p));
+    }
+    for _ in 0..20 {
+        // Slightly non-planar quads, as the OBJ loader accepts them.
+        let a = rng.point_in(DVec3::ZERO, DVec3::splat(3.0));
+        let bend = DVec3::Z * rng.range(-1e-4, 1e-4);
+        surfaces.extend(surface(vec![
+            a,
+            a + DVec3::X,
+            a + DVec3::X + DVec3::Y + bend,
+            a + DVec3::Y,
+        ]));
+    }
+    surfaces.extend(soup(6, 60));
+    check_scene("needles", &surfaces, 6, 8_000);
+}
+
+/// `segment_crosses` accepts points within a tolerance of each edge line,
+/// which beyond a needle's tip reaches far past the tip: a segment passing
+/// just beyond it, wholly in front of another surface's plane through the
+/// tip, is blocked, and the tree must still find the needle behind that plane.
+#[test]
+fn crossings_beyond_a_needle_tip_are_found() {
+    let h = 1.5e-6;
+    let wall = surface(vec![
+        DVec3::new(0.0, 5.0, -1.0),
+        DVec3::new(0.0, 6.0, -1.0),
+        DVec3::new(0.0, 6.0, 1.0),
+        DVec3::new(0.0, 5.0, 1.0),
+    ])
+    .unwrap();
+    let needle = surface(vec![
+        DVec3::new(-3.0, -h, 0.0),
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(-3.0, h, 0.0),
+    ])
+    .unwrap();
+    let surfaces = vec![wall, needle];
+    let brute = BruteForce::new(&surfaces);
+    let mut blocked_beyond_tip = 0;
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(&surfaces, settings);
+        bsp.validate().unwrap();
+        for k in 0..200 {
+            let x = 1e-8 * 1.05f64.powi(k);
+            let from = DVec3::new(x, 1e-13, 1.0);
+            let to = DVec3::new(x, -1e-13, -1.0);
+            let expected = brute.occluded(from, to, NOTHING_SKIPPED);
+            blocked_beyond_tip += usize::from(expected);
+            assert_eq!(
+                bsp.occluded(from, to, NOTHING_SKIPPED),
+                expected,
+                "{preset}, x = {x}"
+            );
+        }
+    }
+    assert!(blocked_beyond_tip > 0, "the case is not exercised");
+}
+
+// --------------------------------------------------------- degenerate input
+
+#[test]
+fn one_surface() {
+    let surfaces = vec![surface(vec![DVec3::ZERO, DVec3::X, DVec3::Y]).unwrap()];
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(&surfaces, settings);
+        bsp.validate().unwrap();
+        let stats = bsp.stats();
+        assert_eq!(
+            (stats.nodes, stats.depth, stats.fragments, stats.splits),
+            (1, 1, 1, 0),
+            "{preset}"
+        );
+    }
+    check_scene("one triangle", &surfaces, 9, 5_000);
+    // The corners and edges themselves.
+    let bsp = Bsp::new(&surfaces);
+    let brute = BruteForce::new(&surfaces);
+    for p in [
+        DVec3::ZERO,
+        DVec3::X,
+        DVec3::Y,
+        DVec3::new(0.5, 0.5, 0.0),
+        DVec3::new(0.5, 0.0, 0.0),
+    ] {
+        for d in [DVec3::Z, DVec3::new(0.3, -0.2, 1.0), DVec3::X] {
+            let (from, to) = (p - d, p + d);
+            assert_eq!(
+                bsp.occluded(from, to, NOTHING_SKIPPED),
+                brute.occluded(from, to, NOTHING_SKIPPED),
+                "{from:?} -> {to:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn all_surfaces_coplanar() {
+    let mut rng = Rng(11);
+    let mut surfaces = Vec::new();
+    // A 6 x 6 grid of unit squares sharing edges, plus random triangles,
+    // all in the plane z = 1, facing both ways.
+    for i in 0..6 {
+        for j in 0..6 {
+            let (x, y) = (f64::from(i), f64::from(j));
+            let mut p = vec![
+                DVec3::new(x, y, 1.0),
+                DVec3::new(x + 1.0, y, 1.0),
+                DVec3::new(x + 1.0, y + 1.0, 1.0),
+                DVec3::new(x, y + 1.0, 1.0),
+            ];
+            if (i + j) % 2 == 1 {
+                p.reverse();
+            }
+            surfaces.push(surface(p).unwrap());
+        }
+    }
+    for _ in 0..20 {
+        let mut corner = || DVec3::new(rng.range(0.0, 6.0), rng.range(0.0, 6.0), 1.0);
+        surfaces.extend(surface(vec![corner(), corner(), corner()]));
+    }
+    for (preset, settings) in all_settings() {
+        let bsp = Bsp::with_settings(&surfaces, settings);
+        bsp.validate().unwrap();
+        let stats = bsp.stats();
+        // One plane holds everything: one node, nothing split.
+        assert_eq!(
+            (stats.nodes, stats.depth, stats.splits),
+            (1, 1, 0),
+            "{preset}"
+        );
+    }
+    check_scene("coplanar", &surfaces, 12, 8_000);
+    // Segments lying in the plane: the exact squares never block them; a
+    // random triangle's plane is z = 1 only up to round-off, so the oracle
+    // decides.
+    let brute = BruteForce::new(&surfaces);
+    let squares = Bsp::new(&surfaces[..36]);
+    let bsp = Bsp::new(&surfaces);
+    for _ in 0..2_000 {
+        let from = DVec3::new(rng.range(-1.0, 7.0), rng.range(-1.0, 7.0), 1.0);
+        let to = DVec3::new(rng.range(-1.0, 7.0), rng.range(-1.0, 7.0), 1.0);
+        assert!(!squares.occluded(from, to, NOTHING_SKIPPED));
+        assert_eq!(
+            bsp.occluded(from, to, NOTHING_SKIPPED),
+            brute.occluded(from, to, NOTHING_SKIPPED)
+        );
+    }
+}
+
+#[test]
+fn many_parallel_planes() {
+    let mut rng = Rng(13);
+    let mut surfaces = Vec::new();
+    for k in 0..300 {
+        let z = 0.01 * f64::from(k);
+        let (x, y) = (rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        let mut p = vec![
+            DVec3::new(x, y, z),
+            DVec3::new(x + 1.0, y, z),
+            DVec3::new(x + 1.0, y + 1.0, z),
+            DVec3::new(x, y + 1.0, z),
+        ];
+        if rng.chance(0.5) {
+            p.reverse();
+        }
+        surfaces.push(surface(p).unwrap());
+    }
+    let balanced = Bsp::new(&surfaces);
+    let stats = balanced.stats();
+    // Parallel planes never split, and the balanced choice halves the stack.
+    assert_eq!(stats.splits, 0);
+    assert!(stats.depth <= 12, "{stats:?}");
+    // The first-plane choice degenerates to a list, caught by the depth
+    // limit.
+    let fastest = Bsp::with_settings(&surfaces, BspSettings::fastest_build());
+    fastest.validate().unwrap();
+    assert_eq!(fastest.stats().depth, MAX_DEPTH);
+    assert_eq!(fastest.stats().buckets, 1);
+    check_scene("parallel", &surfaces, 14, 5_000);
+    // A segment between two neighbouring planes tests nothing beyond them.
+    let from = DVec3::new(0.5, 0.5, 1.502);
+    let to = DVec3::new(0.4, 0.6, 1.508);
+    assert_eq!(
+        balanced.occluded_counting(from, to, NOTHING_SKIPPED),
+        (false, 0)
+    );
+}
+
+#[test]
+fn empty_scene() {
+    let bsp = Bsp::new(&[]);
+    bsp.validate().unwrap();
+    assert_eq!(bsp.stats().nodes, 0);
+    assert!(!bsp.occluded(DVec3::ZERO, DVec3::ONE, NOTHING_SKIPPED));
+}
