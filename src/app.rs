@@ -105,6 +105,8 @@ pub struct Outcome {
     pub total_time: Duration,
     /// Worker threads.
     pub threads: usize,
+    /// The accelerator's build statistics.
+    pub accel_statistics: Vec<(&'static str, usize)>,
     /// Files written.
     pub written: Vec<PathBuf>,
     /// Warnings from loading.
@@ -267,6 +269,7 @@ pub fn run(job: &Job, progress: &mut dyn FnMut(Progress)) -> Result<Outcome, Err
         solve_time,
         total_time: Duration::ZERO,
         threads,
+        accel_statistics: solver.accel_statistics(),
         written: Vec::new(),
         warnings: scene.warnings.clone(),
     };
@@ -341,6 +344,11 @@ fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
         "bookkeeping_seconds": s.bookkeeping_time.as_secs_f64(),
         "total_seconds": outcome.total_time.as_secs_f64(),
         "threads": outcome.threads,
+        "accel_build": outcome
+            .accel_statistics
+            .iter()
+            .map(|(k, v)| (k.to_string(), serde_json::Value::from(*v)))
+            .collect::<serde_json::Map<_, _>>(),
         "settings": {
             "form_factor": settings.form_factor.name(),
             "accel": settings.accel.name(),

@@ -49,7 +49,7 @@
 //! in front of the receiver's plane along that pixel's ray (a receiver too
 //! thin to cover any pixel centre would otherwise always be called hidden),
 //! and no pixel may be empty. On the built-in room the first cuts the
-//! wrong answers from 4% of the pairs to 0.34% at [`DEFAULT_RESOLUTION`]:
+//! wrong answers from 4% of the pairs to 0.34% at resolution 128:
 //! thin furniture edges seen nearly edge-on are exactly such receivers.
 //! Surfaces cut from one input face (same [`Surface::face`], hence coplanar
 //! and contiguous) count as one item.
@@ -83,13 +83,18 @@ use crate::scene::Surface;
 /// ("wrong": a decision the brute-force ray contradicts.) Past 128 the
 /// uncertain share barely falls: nine in ten uncertain pairs are vertices on
 /// their surface's own edge, whose pixel straddles it at any resolution.
-/// Going to 256 saves about 75 rays per subsource for 0.3 ms more raster
-/// time, a loss unless a ray costs over 4 us (the brute-force oracle takes
-/// 2 us). At 128 a pixel subtends at most 0.016 rad, 4 cm at 2.5 m: five
-/// times finer than the elements, so the wrong answers, all within about a
-/// pixel of a silhouette, stay inside the shadow boundary's own meshing
-/// error. Choose 256 for half the wrong answers at twice the raster cost.
-pub const DEFAULT_RESOLUTION: u32 = 128;
+///
+/// The wrong answers are not symmetric, though: almost all are "visible"
+/// for vertices on a line where furniture meets the floor or a wall, whose
+/// pixel centre peeks past the contact edge. They bias the solution upwards.
+/// Solving the room to 72 subsources with the analytic factor, the mean
+/// reflected radiosity moves against ray-only visibility by 0.66% at 128,
+/// 0.29% at 256, 0.18% at 512 and 0.12% at 1024, while the whole solve
+/// takes the same time at 128 and 256 (the extra raster time buys back the
+/// rays it saves) and 1.6x and 4x longer at 512 and 1024. 256 is the
+/// smallest resolution that keeps the picture within 0.5% of ray-only
+/// visibility at no cost (tests/configurations.rs checks it).
+pub const DEFAULT_RESOLUTION: u32 = 256;
 
 /// Largest accepted resolution (the buffers then take 400 MB); larger
 /// requests are clamped.

@@ -279,6 +279,13 @@ impl<'a> Solver<'a> {
         &self.settings
     }
 
+    /// The accelerator's build statistics (see
+    /// [`Occluder::build_statistics`]).
+    #[must_use]
+    pub fn accel_statistics(&self) -> Vec<(&'static str, usize)> {
+        self.occluder.build_statistics()
+    }
+
     /// Counters so far.
     #[must_use]
     pub fn stats(&self) -> &Stats {

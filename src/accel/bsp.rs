@@ -683,6 +683,17 @@ impl Occluder for Bsp<'_> {
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool {
         self.walk(from, to, skip).0
     }
+
+    fn build_statistics(&self) -> Vec<(&'static str, usize)> {
+        let s = self.stats();
+        vec![
+            ("nodes", s.nodes),
+            ("depth", s.depth),
+            ("fragments", s.fragments),
+            ("splits", s.splits),
+            ("buckets", s.buckets),
+        ]
+    }
 }
 
 /// The larger of the bounding-box diagonal and the largest coordinate: the

@@ -61,6 +61,12 @@ pub trait Occluder: Sync {
     /// points from a point in front of it, and skipping them makes the test
     /// immune to round-off at both ends.
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool;
+
+    /// Build statistics worth reporting (name, value), e.g. a tree's node
+    /// count and depth; none by default.
+    fn build_statistics(&self) -> Vec<(&'static str, usize)> {
+        Vec::new()
+    }
 }
 
 /// Relative amount by which a shadow segment is shortened at each end, so a
