@@ -7,6 +7,7 @@
 
 pub mod accel;
 pub mod app;
+pub mod experiments;
 pub mod export;
 pub mod form_factor;
 pub mod geometry;

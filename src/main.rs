@@ -11,6 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use radiosity::accel::Accel;
 use radiosity::app::{self, ImageJob, Job, Outcome};
+use radiosity::experiments;
 use radiosity::form_factor::FormFactor;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, builtin};
@@ -34,6 +35,30 @@ enum Command {
     Render(Box<RenderArgs>),
     /// List the built-in scenes.
     Scenes,
+    /// Reproduce the paper's experiments: a Markdown report and pictures
+    /// per experiment in the output folder.
+    Experiment(ExperimentArgs),
+}
+
+#[derive(Parser, Debug)]
+struct ExperimentArgs {
+    /// Experiments to run, or `all`: fig2-1, fig4-2, fig4-3,
+    /// formula-timing, fig5-1, fig5-2.
+    #[arg(required = true, value_name = "NAME")]
+    names: Vec<String>,
+
+    /// Output folder.
+    #[arg(long, value_name = "DIR", default_value = "experiments-out")]
+    out: PathBuf,
+
+    /// Smaller grids and one repetition: checks the experiments run, the
+    /// numbers are not for quoting.
+    #[arg(long)]
+    quick: bool,
+
+    /// Worker threads (default: every core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
 }
 
 #[derive(Parser, Debug)]
@@ -233,21 +258,45 @@ fn real_main() -> Result<()> {
             Ok(())
         }
         Some(Command::Render(args)) => render(&args),
+        Some(Command::Experiment(args)) => experiment(&args),
         None => render(&RenderArgs::parse_from(["radiosity"])),
     }
 }
 
-fn render(args: &RenderArgs) -> Result<()> {
-    let job = args.job()?;
-    app::validate(&job)?;
+/// A rayon pool with `threads` workers (default: every core).
+fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(threads) = args.threads {
+    if let Some(threads) = threads {
         if threads == 0 {
             return Err(anyhow!("--threads must be at least 1"));
         }
         pool = pool.num_threads(threads);
     }
-    let pool = pool.build().context("cannot start worker threads")?;
+    pool.build().context("cannot start worker threads")
+}
+
+fn experiment(args: &ExperimentArgs) -> Result<()> {
+    let context = experiments::Context {
+        out: args.out.clone(),
+        quick: args.quick,
+        command: std::env::args()
+            .enumerate()
+            .map(|(i, a)| if i == 0 { "radiosity".to_string() } else { a })
+            .collect::<Vec<_>>()
+            .join(" "),
+    };
+    let written = pool(args.threads)?
+        .install(|| experiments::run(&args.names, &context, |name| eprintln!("running {name}")))?;
+    for path in written {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let job = args.job()?;
+    app::validate(&job)?;
+    let pool = pool(args.threads)?;
 
     let bar = if !args.quiet && std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(1000);

@@ -1,0 +1,181 @@
+//! The paper's experiments, reproduced (Wong & Tsang 1993, sections 2, 4
+//! and 5): `radiosity experiment NAME` writes a Markdown report and its
+//! pictures into an output folder, with the machine, revision, command and
+//! settings recorded, so every number in EXPERIMENTS.md can be regenerated.
+//!
+//! | name | paper | what |
+//! | --- | --- | --- |
+//! | `fig2-1` | Figure 2.1 | time to shoot one subsource, ray-only vs pre-test |
+//! | `fig4-2` | Figures 4.2, 4.6 | errors of eq. (1) and eq. (3) against the exact disk factor |
+//! | `fig4-3` | Figures 4.3, 4.5 | colour-scale pictures of the factor above a unit square |
+//! | `formula-timing` | section 4 | cost of one evaluation of each formula |
+//! | `fig5-1` | Figure 5.1 | the room after 9, 48 and 72 subsources, both presets |
+//! | `fig5-2` | Figure 5.2 | solve times at 9, 48 and 72 subsources |
+
+pub mod form_factors;
+pub mod report;
+pub mod solves;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub use report::{Report, table};
+
+/// Where and how to run.
+#[derive(Clone, Debug)]
+pub struct Context {
+    /// Output folder (created if missing).
+    pub out: PathBuf,
+    /// Smaller grids and fewer repetitions, for tests; the numbers are not
+    /// the ones to quote.
+    pub quick: bool,
+    /// The command line that ran the experiments, for the record.
+    pub command: String,
+}
+
+impl Context {
+    /// Repetitions of a timed measurement (the median is reported).
+    #[must_use]
+    pub fn repetitions(&self) -> usize {
+        if self.quick { 1 } else { 5 }
+    }
+
+    /// A path in the output folder.
+    #[must_use]
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.out.join(name)
+    }
+}
+
+/// Why an experiment failed.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A scene, mesh or setting problem.
+    #[error(transparent)]
+    App(#[from] crate::app::Error),
+    /// A file could not be written.
+    #[error("{path}: cannot write: {source}", path = path.display())]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The name is not an experiment.
+    #[error("no experiment '{0}' (experiments: {names}, all)", names = names().join(", "))]
+    Unknown(String),
+}
+
+/// One experiment: its name, the paper's figure, and how to run it.
+pub struct Experiment {
+    /// Command-line name.
+    pub name: &'static str,
+    /// Title of its report.
+    pub title: &'static str,
+    /// Runs it, writing pictures into the context's folder, and returns the
+    /// report.
+    pub run: fn(&Context) -> Result<Report, Error>,
+}
+
+/// Every experiment, in the paper's order.
+pub const EXPERIMENTS: &[Experiment] = &[
+    Experiment {
+        name: "fig2-1",
+        title: "Figure 2.1: time to shoot one subsource",
+        run: solves::fig2_1,
+    },
+    Experiment {
+        name: "fig4-2",
+        title: "Figures 4.2 and 4.6: errors of the disk formulas",
+        run: form_factors::fig4_2,
+    },
+    Experiment {
+        name: "fig4-3",
+        title: "Figures 4.3 and 4.5: the form factor above a unit square",
+        run: form_factors::fig4_3,
+    },
+    Experiment {
+        name: "formula-timing",
+        title: "Section 4: cost of one form-factor evaluation",
+        run: form_factors::formula_timing,
+    },
+    Experiment {
+        name: "fig5-1",
+        title: "Figure 5.1: the room after 9, 48 and 72 subsources",
+        run: solves::fig5_1,
+    },
+    Experiment {
+        name: "fig5-2",
+        title: "Figure 5.2: solve times",
+        run: solves::fig5_2,
+    },
+];
+
+/// Names of every experiment.
+#[must_use]
+pub fn names() -> Vec<&'static str> {
+    EXPERIMENTS.iter().map(|e| e.name).collect()
+}
+
+/// Runs the named experiments (`all` for every one), writing `NAME.md` for
+/// each and the pictures into `context.out`. Returns the files written.
+pub fn run(
+    names: &[String],
+    context: &Context,
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<PathBuf>, Error> {
+    let selected: Vec<&Experiment> = if names.iter().any(|n| n == "all") {
+        EXPERIMENTS.iter().collect()
+    } else {
+        names
+            .iter()
+            .map(|n| {
+                EXPERIMENTS
+                    .iter()
+                    .find(|e| e.name == n)
+                    .ok_or_else(|| Error::Unknown(n.clone()))
+            })
+            .collect::<Result<_, _>>()?
+    };
+    std::fs::create_dir_all(&context.out).map_err(|source| Error::Output {
+        path: context.out.clone(),
+        source,
+    })?;
+    let mut written = Vec::new();
+    for experiment in selected {
+        progress(experiment.name);
+        let start = Instant::now();
+        let report = (experiment.run)(context)?;
+        let text = report.render(experiment.title, context, start.elapsed());
+        let path = context.path(&format!("{}.md", experiment.name));
+        write_file(&path, text.as_bytes())?;
+        written.extend(report.files);
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// Writes a whole file through a temporary name.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    crate::export::Staged::write(path, |w| std::io::Write::write_all(w, bytes))
+        .and_then(crate::export::Staged::commit)
+        .map_err(|source| Error::Output {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// The median of some durations in seconds (sorts them).
+#[must_use]
+pub fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    }
+}
