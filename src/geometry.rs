@@ -110,12 +110,11 @@ pub fn convex_contains(polygon: &[DVec3], normal: DVec3, p: DVec3, tolerance: f6
         let a = polygon[i];
         let b = polygon[(i + 1) % n];
         let edge = b - a;
-        let len = edge.length();
-        if len == 0.0 {
-            continue;
-        }
-        // Signed distance of p from the edge line, positive inside.
-        if normal.cross(edge).dot(p - a) / len < -tolerance {
+        // `side` is the signed distance of p from the edge line (positive
+        // inside) times the edge's length; comparing squares avoids a
+        // square root and a division on this hot path of every shadow ray.
+        let side = normal.cross(edge).dot(p - a);
+        if side < 0.0 && side * side > tolerance * tolerance * edge.length_squared() {
             return false;
         }
     }

@@ -263,7 +263,13 @@ impl<'a> Solver<'a> {
             scene,
             mesh,
             gather_points,
-            item_buffers: Vec::new(),
+            // Allocated up front so no shot pays for it.
+            item_buffers: match settings.visibility {
+                Visibility::Ray => Vec::new(),
+                Visibility::HemicubePretest => (0..settings.subsources * settings.subsources)
+                    .map(|_| ItemBuffer::new(settings.hemicube_resolution))
+                    .collect(),
+            },
             occluder: settings.accel.build(&scene.surfaces),
             settings,
             radiosity,

@@ -300,3 +300,58 @@ fn scenes_lists_the_builtins() {
         "{stdout}"
     );
 }
+
+#[test]
+fn presets_set_every_switch_and_explicit_switches_override_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let stats = |args: &[&str]| {
+        let json = dir.path().join("s.json");
+        let png = dir.path().join("c.png");
+        let mut all = vec![
+            "render",
+            "cornell",
+            "--max-shots",
+            "1",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--stats",
+            json.to_str().unwrap(),
+            "--output",
+            png.to_str().unwrap(),
+        ];
+        all.extend_from_slice(args);
+        let out = run(&all);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let value: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let s = &value["settings"];
+        (
+            s["visibility"].as_str().unwrap().to_string(),
+            s["accel"].as_str().unwrap().to_string(),
+            s["form_factor"].as_str().unwrap().to_string(),
+        )
+    };
+    let owned = |a: &str, b: &str, c: &str| (a.to_string(), b.to_string(), c.to_string());
+    assert_eq!(stats(&[]), owned("hemicube", "bsp", "analytic"));
+    assert_eq!(
+        stats(&["--preset", "wallace89"]),
+        owned("ray", "brute", "wallace")
+    );
+    assert_eq!(
+        stats(&["--preset", "wallace89", "--form-factor", "analytic"]),
+        owned("ray", "brute", "analytic")
+    );
+    assert_eq!(
+        stats(&["--visibility", "ray", "--accel", "brute"]),
+        owned("ray", "brute", "analytic")
+    );
+    let out = run(&["render", "cornell", "--accel", "octree"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("octree"));
+}

@@ -1,20 +1,534 @@
 //! The experiments that run the solver: Figure 2.1 (one subsource shot with
-//! and without the pre-test), Figure 5.1 (the room's pictures) and
-//! Figure 5.2 (solve times).
+//! and without the hemicube pre-test, paper section 2), Figure 5.1 (the
+//! room after 9, 48 and 72 subsources, both methods, section 5) and
+//! Figure 5.2 (their solve times).
 
-use super::{Context, Error, Report};
+use std::time::Instant;
 
-/// Figure 2.1.
-pub fn fig2_1(_context: &Context) -> Result<Report, Error> {
-    Ok(Report::default())
+use glam::{DVec3, Vec3};
+
+use super::{Context, Error, Report, median, table};
+use crate::accel::Accel;
+use crate::export::{self, Staged};
+use crate::form_factor::FormFactor;
+use crate::mesh::{Mesh, MeshSettings};
+use crate::render::{self, Exposure, Image, RenderSettings};
+use crate::scene::{self, Scene};
+use crate::solver::{Settings, Solver, Stats, Visibility};
+use crate::{app, luminance};
+
+/// A scene meshed with its suggested sizes, or with an element size chosen
+/// to give about `target_vertices` vertices.
+fn meshed(name: &str, target_vertices: Option<usize>) -> Result<(Scene, Mesh), Error> {
+    let scene = scene::load(name).map_err(app::Error::from)?;
+    let sizes = scene.default_mesh_sizes();
+    let settings = |element_size: f64| MeshSettings {
+        patch_size: sizes.patch_size,
+        element_size,
+        ..MeshSettings::default()
+    };
+    let build = |element_size: f64| {
+        Mesh::build(&scene, &settings(element_size)).map_err(|e| Error::App(app::Error::Mesh(e)))
+    };
+    let Some(target) = target_vertices else {
+        let mesh = build(sizes.element_size)?;
+        return Ok((scene, mesh));
+    };
+    // Vertex count falls as the element size grows: bisect on a log scale.
+    let (mut small, mut large) = (sizes.element_size / 20.0, sizes.element_size * 20.0);
+    for _ in 0..40 {
+        let mid = (small * large).sqrt();
+        if build(mid)?.vertices.len() > target {
+            small = mid;
+        } else {
+            large = mid;
+        }
+    }
+    let below = build(large)?;
+    let above = build(small)?;
+    let mesh = if target.abs_diff(below.vertices.len()) <= target.abs_diff(above.vertices.len()) {
+        below
+    } else {
+        above
+    };
+    Ok((scene, mesh))
 }
 
-/// Figure 5.1.
-pub fn fig5_1(_context: &Context) -> Result<Report, Error> {
-    Ok(Report::default())
+/// Solves with `settings`, timing the solver's construction (the
+/// accelerator's build) and the shots.
+fn timed_solve<'a>(scene: &'a Scene, mesh: &'a Mesh, settings: &Settings) -> (Solver<'a>, f64) {
+    let start = Instant::now();
+    let mut solver = Solver::new(scene, mesh, settings.clone());
+    solver.run(|_| {});
+    let seconds = start.elapsed().as_secs_f64();
+    (solver, seconds)
 }
 
-/// Figure 5.2.
-pub fn fig5_2(_context: &Context) -> Result<Report, Error> {
-    Ok(Report::default())
+/// The median time of `repetitions` solves, and the last solve's counters.
+fn median_solve(
+    scene: &Scene,
+    mesh: &Mesh,
+    settings: &Settings,
+    repetitions: usize,
+) -> (f64, Stats) {
+    let mut times = Vec::with_capacity(repetitions);
+    let mut stats = Stats::default();
+    for _ in 0..repetitions {
+        let (solver, seconds) = timed_solve(scene, mesh, settings);
+        times.push(seconds);
+        stats = solver.stats().clone();
+    }
+    (median(&mut times), stats)
+}
+
+fn seconds(s: f64) -> String {
+    if s < 0.01 {
+        format!("{:.2} ms", s * 1e3)
+    } else {
+        format!("{s:.3}")
+    }
+}
+
+/// The median time of the first shot alone (the solver, with its
+/// accelerator and item buffers, built beforehand), and its counters.
+fn median_first_shot(
+    scene: &Scene,
+    mesh: &Mesh,
+    settings: &Settings,
+    repetitions: usize,
+) -> (f64, Stats) {
+    let mut times = Vec::with_capacity(repetitions);
+    let mut stats = Stats::default();
+    for _ in 0..repetitions {
+        let mut solver = Solver::new(scene, mesh, settings.clone());
+        let start = Instant::now();
+        solver.shoot();
+        times.push(start.elapsed().as_secs_f64());
+        stats = solver.stats().clone();
+    }
+    (median(&mut times), stats)
+}
+
+/// Figure 2.1: the time to shoot one subsource, with ray casting for every
+/// pair and with the hemicube pre-test, on scenes of about 796 and 4,311
+/// vertices (the paper's sizes), for every accelerator.
+pub fn fig2_1(context: &Context) -> Result<Report, Error> {
+    let mut report = Report::default();
+    let scenes: [(&str, usize, [&str; 3]); 2] = [
+        ("cornell", 796, ["1.2", "1.2", "5.3"]),
+        ("room", 4311, ["21.6", "6.8", "12.0"]),
+    ];
+    let mut rows = Vec::new();
+    let mut counts = Vec::new();
+    for (name, target, paper) in scenes {
+        let (scene, mesh) = meshed(name, Some(target))?;
+        for accel in Accel::ALL {
+            for visibility in Visibility::ALL {
+                let settings = Settings {
+                    accel,
+                    visibility,
+                    form_factor: FormFactor::Analytic,
+                    ..Settings::wallace89()
+                };
+                let (time, stats) =
+                    median_first_shot(&scene, &mesh, &settings, context.repetitions());
+                let per_subsource = time / stats.subsources as f64;
+                let paper_value = match (accel, visibility) {
+                    (Accel::Brute, Visibility::Ray) => paper[0].to_string(),
+                    (Accel::Brute, Visibility::HemicubePretest) => {
+                        format!("{} (hardware), {} (software)", paper[1], paper[2])
+                    }
+                    _ => "-".to_string(),
+                };
+                rows.push(vec![
+                    format!("{name} ({} vertices)", mesh.vertices.len()),
+                    visibility.name().to_string(),
+                    accel.name().to_string(),
+                    seconds(per_subsource),
+                    paper_value,
+                ]);
+                if accel == Accel::Brute {
+                    counts.push(vec![
+                        format!("{name} ({} vertices)", mesh.vertices.len()),
+                        visibility.name().to_string(),
+                        (stats.pairs / stats.subsources).to_string(),
+                        (stats.rays_cast / stats.subsources).to_string(),
+                        (stats.pretest_visible / stats.subsources).to_string(),
+                        (stats.pretest_hidden / stats.subsources).to_string(),
+                        format!(
+                            "{:.1}%",
+                            100.0 * (1.0 - stats.rays_cast as f64 / stats.pairs.max(1) as f64)
+                        ),
+                    ]);
+                }
+            }
+        }
+    }
+    report.setting("shot", "the first shot (the brightest light), 3 x 3 subsources, analytic form factor; time per subsource = median shot time / 9, hemicube rasterisation included, accelerator build excluded (it is done once per solve)");
+    report.setting("hemicube resolution", crate::hemicube::DEFAULT_RESOLUTION);
+    report.setting("repetitions", context.repetitions());
+    report.body.push_str(&table(
+        &[
+            "scene",
+            "visibility",
+            "accelerator",
+            "ours (s per subsource)",
+            "paper (s, SGI Indigo)",
+        ],
+        &rows,
+    ));
+    report.paragraph("Rays avoided by the pre-test, per subsource:");
+    report.body.push_str(&table(
+        &[
+            "scene",
+            "visibility",
+            "pairs",
+            "rays cast",
+            "pre-test visible",
+            "pre-test hidden",
+            "rays avoided",
+        ],
+        &counts,
+    ));
+    Ok(report)
+}
+
+/// The subsource counts of Figure 5.1 and the paper's times (Figure 5.2):
+/// (subsources, Wallace's seconds, Wong & Tsang's seconds, sources shot).
+const PAPER_STEPS: [(u64, f64, f64, u32); 3] = [
+    (9, 116.8, 55.1, 1),
+    (48, 554.7, 243.0, 16),
+    (72, 826.0, 363.5, 29),
+];
+
+/// The configurations of Figure 5.2: the two presets and each improvement
+/// alone on top of `wallace89`.
+fn configurations() -> Vec<(&'static str, Settings)> {
+    let base = Settings::wallace89();
+    vec![
+        ("wallace89", base.clone()),
+        (
+            "+ hemicube pre-test only",
+            Settings {
+                visibility: Visibility::HemicubePretest,
+                ..base.clone()
+            },
+        ),
+        (
+            "+ BSP only",
+            Settings {
+                accel: Accel::Bsp,
+                ..base.clone()
+            },
+        ),
+        (
+            "+ analytic factor only",
+            Settings {
+                form_factor: FormFactor::Analytic,
+                ..base
+            },
+        ),
+        ("wong-tsang93", Settings::wong_tsang93()),
+    ]
+}
+
+/// Figure 5.2: solve times at 9, 48 and 72 subsources.
+pub fn fig5_2(context: &Context) -> Result<Report, Error> {
+    let mut report = Report::default();
+    let (scene, mesh) = meshed("room", None)?;
+    let mut rows = Vec::new();
+    let mut ratios = Vec::new();
+    let mut totals = Vec::new();
+    for (label, base) in configurations() {
+        let mut row = vec![label.to_string()];
+        let mut times = Vec::new();
+        for (subsources, ..) in PAPER_STEPS {
+            let settings = Settings {
+                max_subsources: Some(subsources),
+                converge: 0.0,
+                ..base.clone()
+            };
+            let (time, stats) = median_solve(&scene, &mesh, &settings, context.repetitions());
+            row.push(format!("{} ({} shots)", seconds(time), stats.shots));
+            times.push(time);
+        }
+        totals.push((label, times));
+        rows.push(row);
+    }
+    let wallace = &totals[0].1;
+    for (label, times) in &totals {
+        let mut row = vec![label.to_string()];
+        for (w, t) in wallace.iter().zip(times) {
+            row.push(format!("{:.2}x", w / t));
+        }
+        ratios.push(row);
+    }
+    let mut paper = vec![
+        vec!["wallace89 (paper)".to_string()],
+        vec!["wong-tsang93 (paper)".to_string()],
+        vec!["ratio (paper)".to_string()],
+    ];
+    for (_, w, t, _) in PAPER_STEPS {
+        paper[0].push(format!("{w}"));
+        paper[1].push(format!("{t}"));
+        paper[2].push(format!("{:.2}x", w / t));
+    }
+    let headers = [
+        "configuration",
+        "9 subsources",
+        "48 subsources",
+        "72 subsources",
+    ];
+    report.setting(
+        "scene",
+        format!(
+            "room: {} surfaces, {} patches, {} elements, {} vertices",
+            scene.surfaces.len(),
+            mesh.patches.len(),
+            mesh.elements.len(),
+            mesh.vertices.len()
+        ),
+    );
+    report.setting(
+        "subsources per shot",
+        "3 x 3 (the solve stops once the count is reached, so 48 means 6 shots = 54 subsources)",
+    );
+    report.setting("repetitions", context.repetitions());
+    report.paragraph("Solve time in seconds (median; solver construction, including the BSP build, and all shots):");
+    report.body.push_str(&table(&headers, &rows));
+    report.paragraph("Speed-up over wallace89:");
+    report.body.push_str(&table(&headers, &ratios));
+    report.paragraph("The paper's Figure 5.2 (seconds on an SGI IRIS Indigo):");
+    report.body.push_str(&table(&headers, &paper));
+
+    // Threads: the 72-subsource solve of wong-tsang93 on one thread and on
+    // the pool in use.
+    let settings = Settings {
+        max_subsources: Some(72),
+        converge: 0.0,
+        ..Settings::wong_tsang93()
+    };
+    let mut thread_rows = Vec::new();
+    let all = rayon::current_num_threads();
+    let mut one_thread_time = f64::NAN;
+    for threads in [1, all] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| Error::Output {
+                path: context.out.clone(),
+                source: std::io::Error::other(e),
+            })?;
+        let (time, _) =
+            pool.install(|| median_solve(&scene, &mesh, &settings, context.repetitions()));
+        if threads == 1 {
+            one_thread_time = time;
+        }
+        thread_rows.push(vec![
+            threads.to_string(),
+            seconds(time),
+            format!("{:.2}x", one_thread_time / time),
+        ]);
+    }
+    report.paragraph("wong-tsang93 at 72 subsources by thread count:");
+    report
+        .body
+        .push_str(&table(&["threads", "seconds", "speed-up"], &thread_rows));
+    Ok(report)
+}
+
+/// Draws the room's display radiosity with a given exposure.
+fn picture(scene: &Scene, mesh: &Mesh, solver: &Solver<'_>, width: u32, height: u32) -> Image {
+    let settings = RenderSettings {
+        width,
+        height,
+        camera: scene.camera_or_framing(),
+        supersampling: 2,
+    };
+    render::render(scene, mesh, &solver.display_radiosity(true), &settings)
+}
+
+/// Writes a PNG of 8-bit RGB pixels.
+fn write_png(
+    context: &Context,
+    name: &str,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> Result<std::path::PathBuf, Error> {
+    let path = context.path(name);
+    Staged::write(&path, |w| export::write_png(w, width, height, rgb))
+        .and_then(Staged::commit)
+        .map_err(|source| Error::Output {
+            path: path.clone(),
+            source,
+        })?;
+    Ok(path)
+}
+
+/// Figure 5.1: the room after 9, 48 and 72 subsources, by both methods,
+/// side by side with their difference.
+pub fn fig5_1(context: &Context) -> Result<Report, Error> {
+    let mut report = Report::default();
+    let (scene, mesh) = meshed("room", None)?;
+    let (width, height) = if context.quick {
+        (160, 120)
+    } else {
+        (480, 360)
+    };
+    let mut rows = Vec::new();
+    let mut exposure = None;
+    let mut sheet: Vec<Vec<u8>> = Vec::new();
+    // Largest count first so its exposure serves every picture.
+    for (subsources, .., sources) in PAPER_STEPS.iter().rev() {
+        let solve = |settings: Settings| {
+            timed_solve(
+                &scene,
+                &mesh,
+                &Settings {
+                    max_subsources: Some(*subsources),
+                    converge: 0.0,
+                    ..settings
+                },
+            )
+        };
+        let (ours, _) = solve(Settings::wong_tsang93());
+        let (theirs, _) = solve(Settings::wallace89());
+        let ours_image = picture(&scene, &mesh, &ours, width, height);
+        let theirs_image = picture(&scene, &mesh, &theirs, width, height);
+        let scale =
+            *exposure.get_or_insert_with(|| ours_image.exposure_scale(Exposure::Auto { ev: 0.0 }));
+        let difference = difference_image(&ours_image, &theirs_image, scale);
+        let mut strip = Vec::new();
+        for (label, image) in [("wong-tsang93", &ours_image), ("wallace89", &theirs_image)] {
+            let rgb = image.to_srgb8(scale);
+            report.files.push(write_png(
+                context,
+                &format!("fig5-1-{label}-{subsources}.png"),
+                width,
+                height,
+                &rgb,
+            )?);
+            strip.push(rgb);
+        }
+        report.files.push(write_png(
+            context,
+            &format!("fig5-1-difference-{subsources}.png"),
+            width,
+            height,
+            &difference.1,
+        )?);
+        strip.push(difference.1);
+        sheet.push(side_by_side(&strip, width, height));
+
+        let (vertex_mean, vertex_max) = vertex_difference(&scene, &mesh, &ours, &theirs);
+        rows.push(vec![
+            format!(
+                "{subsources} ({} shots; paper: {sources} sources)",
+                ours.stats().shots
+            ),
+            format!("{:.2}%", 100.0 * vertex_mean),
+            format!("{:.2}%", 100.0 * vertex_max),
+            format!("{:.2}%", 100.0 * difference.0.mean),
+            format!("{:.2}%", 100.0 * difference.0.p99),
+        ]);
+    }
+    rows.reverse();
+    sheet.reverse();
+    let sheet: Vec<u8> = sheet.concat();
+    report.files.push(write_png(
+        context,
+        "fig5-1.png",
+        width * 3,
+        height * 3,
+        &sheet,
+    )?);
+    report.setting("pictures", format!("{width} x {height}, 2 x 2 supersampling, one exposure for all (auto-exposure of wong-tsang93 at 72)"));
+    report.paragraph(
+        "Rows: after 9, 48 and 72 subsources. Columns: wong-tsang93 (the paper's left \
+         column), wallace89 (its right column), and the difference |ours - Wallace's| in \
+         display luminance, scaled x8.",
+    );
+    report.paragraph("![Figure 5.1](fig5-1.png)");
+    report.paragraph(
+        "Differences between the two methods: per vertex, of the displayed radiosity \
+         (B + rho * ambient, luminance), relative to the mean over non-emitting vertices; per \
+         pixel, relative to the mean pixel luminance.",
+    );
+    report.body.push_str(&table(
+        &[
+            "subsources",
+            "vertex mean",
+            "vertex max",
+            "pixel mean",
+            "pixel 99th percentile",
+        ],
+        &rows,
+    ));
+    Ok(report)
+}
+
+/// Mean and 99th percentile of a per-pixel relative difference.
+struct PixelDifference {
+    mean: f64,
+    p99: f64,
+}
+
+/// |a - b| in luminance relative to a's mean luminance, and the difference
+/// picture (x8, grey).
+fn difference_image(a: &Image, b: &Image, scale: f64) -> (PixelDifference, Vec<u8>) {
+    let lum = |p: Vec3| luminance(p.as_dvec3());
+    let mean_a = a.pixels.iter().map(|p| lum(*p)).sum::<f64>() / a.pixels.len() as f64;
+    let mut relative: Vec<f64> = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| (lum(*p) - lum(*q)).abs() / mean_a.max(1e-30))
+        .collect();
+    let picture: Vec<u8> = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| {
+            let d = ((lum(*p) - lum(*q)).abs() * scale * 8.0).min(1.0);
+            let v = (255.0 * d.powf(1.0 / 2.2)) as u8;
+            [v, v, v]
+        })
+        .collect();
+    let mean = relative.iter().sum::<f64>() / relative.len() as f64;
+    let k = ((relative.len() - 1) as f64 * 0.99) as usize;
+    let (_, p99, _) = relative.select_nth_unstable_by(k, f64::total_cmp);
+    (PixelDifference { mean, p99: *p99 }, picture)
+}
+
+/// Mean and maximum per-vertex difference of displayed luminance, relative
+/// to the mean over non-emitting vertices.
+fn vertex_difference(scene: &Scene, mesh: &Mesh, a: &Solver<'_>, b: &Solver<'_>) -> (f64, f64) {
+    let (da, db) = (a.display_radiosity(true), b.display_radiosity(true));
+    let reflecting: Vec<(DVec3, DVec3)> = mesh
+        .vertices
+        .iter()
+        .zip(da.iter().zip(&db))
+        .filter(|(v, _)| !scene.surfaces[v.surface as usize].is_emitter())
+        .map(|(_, (x, y))| (*x, *y))
+        .collect();
+    let mean = reflecting.iter().map(|(x, _)| luminance(*x)).sum::<f64>() / reflecting.len() as f64;
+    let diffs: Vec<f64> = reflecting
+        .iter()
+        .map(|(x, y)| (luminance(*x) - luminance(*y)).abs() / mean)
+        .collect();
+    let max = diffs.iter().copied().fold(0.0, f64::max);
+    (diffs.iter().sum::<f64>() / diffs.len() as f64, max)
+}
+
+/// Places equally sized RGB pictures left to right.
+fn side_by_side(pictures: &[Vec<u8>], width: u32, height: u32) -> Vec<u8> {
+    let row = 3 * width as usize;
+    let mut out = Vec::with_capacity(pictures.len() * row * height as usize);
+    for y in 0..height as usize {
+        for p in pictures {
+            out.extend_from_slice(&p[y * row..(y + 1) * row]);
+        }
+    }
+    out
 }
