@@ -13,6 +13,7 @@
 //! | `fig5-2` | Figure 5.2 | solve times at 9, 48 and 72 subsources |
 
 pub mod form_factors;
+pub mod plot;
 pub mod report;
 pub mod solves;
 

@@ -1,0 +1,150 @@
+//! The form-factor experiments of the paper's section 4 (Figures 4.2, 4.3,
+//! 4.5, 4.6 and the timing of 4,140 evaluations) in quick mode: they write
+//! their tables and pictures, the pictures decode at the size announced,
+//! and Figure 4.5's sum over 3x3 sub-squares equals the exact factor.
+
+use std::path::Path;
+
+use radiosity::experiments::form_factors::{self, CrossSection};
+use radiosity::experiments::{Context, Report, plot};
+
+fn context(dir: &Path) -> Context {
+    Context {
+        out: dir.to_path_buf(),
+        quick: true,
+        command: "cargo test --test experiments".into(),
+    }
+}
+
+/// Decodes a PNG and returns its width and height.
+fn png_size(path: &Path) -> (u32, u32) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let decoder = png::Decoder::new(std::io::BufReader::new(file));
+    let mut reader = decoder.read_info().expect("a PNG header");
+    let mut buffer = vec![0; reader.output_buffer_size().expect("a sized image")];
+    let info = reader.next_frame(&mut buffer).expect("PNG data");
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    (info.width, info.height)
+}
+
+fn assert_table(report: &Report, header: &str) {
+    assert!(
+        report.body.contains(header),
+        "no table headed {header:?} in:\n{}",
+        report.body
+    );
+    assert!(report.body.contains("| --- |"), "no Markdown table");
+}
+
+#[test]
+fn fig4_2_tables_the_paper_beside_ours() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = form_factors::fig4_2(&context(dir.path())).unwrap();
+    assert_table(
+        &report,
+        "| r | eq. (1) average, ours | eq. (1) average, paper |",
+    );
+    assert_table(&report, "| tilt | formula | r | mean | RMS | max |");
+    // The paper's protocol reproduces its numbers: the first row at 1R.
+    assert!(
+        report
+            .body
+            .contains("| 1R | 55.381% | 55.38% | 99.970% | 99.97% |")
+    );
+    for tilt in ["DiskAxis", "InPlane", "Sideways"] {
+        assert!(report.body.contains(&format!("| {tilt} | eq. (3) | 10R |")));
+    }
+    assert!(report.files.is_empty());
+}
+
+#[test]
+fn fig4_3_writes_decodable_pictures_of_the_announced_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = form_factors::fig4_3(&context(dir.path())).unwrap();
+    assert_table(
+        &report,
+        "| picture | max, z < 0.2 | mean, z < 0.2 | max, z > 0.5 |",
+    );
+    let (w, h) = CrossSection::grid(true);
+    let (pw, ph) = plot::panel_size(w, h);
+    let names: Vec<String> = report
+        .files
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    for name in [
+        "fig4-3a-exact.png",
+        "fig4-3b-wallace.png",
+        "fig4-3c-analytic-3x3.png",
+        "fig4-3d-eq3.png",
+        "fig4-3b-error.png",
+        "fig4-3c-error.png",
+        "fig4-3d-error.png",
+        "fig4-3-all.png",
+    ] {
+        assert!(names.iter().any(|n| n == name), "{name} not in {names:?}");
+    }
+    for path in &report.files {
+        assert!(path.starts_with(dir.path()));
+        let size = png_size(path);
+        if path.ends_with("fig4-3-all.png") {
+            // Four panels a row, three rows, 8 pixels apart.
+            assert_eq!(size, (4 * pw as u32 + 5 * 8, 3 * ph as u32 + 4 * 8));
+        } else {
+            assert_eq!(size, (pw as u32, ph as u32), "{}", path.display());
+        }
+        assert!(
+            report
+                .body
+                .contains(&*path.file_name().unwrap().to_string_lossy())
+        );
+    }
+}
+
+#[test]
+fn figure_4_5_equals_the_exact_factor() {
+    let (w, h) = CrossSection::grid(true);
+    let section = CrossSection::compute(w, h);
+    assert_eq!(section.exact.len(), w * h);
+    for (i, (c, a)) in section.analytic.iter().zip(&section.exact).enumerate() {
+        assert!(*a > 0.0 && *a <= 1.0, "sample {i}: {a}");
+        assert!((c - a).abs() <= 1e-9 * a, "sample {i}: {c} vs {a}");
+    }
+    // The closed form of a parallel rectangle agrees with (a) as well, and
+    // the disk formulas are visibly off near the source.
+    for (a, r) in section.exact.iter().zip(&section.closed_form) {
+        assert!((a - r).abs() <= 1e-9 * a);
+    }
+    let worst = |f: &[f64]| {
+        f.iter()
+            .zip(&section.exact)
+            .map(|(f, a)| ((f - a) / a).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(worst(&section.wallace) > 0.5);
+    assert!(worst(&section.disk) > 0.5);
+}
+
+#[test]
+fn formula_timing_reports_the_three_formulas() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = form_factors::formula_timing(&context(dir.path())).unwrap();
+    assert_table(
+        &report,
+        "| formula | source | ns per evaluation | ms for 4,140 |",
+    );
+    for row in [
+        "| eq. (1) Wallace |",
+        "| eq. (3) Wong-Tsang |",
+        "| eq. (2) analytic (Baum) |",
+    ] {
+        assert!(report.body.contains(row), "{row}");
+    }
+    assert!(
+        report
+            .settings
+            .iter()
+            .any(|(k, v)| k == "cases" && v.starts_with("4140"))
+    );
+    assert!(report.files.is_empty());
+}
