@@ -355,3 +355,24 @@ fn presets_set_every_switch_and_explicit_switches_override_them() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("octree"));
 }
+
+#[test]
+fn every_experiment_runs_in_quick_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = run(&[
+        "experiment",
+        "all",
+        "--quick",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in ["fig2-1", "fig4-2", "fig4-3", "formula-timing", "fig5-1", "fig5-2"] {
+        let report = std::fs::read_to_string(dir.path().join(format!("{name}.md"))).unwrap();
+        assert!(report.contains("- revision:") && report.contains("| --- |"), "{name}");
+    }
+    assert!(dir.path().join("fig5-1.png").exists());
+    let out = run(&["experiment", "fig9-9", "--out", dir.path().to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no experiment 'fig9-9'"));
+}

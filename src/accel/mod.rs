@@ -4,11 +4,13 @@
 //! [`brute::BruteForce`] tests every surface, as Wallace et al. (1989) did;
 //! it is the oracle every accelerator is tested against. [`bsp::Bsp`] walks
 //! a BSP tree front to back from the segment's origin (Wong & Tsang,
-//! section 3). The segment test
+//! section 3); [`bvh::Bvh`] is a surface-area-heuristic bounding-volume
+//! hierarchy, the modern answer, kept beside it for comparison. The segment test
 //! itself, [`segment_crosses`], is shared by all of them.
 
 pub mod brute;
 pub mod bsp;
+pub mod bvh;
 
 use glam::DVec3;
 
@@ -22,11 +24,14 @@ pub enum Accel {
     Brute,
     /// A BSP tree over the surfaces, walked front to back (paper section 3).
     Bsp,
+    /// A surface-area-heuristic bounding-volume hierarchy (beyond the
+    /// paper: the modern answer, kept beside the BSP for comparison).
+    Bvh,
 }
 
 impl Accel {
     /// Every accelerator, in the order the command line lists them.
-    pub const ALL: [Accel; 2] = [Accel::Brute, Accel::Bsp];
+    pub const ALL: [Accel; 3] = [Accel::Brute, Accel::Bsp, Accel::Bvh];
 
     /// The name used on the command line and in statistics.
     #[must_use]
@@ -34,6 +39,7 @@ impl Accel {
         match self {
             Accel::Brute => "brute",
             Accel::Bsp => "bsp",
+            Accel::Bvh => "bvh",
         }
     }
 
@@ -49,6 +55,7 @@ impl Accel {
         match self {
             Accel::Brute => Box::new(brute::BruteForce::new(surfaces)),
             Accel::Bsp => Box::new(bsp::Bsp::new(surfaces)),
+            Accel::Bvh => Box::new(bvh::Bvh::new(surfaces)),
         }
     }
 }
