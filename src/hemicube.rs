@@ -457,20 +457,26 @@ impl ItemBuffer {
         if same(self.items[self.index(centre)]) {
             return Pretest::Visible;
         }
-        let mut hidden = true;
-        for dr in -1..=1 {
-            for dc in -1..=1 {
-                let Some(p) = self.neighbour(centre, dc, dr) else {
-                    return Pretest::Uncertain;
-                };
-                let k = self.index(p);
-                let item = self.items[k];
-                if same(item) {
-                    return Pretest::Uncertain;
-                }
-                hidden &= item != EMPTY && self.depth[k] > self.plane_depth(plane, p);
+        // First the cheap integer tests on all nine pixels, then the depth
+        // safeguard, which costs a division a pixel, only if they all pass.
+        let mut neighbours = [(centre, 0usize); 9];
+        for (slot, (dr, dc)) in neighbours
+            .iter_mut()
+            .zip((-1..=1).flat_map(|dr| (-1..=1).map(move |dc| (dr, dc))))
+        {
+            let Some(p) = self.neighbour(centre, dc, dr) else {
+                return Pretest::Uncertain;
+            };
+            let k = self.index(p);
+            let item = self.items[k];
+            if item == EMPTY || same(item) {
+                return Pretest::Uncertain;
             }
+            *slot = (p, k);
         }
+        let hidden = neighbours
+            .iter()
+            .all(|&(p, k)| self.depth[k] > self.plane_depth(plane, p));
         if hidden {
             Pretest::Hidden
         } else {

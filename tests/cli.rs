@@ -366,13 +366,32 @@ fn every_experiment_runs_in_quick_mode() {
         "--out",
         dir.path().to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for name in ["fig2-1", "fig4-2", "fig4-3", "formula-timing", "fig5-1", "fig5-2"] {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for name in [
+        "fig2-1",
+        "fig4-2",
+        "fig4-3",
+        "formula-timing",
+        "fig5-1",
+        "fig5-2",
+    ] {
         let report = std::fs::read_to_string(dir.path().join(format!("{name}.md"))).unwrap();
-        assert!(report.contains("- revision:") && report.contains("| --- |"), "{name}");
+        assert!(
+            report.contains("- revision:") && report.contains("| --- |"),
+            "{name}"
+        );
     }
     assert!(dir.path().join("fig5-1.png").exists());
-    let out = run(&["experiment", "fig9-9", "--out", dir.path().to_str().unwrap()]);
+    let out = run(&[
+        "experiment",
+        "fig9-9",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no experiment 'fig9-9'"));
 }

@@ -4,28 +4,28 @@
 
 use glam::DVec3;
 
-use super::{Occluder, segment_crosses};
+use super::{Occluder, PreparedSurfaces};
 use crate::scene::Surface;
 
 /// Tests every surface.
-pub struct BruteForce<'a> {
-    surfaces: &'a [Surface],
+pub struct BruteForce {
+    prepared: PreparedSurfaces,
 }
 
-impl<'a> BruteForce<'a> {
-    /// Wraps the scene's surfaces.
+impl BruteForce {
+    /// Prepares the scene's surfaces.
     #[must_use]
-    pub fn new(surfaces: &'a [Surface]) -> Self {
-        BruteForce { surfaces }
+    pub fn new(surfaces: &[Surface]) -> Self {
+        BruteForce {
+            prepared: PreparedSurfaces::new(surfaces),
+        }
     }
 }
 
-impl Occluder for BruteForce<'_> {
+impl Occluder for BruteForce {
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool {
-        self.surfaces.iter().enumerate().any(|(i, s)| {
-            let i = i as u32;
-            i != skip[0] && i != skip[1] && segment_crosses(s, from, to)
-        })
+        (0..self.prepared.len() as u32)
+            .any(|i| i != skip[0] && i != skip[1] && self.prepared.crosses(i, from, to))
     }
 }
 

@@ -16,7 +16,7 @@
 //! # Agreement with the brute-force oracle
 //!
 //! The tree only decides *which* surfaces to test; the blocking decision is
-//! always [`segment_crosses`] on the original surface, so an answer can only
+//! always [`segment_crosses`](super::segment_crosses) on the original surface, so an answer can only
 //! differ from [`BruteForce`](super::brute::BruteForce) if the walk misses a
 //! surface the segment crosses. It cannot, because every tolerance is
 //! conservative:
@@ -57,7 +57,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Occluder, segment_crosses};
+use super::{Occluder, PreparedSurfaces};
 use crate::geometry;
 use crate::scene::Surface;
 
@@ -66,10 +66,9 @@ use crate::scene::Surface;
 /// walk reaches it.
 pub const MAX_DEPTH: usize = 64;
 
-/// The edge tolerance of [`segment_crosses`], relative to the square root of
-/// the surface's area. The reach computed from it is taken four times wider,
-/// so a slightly larger tolerance there would still be covered.
-const CROSSING_TOLERANCE: f64 = 1e-9;
+/// The segment test's edge tolerance (its reach here is taken four times
+/// wider, so a slightly larger tolerance there would still be covered).
+const CROSSING_TOLERANCE: f64 = super::EDGE_TOLERANCE;
 
 /// Round-off allowance relative to the scene's scale (largest coordinate or
 /// diagonal): covers the classification, splitting and crossing-point
@@ -235,6 +234,8 @@ enum Side {
 /// A BSP tree over a scene's surfaces answering shadow-segment queries.
 pub struct Bsp<'a> {
     surfaces: &'a [Surface],
+    /// The surfaces laid out for the segment test.
+    prepared: PreparedSurfaces,
     nodes: Vec<Node>,
     /// Surface id of each stored fragment, with [`SPLIT_FLAG`] when the
     /// surface has several fragments; node ranges index it.
@@ -272,6 +273,7 @@ impl<'a> Bsp<'a> {
         let scale = scene_scale(surfaces);
         let mut bsp = Bsp {
             surfaces,
+            prepared: PreparedSurfaces::new(surfaces),
             nodes: Vec::new(),
             entries: Vec::new(),
             fragments: Vec::new(),
@@ -310,7 +312,7 @@ impl<'a> Bsp<'a> {
     }
 
     /// Like [`Occluder::occluded`], also returning how many surfaces were
-    /// tested with [`segment_crosses`] (for benchmarks; brute force tests
+    /// tested with [`segment_crosses`](super::segment_crosses) (for benchmarks; brute force tests
     /// surfaces in input order up to the first blocker).
     #[must_use]
     pub fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32) {
@@ -665,7 +667,7 @@ impl<'a> Bsp<'a> {
                     continue;
                 }
                 tests += 1;
-                if segment_crosses(&self.surfaces[id as usize], from, to) {
+                if self.prepared.crosses(id, from, to) {
                     return (true, tests);
                 }
                 if split && remembered < TESTED_MEMORY {
@@ -774,7 +776,7 @@ fn split(polygon: &[DVec3], normal: DVec3, offset: f64) -> (Vec<DVec3>, Vec<DVec
 }
 
 /// How far from the convex hull of a surface's corners a point accepted by
-/// [`segment_crosses`] can lie: the crossing point is on the surface's plane
+/// [`segment_crosses`](super::segment_crosses) can lie: the crossing point is on the surface's plane
 /// (which a non-planar input polygon leaves by up to its non-planarity) and
 /// within the edge tolerance of every edge line, a region that near a sharp
 /// corner reaches `tolerance / sin(angle / 2)` beyond it. The region is

@@ -17,7 +17,7 @@
 //!
 //! # Agreement with the brute-force oracle
 //!
-//! Boxes only cull. The blocking decision is always [`segment_crosses`] on
+//! Boxes only cull. The blocking decision is always [`segment_crosses`](super::segment_crosses) on
 //! the original surface, so an answer can only differ from
 //! [`BruteForce`](super::brute::BruteForce) if the walk fails to offer a
 //! surface the segment crosses. It cannot, because every box is
@@ -53,7 +53,7 @@
 
 use glam::{DVec2, DVec3, Vec3A};
 
-use super::{Occluder, segment_crosses};
+use super::{Occluder, PreparedSurfaces};
 use crate::geometry;
 use crate::scene::Surface;
 
@@ -751,10 +751,9 @@ impl Tree {
 
 // ---------------------------------------------------- conservative surface box
 
-/// The edge tolerance of [`segment_crosses`], relative to the square root of
-/// the surface's area. Boxes are computed with four times it, so a slightly
-/// larger tolerance there would still be covered.
-const CROSSING_TOLERANCE: f64 = 1e-9;
+/// The segment test's edge tolerance (its reach here is taken four times
+/// wider, so a slightly larger tolerance there would still be covered).
+const CROSSING_TOLERANCE: f64 = super::EDGE_TOLERANCE;
 
 /// The query margin relative to the largest coordinate of the query and the
 /// scene: about 34 units of `f32` round-off (see the module notes).
@@ -764,7 +763,7 @@ const QUERY_MARGIN: f64 = 2e-6;
 /// tests every surface instead of using `f32` boxes.
 const F32_SAFE_COORDINATE: f64 = 1e30;
 
-/// A box containing every point [`segment_crosses`] can accept on the
+/// A box containing every point [`segment_crosses`](super::segment_crosses) can accept on the
 /// surface, and its corners.
 ///
 /// The accepted points lie on the surface's plane and within the tolerance
@@ -855,6 +854,8 @@ fn clip_2d(polygon: &[DVec2], n: DVec2, c: f64) -> Vec<DVec2> {
 /// A BVH over a scene's surfaces answering shadow-segment queries.
 pub struct Bvh<'a> {
     surfaces: &'a [Surface],
+    /// The surfaces laid out for the segment test.
+    prepared: PreparedSurfaces,
     tree: Tree,
     /// Largest finite coordinate of any surface box: the scale of the
     /// boxes' round-off.
@@ -893,6 +894,7 @@ impl<'a> Bvh<'a> {
         let (tree, stats) = Tree::build(&boxes, settings);
         Bvh {
             surfaces,
+            prepared: PreparedSurfaces::new(surfaces),
             tree,
             scale,
             settings,
@@ -913,7 +915,7 @@ impl<'a> Bvh<'a> {
     }
 
     /// Like [`Occluder::occluded`], also returning how many surfaces were
-    /// tested with [`segment_crosses`] and how many nodes' boxes were tested
+    /// tested with [`segment_crosses`](super::segment_crosses) and how many nodes' boxes were tested
     /// (for benchmarks).
     #[must_use]
     pub fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
@@ -924,7 +926,7 @@ impl<'a> Bvh<'a> {
                 return false;
             }
             tested += 1;
-            segment_crosses(&self.surfaces[id as usize], from, to)
+            self.prepared.crosses(id, from, to)
         };
         // NaN or huge coordinates: the f32 walk could not be trusted.
         let reference = magnitude.max(self.scale);

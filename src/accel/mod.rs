@@ -88,10 +88,16 @@ pub fn shorten(from: DVec3, to: DVec3) -> (DVec3, DVec3) {
     (from + d, to - d)
 }
 
+/// Tolerance of the segment test: a crossing point up to this fraction of
+/// the square root of the surface's area outside an edge still counts as
+/// inside, so rays cannot slip through the shared edge of two surfaces.
+pub const EDGE_TOLERANCE: f64 = 1e-9;
+
 /// True when the segment `from -> to` passes strictly from one side of the
-/// surface's plane to the other through the polygon (edges included, with a
-/// tolerance of 1e-9 of the surface's size so that rays cannot slip through
-/// the shared edge of two surfaces).
+/// surface's plane to the other through the polygon (edges included, with
+/// [`EDGE_TOLERANCE`]). The definition every accelerator answers to; they
+/// evaluate it through [`PreparedSurfaces`], which gives the same answers
+/// faster.
 #[must_use]
 pub fn segment_crosses(surface: &Surface, from: DVec3, to: DVec3) -> bool {
     let d0 = surface.normal.dot(from) - surface.offset;
@@ -101,6 +107,136 @@ pub fn segment_crosses(surface: &Surface, from: DVec3, to: DVec3) -> bool {
     }
     let t = d0 / (d0 - d1);
     let p = from + (to - from) * t;
-    let tolerance = 1e-9 * surface.area.sqrt();
+    let tolerance = EDGE_TOLERANCE * surface.area.sqrt();
     geometry::convex_contains(&surface.polygon, surface.normal, p, tolerance)
+}
+
+/// The surfaces laid out for [`segment_crosses`]: each one's plane and, per
+/// edge, the in-plane inward normal `n x e` with its offset and squared
+/// tolerance, so the inside test is three multiply-adds an edge instead of
+/// a cross product. One flat array, shared by every accelerator: the answer
+/// to a query never depends on which accelerator asked.
+#[derive(Clone, Debug, Default)]
+pub struct PreparedSurfaces {
+    planes: Vec<PreparedPlane>,
+    edges: Vec<PreparedEdge>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PreparedPlane {
+    normal: DVec3,
+    offset: f64,
+    first_edge: u32,
+    end_edge: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PreparedEdge {
+    /// `n x (b - a)`, pointing into the polygon.
+    inward: DVec3,
+    /// `inward . a`.
+    offset: f64,
+    /// `tolerance^2 |b - a|^2`: a point outside by less is still inside.
+    slack: f64,
+}
+
+impl PreparedSurfaces {
+    /// Precomputes the planes and edges of `surfaces`.
+    #[must_use]
+    pub fn new(surfaces: &[Surface]) -> PreparedSurfaces {
+        let mut prepared = PreparedSurfaces::default();
+        for surface in surfaces {
+            let first_edge = prepared.edges.len() as u32;
+            let tolerance = EDGE_TOLERANCE * surface.area.sqrt();
+            let n = surface.polygon.len();
+            for i in 0..n {
+                let a = surface.polygon[i];
+                let edge = surface.polygon[(i + 1) % n] - a;
+                let inward = surface.normal.cross(edge);
+                prepared.edges.push(PreparedEdge {
+                    inward,
+                    offset: inward.dot(a),
+                    slack: tolerance * tolerance * edge.length_squared(),
+                });
+            }
+            prepared.planes.push(PreparedPlane {
+                normal: surface.normal,
+                offset: surface.offset,
+                first_edge,
+                end_edge: prepared.edges.len() as u32,
+            });
+        }
+        prepared
+    }
+
+    /// Number of surfaces.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.planes.len()
+    }
+
+    /// True when there are no surfaces.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.planes.is_empty()
+    }
+
+    /// [`segment_crosses`] for surface `id`.
+    #[must_use]
+    #[inline]
+    pub fn crosses(&self, id: u32, from: DVec3, to: DVec3) -> bool {
+        let plane = &self.planes[id as usize];
+        let d0 = plane.normal.dot(from) - plane.offset;
+        let d1 = plane.normal.dot(to) - plane.offset;
+        if d0 == 0.0 || d1 == 0.0 || (d0 > 0.0) == (d1 > 0.0) {
+            return false;
+        }
+        let t = d0 / (d0 - d1);
+        let p = from + (to - from) * t;
+        self.edges[plane.first_edge as usize..plane.end_edge as usize]
+            .iter()
+            .all(|e| {
+                let side = e.inward.dot(p) - e.offset;
+                side >= 0.0 || side * side <= e.slack
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The prepared form answers exactly as the definition on random
+    /// segments through the built-in room, edges and corners included.
+    #[test]
+    fn prepared_surfaces_agree_with_the_definition() {
+        let scene = crate::scene::builtin::load("room").unwrap().unwrap();
+        let prepared = PreparedSurfaces::new(&scene.surfaces);
+        let (lo, hi) = scene.bounds();
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut random = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let corners: Vec<DVec3> = scene.surfaces.iter().flat_map(|s| s.polygon.clone()).collect();
+        let mut crossings = 0;
+        for i in 0..20_000 {
+            let mut point = || lo + (hi - lo) * DVec3::new(random(), random(), random());
+            let from = point();
+            // Every fourth segment ends on a corner: the edge case.
+            let to = if i % 4 == 0 {
+                corners[i % corners.len()]
+            } else {
+                point()
+            };
+            for (id, surface) in scene.surfaces.iter().enumerate() {
+                let expected = segment_crosses(surface, from, to);
+                crossings += usize::from(expected);
+                assert_eq!(prepared.crosses(id as u32, from, to), expected);
+            }
+        }
+        assert!(crossings > 1000);
+    }
 }
