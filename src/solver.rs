@@ -557,15 +557,21 @@ impl ShotContext<'_> {
         let mut out = vec![Gathered::default(); vertices.len()];
         let mut pairs: Vec<Pair> = Vec::with_capacity(vertices.len() * self.subsources.len());
         let mut clipped = Vec::with_capacity(8);
-        for (i, (vertex, &x)) in vertices.iter().zip(points).enumerate() {
-            // The receiver must be in front of the source's plane.
-            if vertex.surface == self.source_surface
-                || self.source_normal.dot(x) - self.source_offset <= 0.0
-            {
-                continue;
-            }
-            let n = vertex.normal;
-            for (k, sub) in self.subsources.iter().enumerate() {
+        // Receivers in front of the source's plane.
+        let receivers: Vec<usize> = (0..vertices.len())
+            .filter(|&i| {
+                vertices[i].surface != self.source_surface
+                    && self.source_normal.dot(points[i]) - self.source_offset > 0.0
+            })
+            .collect();
+        // Subsource by subsource, so consecutive look-ups stay in one item
+        // buffer (neighbouring vertices fall on neighbouring pixels); every
+        // vertex still meets the subsources in the same order, so its sum
+        // below does not depend on this.
+        for (k, sub) in self.subsources.iter().enumerate() {
+            for &i in &receivers {
+                let (vertex, x) = (&vertices[i], points[i]);
+                let n = vertex.normal;
                 // Some of the subsource must be in front of the receiver's
                 // plane; if only some is, visibility is tested from the
                 // centroid of that part.

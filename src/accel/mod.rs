@@ -220,7 +220,11 @@ mod tests {
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
-        let corners: Vec<DVec3> = scene.surfaces.iter().flat_map(|s| s.polygon.clone()).collect();
+        let corners: Vec<DVec3> = scene
+            .surfaces
+            .iter()
+            .flat_map(|s| s.polygon.clone())
+            .collect();
         let mut crossings = 0;
         for i in 0..20_000 {
             let mut point = || lo + (hi - lo) * DVec3::new(random(), random(), random());

@@ -38,7 +38,7 @@ impl Context {
     /// Repetitions of a timed measurement (the median is reported).
     #[must_use]
     pub fn repetitions(&self) -> usize {
-        if self.quick { 1 } else { 5 }
+        if self.quick { 1 } else { 7 }
     }
 
     /// A path in the output folder.

@@ -64,23 +64,6 @@ fn timed_solve<'a>(scene: &'a Scene, mesh: &'a Mesh, settings: &Settings) -> (So
     (solver, seconds)
 }
 
-/// The median time of `repetitions` solves, and the last solve's counters.
-fn median_solve(
-    scene: &Scene,
-    mesh: &Mesh,
-    settings: &Settings,
-    repetitions: usize,
-) -> (f64, Stats) {
-    let mut times = Vec::with_capacity(repetitions);
-    let mut stats = Stats::default();
-    for _ in 0..repetitions {
-        let (solver, seconds) = timed_solve(scene, mesh, settings);
-        times.push(seconds);
-        stats = solver.stats().clone();
-    }
-    (median(&mut times), stats)
-}
-
 fn seconds(s: f64) -> String {
     if s < 0.01 {
         format!("{:.2} ms", s * 1e3)
@@ -262,23 +245,37 @@ fn configurations() -> Vec<(&'static str, Settings)> {
 pub fn fig5_2(context: &Context) -> Result<Report, Error> {
     let mut report = Report::default();
     let (scene, mesh) = meshed("room", None)?;
+    let configurations = configurations();
+    // Repetitions interleave every configuration and step, so drift in the
+    // machine's speed (it is shared) falls on all of them alike.
+    let mut samples = vec![vec![Vec::new(); PAPER_STEPS.len()]; configurations.len()];
+    let mut shots = vec![vec![0; PAPER_STEPS.len()]; configurations.len()];
+    for _ in 0..context.repetitions() {
+        for (c, (_, base)) in configurations.iter().enumerate() {
+            for (s, (subsources, ..)) in PAPER_STEPS.iter().enumerate() {
+                let settings = Settings {
+                    max_subsources: Some(*subsources),
+                    converge: 0.0,
+                    ..base.clone()
+                };
+                let (solver, time) = timed_solve(&scene, &mesh, &settings);
+                samples[c][s].push(time);
+                shots[c][s] = solver.stats().shots;
+            }
+        }
+    }
     let mut rows = Vec::new();
     let mut ratios = Vec::new();
     let mut totals = Vec::new();
-    for (label, base) in configurations() {
+    for (c, (label, _)) in configurations.iter().enumerate() {
         let mut row = vec![label.to_string()];
         let mut times = Vec::new();
-        for (subsources, ..) in PAPER_STEPS {
-            let settings = Settings {
-                max_subsources: Some(subsources),
-                converge: 0.0,
-                ..base.clone()
-            };
-            let (time, stats) = median_solve(&scene, &mesh, &settings, context.repetitions());
-            row.push(format!("{} ({} shots)", seconds(time), stats.shots));
+        for s in 0..PAPER_STEPS.len() {
+            let time = median(&mut samples[c][s]);
+            row.push(format!("{} ({} shots)", seconds(time), shots[c][s]));
             times.push(time);
         }
-        totals.push((label, times));
+        totals.push((*label, times));
         rows.push(row);
     }
     let wallace = &totals[0].1;
@@ -319,7 +316,10 @@ pub fn fig5_2(context: &Context) -> Result<Report, Error> {
         "subsources per shot",
         "3 x 3 (the solve stops once the count is reached, so 48 means 6 shots = 54 subsources)",
     );
-    report.setting("repetitions", context.repetitions());
+    report.setting(
+        "repetitions",
+        format!("{} (interleaved)", context.repetitions()),
+    );
     report.paragraph("Solve time in seconds (median; solver construction, including the BSP build, and all shots):");
     report.body.push_str(&table(&headers, &rows));
     report.paragraph("Speed-up over wallace89:");
@@ -334,28 +334,38 @@ pub fn fig5_2(context: &Context) -> Result<Report, Error> {
         converge: 0.0,
         ..Settings::wong_tsang93()
     };
-    let mut thread_rows = Vec::new();
     let all = rayon::current_num_threads();
-    let mut one_thread_time = f64::NAN;
-    for threads in [1, all] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| Error::Output {
-                path: context.out.clone(),
-                source: std::io::Error::other(e),
-            })?;
-        let (time, _) =
-            pool.install(|| median_solve(&scene, &mesh, &settings, context.repetitions()));
-        if threads == 1 {
-            one_thread_time = time;
+    let pools = [1, all]
+        .into_iter()
+        .map(|threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map(|pool| (threads, pool))
+                .map_err(|e| Error::Output {
+                    path: context.out.clone(),
+                    source: std::io::Error::other(e),
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut thread_samples = vec![Vec::new(); pools.len()];
+    for _ in 0..context.repetitions() {
+        for ((_, pool), samples) in pools.iter().zip(&mut thread_samples) {
+            samples.push(pool.install(|| timed_solve(&scene, &mesh, &settings).1));
         }
-        thread_rows.push(vec![
-            threads.to_string(),
-            seconds(time),
-            format!("{:.2}x", one_thread_time / time),
-        ]);
     }
+    let medians: Vec<f64> = thread_samples.iter_mut().map(|s| median(s)).collect();
+    let thread_rows: Vec<Vec<String>> = pools
+        .iter()
+        .zip(&medians)
+        .map(|((threads, _), time)| {
+            vec![
+                threads.to_string(),
+                seconds(*time),
+                format!("{:.2}x", medians[0] / time),
+            ]
+        })
+        .collect();
     report.paragraph("wong-tsang93 at 72 subsources by thread count:");
     report
         .body
