@@ -95,7 +95,16 @@ pub fn revision() -> String {
     };
     match git(&["rev-parse", "--short=12", "HEAD"]) {
         Some(hash) => {
-            let dirty = git(&["status", "--porcelain", "--untracked-files=no"])
+            let dirty = git(&[
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                "src",
+                "scenes",
+                "Cargo.toml",
+                "Cargo.lock",
+            ])
                 .is_some_and(|s| !s.is_empty());
             if dirty {
                 format!("{hash}+changes")
