@@ -502,7 +502,7 @@ impl<'a> Solver<'a> {
 }
 
 /// Vertex-subsource pairs handled together by one task.
-const PAIRS_PER_CHUNK: usize = 4096;
+const PAIRS_PER_CHUNK: usize = 1024;
 
 /// What one vertex gathers in one shot.
 #[derive(Clone, Copy, Debug, Default)]
