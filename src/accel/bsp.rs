@@ -57,7 +57,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Occluder, PreparedSurfaces};
+use super::{AcceptanceRegion, Occluder, PreparedSurfaces};
 use crate::geometry;
 use crate::scene::Surface;
 
@@ -783,78 +783,24 @@ fn split(polygon: &[DVec3], normal: DVec3, offset: f64) -> (Vec<DVec3>, Vec<DVec
 /// computed exactly (in the plane) with four times the tolerance, and its
 /// farthest corner's distance from the polygon is the reach.
 fn crossing_reach(surface: &Surface) -> f64 {
-    let normal = surface.normal;
-    let (lo, hi) = distance_range(&surface.polygon, normal, surface.offset);
+    let (lo, hi) = distance_range(&surface.polygon, surface.normal, surface.offset);
     let non_planarity = (-lo).max(hi).max(0.0);
     let tolerance = 4.0 * CROSSING_TOLERANCE * surface.area.sqrt();
-
-    let u = normal.any_orthonormal_vector();
-    let v = normal.cross(u);
-    let origin = surface.polygon[0];
-    let flat: Vec<DVec2> = surface
-        .polygon
-        .iter()
-        .map(|p| DVec2::new(u.dot(*p - origin), v.dot(*p - origin)))
-        .collect();
-    // Inward unit normals and offsets of the edge lines, widened by the
-    // tolerance: the region is { q : n . q >= c } for every edge.
-    let edges: Vec<(DVec2, f64)> = (0..flat.len())
-        .filter_map(|i| {
-            let a = flat[i];
-            let b = flat[(i + 1) % flat.len()];
-            let inward = (b - a).perp().try_normalize()?;
-            Some((inward, inward.dot(a) - tolerance))
-        })
-        .collect();
-    let size = geometry::diameter(&surface.polygon).max(tolerance);
-    let mut half = 2.0 * size;
-    for _ in 0..60 {
-        let mut region = vec![
-            DVec2::new(-half, -half),
-            DVec2::new(half, -half),
-            DVec2::new(half, half),
-            DVec2::new(-half, half),
-        ];
-        for &(n, c) in &edges {
-            region = clip_2d(&region, n, c);
-        }
-        if region.is_empty() {
-            return non_planarity + tolerance;
-        }
-        if region
-            .iter()
-            .all(|q| q.x.abs() < 0.5 * half && q.y.abs() < 0.5 * half)
-        {
+    match AcceptanceRegion::of(surface, 4.0) {
+        AcceptanceRegion::Bounded {
+            polygon, region, ..
+        } => {
             let excess = region
                 .iter()
-                .map(|q| distance_to_polygon_2d(&flat, *q))
+                .map(|q| distance_to_polygon_2d(&polygon, *q))
                 .fold(0.0, f64::max);
-            return excess + non_planarity + tolerance;
+            excess + non_planarity + tolerance
         }
-        half *= 4.0;
+        AcceptanceRegion::Empty => non_planarity + tolerance,
+        // The edges do not bound a region: a degenerate polygon. Every
+        // segment then reaches every plane, which is slow but still exact.
+        AcceptanceRegion::Unbounded => f64::INFINITY,
     }
-    // The edges do not bound a region: a degenerate polygon. Every segment
-    // then reaches every plane, which is slow but still exact.
-    f64::INFINITY
-}
-
-/// Keeps the part of a convex 2-D polygon with `n . q >= c`.
-fn clip_2d(polygon: &[DVec2], n: DVec2, c: f64) -> Vec<DVec2> {
-    let mut out = Vec::with_capacity(polygon.len() + 1);
-    let count = polygon.len();
-    for i in 0..count {
-        let a = polygon[i];
-        let b = polygon[(i + 1) % count];
-        let da = n.dot(a) - c;
-        let db = n.dot(b) - c;
-        if da >= 0.0 {
-            out.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    out
 }
 
 /// Distance from `q` to a convex 2-D polygon, counter-clockwise (0 inside).

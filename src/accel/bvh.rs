@@ -51,10 +51,9 @@
 //! `Vec<u32>` of surface ids. Queries use a fixed stack of [`MAX_DEPTH`]
 //! entries: no allocation, no interior mutability, any number of threads.
 
-use glam::{DVec2, DVec3, Vec3A};
+use glam::{DVec3, Vec3A};
 
-use super::{Occluder, PreparedSurfaces};
-use crate::geometry;
+use super::{AcceptanceRegion, Occluder, PreparedSurfaces};
 use crate::scene::Surface;
 
 // ------------------------------------------------------------------ settings
@@ -751,10 +750,6 @@ impl Tree {
 
 // ---------------------------------------------------- conservative surface box
 
-/// The segment test's edge tolerance (its reach here is taken four times
-/// wider, so a slightly larger tolerance there would still be covered).
-const CROSSING_TOLERANCE: f64 = super::EDGE_TOLERANCE;
-
 /// The query margin relative to the largest coordinate of the query and the
 /// scene: about 34 units of `f32` round-off (see the module notes).
 const QUERY_MARGIN: f64 = 2e-6;
@@ -774,79 +769,19 @@ const F32_SAFE_COORDINATE: f64 = 1e30;
 /// well inside it (as the BSP's reach is computed).
 fn crossing_box(surface: &Surface) -> Aabb {
     let corners = Aabb::of_points(surface.polygon.iter().copied());
-    let normal = surface.normal;
-    let tolerance = 4.0 * CROSSING_TOLERANCE * surface.area.sqrt();
-    let u = normal.any_orthonormal_vector();
-    let v = normal.cross(u);
-    let first = surface.polygon[0];
-    let origin = first - normal * (normal.dot(first) - surface.offset);
-    let flat: Vec<DVec2> = surface
-        .polygon
-        .iter()
-        .map(|p| DVec2::new(u.dot(*p - origin), v.dot(*p - origin)))
-        .collect();
-    let n = flat.len();
-    // The region is { q : inward . q >= c } for every edge.
-    let edges: Vec<(DVec2, f64)> = (0..n)
-        .filter_map(|i| {
-            let length = (surface.polygon[(i + 1) % n] - surface.polygon[i]).length();
-            let (a, b) = (flat[i], flat[(i + 1) % n]);
-            let flat_length = (b - a).length();
-            let inward = (b - a).perp().try_normalize()?;
-            if length == 0.0 {
-                return None;
-            }
-            Some((inward, inward.dot(a) - tolerance * length / flat_length))
-        })
-        .collect();
-    let size = geometry::diameter(&surface.polygon).max(tolerance);
-    let mut half = 2.0 * size;
-    for _ in 0..60 {
-        if !half.is_finite() {
-            break;
-        }
-        let mut region = vec![
-            DVec2::new(-half, -half),
-            DVec2::new(half, -half),
-            DVec2::new(half, half),
-            DVec2::new(-half, half),
-        ];
-        for &(inward, c) in &edges {
-            region = clip_2d(&region, inward, c);
-        }
-        if region.is_empty() {
-            break;
-        }
-        if region
-            .iter()
-            .all(|q| q.x.abs() < 0.5 * half && q.y.abs() < 0.5 * half)
-        {
+    match AcceptanceRegion::of(surface, 4.0) {
+        AcceptanceRegion::Bounded {
+            origin,
+            axes: [u, v],
+            region,
+            ..
+        } => {
             let lifted = region.iter().map(|q| origin + u * q.x + v * q.y);
-            return Aabb::of_points(lifted).union(corners);
+            Aabb::of_points(lifted).union(corners)
         }
-        half *= 4.0;
+        // An empty or unbounded region: a degenerate polygon. Always tested.
+        AcceptanceRegion::Empty | AcceptanceRegion::Unbounded => Aabb::EVERYWHERE,
     }
-    // An empty or unbounded region: a degenerate polygon. Always tested.
-    Aabb::EVERYWHERE
-}
-
-/// Keeps the part of a convex 2-D polygon with `n . q >= c`.
-fn clip_2d(polygon: &[DVec2], n: DVec2, c: f64) -> Vec<DVec2> {
-    let mut out = Vec::with_capacity(polygon.len() + 1);
-    let count = polygon.len();
-    for i in 0..count {
-        let a = polygon[i];
-        let b = polygon[(i + 1) % count];
-        let da = n.dot(a) - c;
-        let db = n.dot(b) - c;
-        if da >= 0.0 {
-            out.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    out
 }
 
 // ----------------------------------------------------------------------- Bvh
@@ -1118,7 +1053,7 @@ mod tests {
     fn crossing_box_covers_the_tolerance_region() {
         let square = square_at_z(0.0, 1.0);
         let b = crossing_box(&square);
-        let tol = 4.0 * CROSSING_TOLERANCE * 2.0;
+        let tol = 4.0 * crate::accel::EDGE_TOLERANCE * 2.0;
         // Edge lines moved out by the tolerance: the box grows by it.
         assert!((b.max.x - (1.0 + tol)).abs() < 1e-15, "{b:?}");
         assert!((b.min.y + 1.0 + tol).abs() < 1e-15, "{b:?}");
@@ -1136,7 +1071,7 @@ mod tests {
             0,
         )
         .unwrap();
-        let t = 4.0 * CROSSING_TOLERANCE * needle.area.sqrt();
+        let t = 4.0 * crate::accel::EDGE_TOLERANCE * needle.area.sqrt();
         let reach = -crossing_box(&needle).min.x;
         assert!(reach > 1000.0 * t && reach < 5000.0 * t, "{reach} vs {t}");
     }

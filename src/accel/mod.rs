@@ -12,7 +12,7 @@ pub mod brute;
 pub mod bsp;
 pub mod bvh;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use crate::geometry;
 use crate::scene::Surface;
@@ -200,6 +200,114 @@ impl PreparedSurfaces {
                 side >= 0.0 || side * side <= e.slack
             })
     }
+}
+
+/// The part of a surface's plane where [`segment_crosses`] can accept a
+/// crossing point, with the edge tolerance taken `widen` times wider:
+/// within the tolerance of every edge line, measured as the test measures
+/// it (along `normal x edge`, divided by the 3-D edge length). Near a sharp
+/// corner it reaches `tolerance / sin(angle / 2)` beyond the polygon, so the
+/// accelerators size their culling (the BSP's reach, the BVH's boxes) from
+/// it rather than from the corners.
+pub(crate) enum AcceptanceRegion {
+    /// A bounded region: the surface and the region in plane coordinates
+    /// `origin + x u + y v`.
+    Bounded {
+        /// A point of the plane.
+        origin: DVec3,
+        /// In-plane axes.
+        axes: [DVec3; 2],
+        /// The surface's corners in plane coordinates.
+        polygon: Vec<DVec2>,
+        /// The region's corners in plane coordinates.
+        region: Vec<DVec2>,
+    },
+    /// No point is accepted (the widened edges exclude each other).
+    Empty,
+    /// The edges do not bound a region: a degenerate polygon.
+    Unbounded,
+}
+
+impl AcceptanceRegion {
+    /// The region of `surface` with the tolerance `widen` times wider.
+    pub(crate) fn of(surface: &Surface, widen: f64) -> AcceptanceRegion {
+        let normal = surface.normal;
+        let tolerance = widen * EDGE_TOLERANCE * surface.area.sqrt();
+        let u = normal.any_orthonormal_vector();
+        let v = normal.cross(u);
+        let first = surface.polygon[0];
+        let origin = first - normal * (normal.dot(first) - surface.offset);
+        let flat: Vec<DVec2> = surface
+            .polygon
+            .iter()
+            .map(|p| DVec2::new(u.dot(*p - origin), v.dot(*p - origin)))
+            .collect();
+        let n = flat.len();
+        // The region is { q : inward . q >= c } for every edge.
+        let edges: Vec<(DVec2, f64)> = (0..n)
+            .filter_map(|i| {
+                let length = (surface.polygon[(i + 1) % n] - surface.polygon[i]).length();
+                let (a, b) = (flat[i], flat[(i + 1) % n]);
+                let flat_length = (b - a).length();
+                let inward = (b - a).perp().try_normalize()?;
+                if length == 0.0 {
+                    return None;
+                }
+                Some((inward, inward.dot(a) - tolerance * length / flat_length))
+            })
+            .collect();
+        // Clip a square grown until the region lies well inside it.
+        let mut half = 2.0 * geometry::diameter(&surface.polygon).max(tolerance);
+        for _ in 0..60 {
+            if !half.is_finite() {
+                break;
+            }
+            let mut region = vec![
+                DVec2::new(-half, -half),
+                DVec2::new(half, -half),
+                DVec2::new(half, half),
+                DVec2::new(-half, half),
+            ];
+            for &(inward, c) in &edges {
+                region = clip_2d(&region, inward, c);
+            }
+            if region.is_empty() {
+                return AcceptanceRegion::Empty;
+            }
+            if region
+                .iter()
+                .all(|q| q.x.abs() < 0.5 * half && q.y.abs() < 0.5 * half)
+            {
+                return AcceptanceRegion::Bounded {
+                    origin,
+                    axes: [u, v],
+                    polygon: flat,
+                    region,
+                };
+            }
+            half *= 4.0;
+        }
+        AcceptanceRegion::Unbounded
+    }
+}
+
+/// Keeps the part of a convex 2-D polygon with `n . q >= c`.
+fn clip_2d(polygon: &[DVec2], n: DVec2, c: f64) -> Vec<DVec2> {
+    let mut out = Vec::with_capacity(polygon.len() + 1);
+    let count = polygon.len();
+    for i in 0..count {
+        let a = polygon[i];
+        let b = polygon[(i + 1) % count];
+        let da = n.dot(a) - c;
+        let db = n.dot(b) - c;
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            out.push(a + (b - a) * (da / (da - db)));
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -105,7 +105,7 @@ pub fn revision() -> String {
                 "Cargo.toml",
                 "Cargo.lock",
             ])
-                .is_some_and(|s| !s.is_empty());
+            .is_some_and(|s| !s.is_empty());
             if dirty {
                 format!("{hash}+changes")
             } else {
