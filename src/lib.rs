@@ -5,6 +5,8 @@
 //! of Wong & Tsang, *Three Improvements in the Ray Tracing Algorithm for
 //! Progressive Radiosity* (HKU TR-93-05, 1993).
 
+#![warn(missing_docs)]
+
 pub mod accel;
 pub mod app;
 pub mod experiments;
