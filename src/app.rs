@@ -139,6 +139,10 @@ impl Counts {
     }
 }
 
+/// Most samples (pixels times supersampling) a picture may take: about
+/// 2.5 GB of frame buffer.
+pub const MAX_SAMPLES: u64 = 150_000_000;
+
 /// Checks outputs before any work: known picture format, existing folder.
 fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Error> {
     let extension = path
@@ -181,6 +185,16 @@ pub fn validate(job: &Job) -> Result<(), Error> {
                     render::MAX_SIDE
                 )));
             }
+        }
+        let samples = u64::from(image.width)
+            * u64::from(image.height)
+            * u64::from(image.supersampling).pow(2);
+        if samples > MAX_SAMPLES {
+            return Err(Error::Settings(format!(
+                "a {}x{} picture with {}x{} supersampling needs {samples} samples, more than \
+                 {MAX_SAMPLES}: lower --width, --height or --supersampling",
+                image.width, image.height, image.supersampling, image.supersampling
+            )));
         }
         if !(1..=8).contains(&image.supersampling) {
             return Err(Error::Settings(format!(

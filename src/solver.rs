@@ -93,6 +93,19 @@ impl Settings {
                 self.hemicube_resolution
             ));
         }
+        if self.visibility == Visibility::HemicubePretest {
+            let bytes = item_buffer_bytes(self.subsources, self.hemicube_resolution);
+            if bytes > MAX_ITEM_BUFFER_BYTES {
+                return Err(format!(
+                    "{0} x {0} subsources with hemicubes of {1} pixels need {2:.1} GiB of item \
+                     buffers (limit {3} GiB): lower --subsources or --hemicube-resolution",
+                    self.subsources,
+                    self.hemicube_resolution,
+                    bytes as f64 / (1u64 << 30) as f64,
+                    MAX_ITEM_BUFFER_BYTES >> 30
+                ));
+            }
+        }
         if !(self.converge.is_finite() && (0.0..1.0).contains(&self.converge)) {
             return Err(format!(
                 "--converge must be a fraction in [0, 1), not {}",
@@ -137,6 +150,17 @@ impl Visibility {
         Visibility::ALL.into_iter().find(|v| v.name() == name)
     }
 }
+
+/// Memory of the item buffers of one shot: one buffer per subsource, each
+/// `3 resolution^2` pixels of a surface id and a depth.
+#[must_use]
+pub fn item_buffer_bytes(subsources: u32, resolution: u32) -> u64 {
+    let pixels = 3 * u64::from(resolution) * u64::from(resolution);
+    u64::from(subsources) * u64::from(subsources) * pixels * 8
+}
+
+/// Most memory the item buffers of a shot may take.
+pub const MAX_ITEM_BUFFER_BYTES: u64 = 4 << 30;
 
 /// Largest `--hemicube-resolution`.
 pub const MAX_HEMICUBE_RESOLUTION: u32 = 4096;

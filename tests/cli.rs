@@ -209,19 +209,24 @@ fn path_that_does_not_exist() {
 fn bad_settings_are_refused_before_any_work() {
     let case = Case::new(&obj(""), MTL);
     let scene = case.path("scene.obj");
-    for (flag, value, message) in [
-        ("--element-size", "0", "--element-size"),
-        ("--element-size", "1e-7", "raise --element-size"),
-        ("--subsources", "0", "--subsources"),
-        ("--converge", "1.5", "--converge"),
-        ("--width", "0", "--width"),
-        ("--camera", "1,2,3", "10 numbers"),
-        ("--output", "/no/such/folder/x.png", "does not exist"),
-    ] {
-        let out = run(&["render", scene.to_str().unwrap(), flag, value]);
+    let cases: [(&[&str], &str); 9] = [
+        (&["--element-size", "0"], "--element-size"),
+        (&["--element-size", "1e-7"], "raise --element-size"),
+        (&["--subsources", "0"], "--subsources"),
+        (&["--converge", "1.5"], "--converge"),
+        (&["--width", "0"], "--width"),
+        (&["--width", "16000", "--height", "16000"], "lower --width"),
+        (&["--subsources", "64"], "lower --subsources"),
+        (&["--camera", "1,2,3"], "10 numbers"),
+        (&["--output", "/no/such/folder/x.png"], "does not exist"),
+    ];
+    for (flags, message) in cases {
+        let mut args = vec!["render", scene.to_str().unwrap()];
+        args.extend_from_slice(flags);
+        let out = run(&args);
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{flag} {value}");
-        assert!(stderr.contains(message), "{flag} {value}: {stderr}");
+        assert!(!out.status.success(), "{flags:?}");
+        assert!(stderr.contains(message), "{flags:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
 }
