@@ -7,122 +7,15 @@ use radiosity::accel::brute::BruteForce;
 use radiosity::accel::bsp::{Bsp, BspSettings, MAX_DEPTH};
 use radiosity::accel::{Occluder, shorten};
 use radiosity::mesh::{Mesh, MeshSettings, subsources};
-use radiosity::scene::{Scene, Surface};
+use radiosity::scene::Surface;
+
+mod common;
+
+use common::soup::{
+    Rng, bounds, builtin, grid_rectangle, random_point, random_skip, shared_edge_group, surface,
+};
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
-
-/// SplitMix64: a small, fixed-seed generator, so failures reproduce.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-
-    fn chance(&mut self, p: f64) -> bool {
-        self.unit() < p
-    }
-
-    fn point_in(&mut self, lo: DVec3, hi: DVec3) -> DVec3 {
-        DVec3::new(
-            self.range(lo.x, hi.x),
-            self.range(lo.y, hi.y),
-            self.range(lo.z, hi.z),
-        )
-    }
-
-    /// Often a grid value (0, 0.25, ...), so points land exactly on
-    /// axis-aligned planes and edges.
-    fn snapped(&mut self, lo: f64, hi: f64) -> f64 {
-        if self.chance(0.3) {
-            let steps = ((hi - lo) / 0.25).floor().max(1.0) as usize;
-            lo + 0.25 * self.below(steps + 1) as f64
-        } else {
-            self.range(lo, hi)
-        }
-    }
-}
-
-fn surface(polygon: Vec<DVec3>) -> Option<Surface> {
-    Surface::new(polygon, DVec3::splat(0.5), DVec3::ZERO, 0)
-}
-
-fn room() -> Scene {
-    radiosity::scene::builtin::load("room")
-        .expect("the room is built in")
-        .expect("the room loads")
-}
-
-fn bounds(surfaces: &[Surface]) -> (DVec3, DVec3) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in surfaces.iter().flat_map(|s| &s.polygon) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    (lo, hi)
-}
-
-/// Interesting points of a scene: corners, edge points, interior points of
-/// surfaces, and points anywhere in (a little beyond) the bounding box.
-fn random_point(rng: &mut Rng, surfaces: &[Surface], lo: DVec3, hi: DVec3) -> DVec3 {
-    let s = &surfaces[rng.below(surfaces.len())].polygon;
-    match rng.below(5) {
-        0 => s[rng.below(s.len())],
-        1 => {
-            let i = rng.below(s.len());
-            let t = if rng.chance(0.2) { 0.5 } else { rng.unit() };
-            s[i].lerp(s[(i + 1) % s.len()], t)
-        }
-        2 => {
-            // A random point of a fan triangle.
-            let i = 1 + rng.below(s.len() - 2);
-            let (mut a, mut b) = (rng.unit(), rng.unit());
-            if a + b > 1.0 {
-                (a, b) = (1.0 - a, 1.0 - b);
-            }
-            s[0] + (s[i] - s[0]) * a + (s[i + 1] - s[0]) * b
-        }
-        3 => {
-            let margin = (hi - lo) * 0.1;
-            let (lo, hi) = (lo - margin, hi + margin);
-            DVec3::new(
-                rng.snapped(lo.x, hi.x),
-                rng.snapped(lo.y, hi.y),
-                rng.snapped(lo.z, hi.z),
-            )
-        }
-        _ => rng.point_in(lo, hi),
-    }
-}
-
-fn random_skip(rng: &mut Rng, n: usize) -> [u32; 2] {
-    let mut one = || {
-        if rng.chance(0.3) {
-            u32::MAX
-        } else {
-            rng.below(n) as u32
-        }
-    };
-    [one(), one()]
-}
 
 /// Runs `count` random queries (raw and shortened, with and without
 /// skipped surfaces) and asserts the tree and the oracle agree on each.
@@ -198,7 +91,7 @@ fn check_scene(name: &str, surfaces: &[Surface], seed: u64, count: usize) {
 
 #[test]
 fn room_tree_is_valid_and_small() {
-    let scene = room();
+    let scene = builtin("room");
     for (preset, settings) in all_settings() {
         let bsp = Bsp::with_settings(&scene.surfaces, settings);
         bsp.validate().unwrap_or_else(|e| panic!("{preset}: {e}"));
@@ -218,7 +111,7 @@ fn room_tree_is_valid_and_small() {
 
 #[test]
 fn room_random_segments_agree_with_brute_force() {
-    let scene = room();
+    let scene = builtin("room");
     check_scene("room", &scene.surfaces, 1, 20_000);
 }
 
@@ -227,7 +120,7 @@ fn room_random_segments_agree_with_brute_force() {
 /// the same without skipping (ends exactly on surfaces and shared edges).
 #[test]
 fn room_subsource_to_vertex_segments_agree_with_brute_force() {
-    let scene = room();
+    let scene = builtin("room");
     let surfaces = &scene.surfaces;
     let mesh = Mesh::build(&scene, &MeshSettings::default()).expect("the room meshes");
     let brute = BruteForce::new(surfaces);
@@ -278,7 +171,7 @@ fn room_subsource_to_vertex_segments_agree_with_brute_force() {
 /// all of them. Run with `--nocapture` to see the figures.
 #[test]
 fn room_queries_test_far_fewer_surfaces_than_brute_force() {
-    let scene = room();
+    let scene = builtin("room");
     let surfaces = &scene.surfaces;
     let mesh = Mesh::build(&scene, &MeshSettings::default()).expect("the room meshes");
     for (preset, settings) in all_settings() {
@@ -314,7 +207,7 @@ fn room_queries_test_far_fewer_surfaces_than_brute_force() {
 
 #[test]
 fn queries_from_many_threads_agree() {
-    let scene = room();
+    let scene = builtin("room");
     let surfaces = &scene.surfaces;
     let bsp = Bsp::new(surfaces);
     let brute = BruteForce::new(surfaces);
@@ -368,58 +261,6 @@ fn random_polygon(rng: &mut Rng) -> Option<Surface> {
             a + (u + v) * rng.range(0.6, 1.5)
         };
         surface(vec![a, a + u, far, a + v])
-    }
-}
-
-/// An axis-aligned rectangle on a plane of a coarse grid, so several lie in
-/// the same plane, touch, overlap or share edges.
-fn grid_rectangle(rng: &mut Rng) -> Option<Surface> {
-    let axis = rng.below(3);
-    let level = 0.5 * rng.below(9) as f64;
-    let corner = |rng: &mut Rng| 0.5 * rng.below(9) as f64;
-    let (a0, a1) = (corner(rng), corner(rng));
-    let (b0, b1) = (corner(rng), corner(rng));
-    if a0 == a1 || b0 == b1 {
-        return None;
-    }
-    let at = |a: f64, b: f64| match axis {
-        0 => DVec3::new(level, a, b),
-        1 => DVec3::new(b, level, a),
-        _ => DVec3::new(a, b, level),
-    };
-    let mut polygon = vec![at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)];
-    if rng.chance(0.5) {
-        polygon.reverse();
-    }
-    surface(polygon)
-}
-
-/// A closed tetrahedron or a strip of triangles sharing edges.
-fn shared_edge_group(rng: &mut Rng, out: &mut Vec<Surface>) {
-    let base = rng.point_in(DVec3::ZERO, DVec3::splat(3.5));
-    if rng.chance(0.5) {
-        let p = [
-            base,
-            base + DVec3::new(rng.range(0.3, 1.0), 0.0, 0.0),
-            base + DVec3::new(0.0, rng.range(0.3, 1.0), 0.0),
-            base + DVec3::new(0.0, 0.0, rng.range(0.3, 1.0)),
-        ];
-        for [i, j, k] in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
-            out.extend(surface(vec![p[i], p[j], p[k]]));
-        }
-    } else {
-        let mut prev = [base, base + DVec3::new(0.0, rng.range(0.3, 1.0), 0.0)];
-        for _ in 0..rng.below(5) + 2 {
-            let next = prev[0]
-                + DVec3::new(
-                    rng.range(0.2, 0.8),
-                    rng.range(-0.3, 0.3),
-                    rng.range(-0.5, 0.5),
-                );
-            out.extend(surface(vec![prev[0], next, prev[1]]));
-            prev = [next, prev[1]];
-            prev.swap(0, 1);
-        }
     }
 }
 

@@ -2,6 +2,8 @@
 
 #![allow(dead_code)]
 
+pub mod soup;
+
 use glam::DVec3;
 use radiosity::scene::{Scene, Surface};
 
