@@ -281,16 +281,8 @@ impl SurfaceBuilder<'_> {
     }
 
     fn quad(&mut self, polygon: &[DVec3], pu: u64, pv: u64, mu: u64, mv: u64) {
-        let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
         let (nu, nv) = (pu * mu, pv * mv);
-        let point = |i: u64, j: u64| {
-            let s = i as f64 / nu as f64;
-            let t = j as f64 / nv as f64;
-            v0 * ((1.0 - s) * (1.0 - t))
-                + v1 * (s * (1.0 - t))
-                + v2 * (s * t)
-                + v3 * ((1.0 - s) * t)
-        };
+        let point = |i: u64, j: u64| bilinear(polygon, i as f64 / nu as f64, j as f64 / nv as f64);
         let mut cells = Vec::with_capacity((mu * mv) as usize);
         for b in 0..pv {
             for a in 0..pu {
@@ -325,10 +317,7 @@ impl SurfaceBuilder<'_> {
     /// of the next, which this formula computes to the same bits.
     fn triangle(&mut self, tri: [DVec3; 3], p: u64, m: u64) {
         let n = p * m;
-        let [v0, v1, v2] = tri;
-        let point = |i: u64, j: u64| {
-            v0 + (v1 - v0) * (i as f64 / n as f64) + (v2 - v0) * (j as f64 / n as f64)
-        };
+        let point = |i: u64, j: u64| barycentric(tri, i as f64 / n as f64, j as f64 / n as f64);
         // Coarse patch (I, J, up?) -> its fine triangles.
         let mut groups: Vec<Vec<([DVec3; 4], u8)>> = vec![Vec::new(); (2 * p * p) as usize];
         let group = |ci: u64, cj: u64, up: bool| ((ci * p + cj) * 2 + u64::from(!up)) as usize;
@@ -364,6 +353,22 @@ impl SurfaceBuilder<'_> {
     }
 }
 
+/// The point at `(s, t)` of the bilinear map of a quad `v0 v1 v2 v3` (`s`
+/// along `v0 -> v1`, `t` along `v0 -> v3`).
+fn bilinear(quad: &[DVec3], s: f64, t: f64) -> DVec3 {
+    quad[0] * ((1.0 - s) * (1.0 - t))
+        + quad[1] * (s * (1.0 - t))
+        + quad[2] * (s * t)
+        + quad[3] * ((1.0 - s) * t)
+}
+
+/// The point `v0 + s (v1 - v0) + t (v2 - v0)` of a triangle. In a fan the
+/// shared diagonal `v0 v_k` is `(0, t)` of one triangle and `(t, 0)` of the
+/// next, which this computes to the same bits (adding an exact zero).
+fn barycentric(tri: [DVec3; 3], s: f64, t: f64) -> DVec3 {
+    tri[0] + (tri[1] - tri[0]) * s + (tri[2] - tri[0]) * t
+}
+
 /// A piece of a patch that shoots as one: its polygon, area-weighted
 /// centroid `c_k`, area `A_k` (design.md section 2, step 2).
 #[derive(Clone, Debug)]
@@ -390,15 +395,7 @@ pub fn subsources(polygon: &[DVec3], n: u32) -> Vec<Subsource> {
         });
     };
     if polygon.len() == 4 {
-        let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
-        let point = |i: u64, j: u64| {
-            let s = i as f64 / n as f64;
-            let t = j as f64 / n as f64;
-            v0 * ((1.0 - s) * (1.0 - t))
-                + v1 * (s * (1.0 - t))
-                + v2 * (s * t)
-                + v3 * ((1.0 - s) * t)
-        };
+        let point = |i: u64, j: u64| bilinear(polygon, i as f64 / n as f64, j as f64 / n as f64);
         for j in 0..n {
             for i in 0..n {
                 push(vec![
@@ -413,10 +410,8 @@ pub fn subsources(polygon: &[DVec3], n: u32) -> Vec<Subsource> {
         let v0 = polygon[0];
         let fans = polygon.len().saturating_sub(2);
         for f in 0..fans {
-            let (v1, v2) = (polygon[f + 1], polygon[f + 2]);
-            let point = |i: u64, j: u64| {
-                v0 + (v1 - v0) * (i as f64 / n as f64) + (v2 - v0) * (j as f64 / n as f64)
-            };
+            let tri = [v0, polygon[f + 1], polygon[f + 2]];
+            let point = |i: u64, j: u64| barycentric(tri, i as f64 / n as f64, j as f64 / n as f64);
             for j in 0..n {
                 for i in 0..n - j {
                     push(vec![point(i, j), point(i + 1, j), point(i, j + 1)]);

@@ -83,22 +83,41 @@ pub struct Source<'a> {
     pub area: f64,
 }
 
+/// The geometry both disk formulas take from a receiver and a subsource's
+/// centre: the offset `d = x - c_k`, its length `r` and the two cosines, or
+/// `None` when the pair does not face each other (a negative cosine) or the
+/// receiver sits on the centre (the cosines undefined).
+struct DiskView {
+    d: DVec3,
+    r: f64,
+    cos_j: f64,
+    cos_k: f64,
+}
+
+impl DiskView {
+    fn of(receiver: DVec3, receiver_normal: DVec3, source: &Source<'_>) -> Option<DiskView> {
+        let d = receiver - source.centroid;
+        let r = d.length();
+        if r == 0.0 {
+            return None;
+        }
+        let cos_k = source.normal.dot(d) / r;
+        let cos_j = -receiver_normal.dot(d) / r;
+        (cos_k > 0.0 && cos_j > 0.0).then_some(DiskView { d, r, cos_j, cos_k })
+    }
+}
+
 /// Equation (1): `F = A_k cos(theta_j) cos(theta_k) / (pi r^2 + A_k)`, the
 /// subsource treated as a disk of equal area centred at `c_k`.
 #[must_use]
 pub fn wallace(receiver: DVec3, receiver_normal: DVec3, source: &Source<'_>) -> f64 {
-    let d = receiver - source.centroid;
-    let r2 = d.length_squared();
-    if r2 == 0.0 {
+    let Some(DiskView {
+        r, cos_j, cos_k, ..
+    }) = DiskView::of(receiver, receiver_normal, source)
+    else {
         return 0.0;
-    }
-    let r = r2.sqrt();
-    let cos_k = source.normal.dot(d) / r;
-    let cos_j = -receiver_normal.dot(d) / r;
-    if cos_k <= 0.0 || cos_j <= 0.0 {
-        return 0.0;
-    }
-    source.area * cos_j * cos_k / (std::f64::consts::PI * r2 + source.area)
+    };
+    source.area * cos_j * cos_k / (std::f64::consts::PI * r * r + source.area)
 }
 
 /// Equation (3), Wong & Tsang's approximation for a disk of radius
@@ -120,17 +139,10 @@ pub fn wallace(receiver: DVec3, receiver_normal: DVec3, source: &Source<'_>) -> 
 /// as in [`wallace`].
 #[must_use]
 pub fn disk(receiver: DVec3, receiver_normal: DVec3, source: &Source<'_>) -> f64 {
-    let d = receiver - source.centroid;
-    let r2 = d.length_squared();
-    if r2 == 0.0 {
+    let Some(DiskView { d, r, cos_j, cos_k }) = DiskView::of(receiver, receiver_normal, source)
+    else {
         return 0.0;
-    }
-    let r = r2.sqrt();
-    let cos_k = source.normal.dot(d) / r;
-    let cos_j = -receiver_normal.dot(d) / r;
-    if cos_k <= 0.0 || cos_j <= 0.0 {
-        return 0.0;
-    }
+    };
     let radius = (source.area.max(0.0) / std::f64::consts::PI).sqrt();
     // From the cross product, not sqrt(1 - cos^2), which loses half the
     // digits of a small sine.
