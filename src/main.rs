@@ -263,12 +263,17 @@ fn real_main() -> Result<()> {
     }
 }
 
+/// Most worker threads `--threads` accepts.
+const MAX_THREADS: usize = 1024;
+
 /// A rayon pool with `threads` workers (default: every core).
 fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(threads) = threads {
-        if threads == 0 {
-            return Err(anyhow!("--threads must be at least 1"));
+        if !(1..=MAX_THREADS).contains(&threads) {
+            return Err(anyhow!(
+                "--threads must be between 1 and {MAX_THREADS}, not {threads}"
+            ));
         }
         pool = pool.num_threads(threads);
     }

@@ -209,7 +209,9 @@ fn path_that_does_not_exist() {
 fn bad_settings_are_refused_before_any_work() {
     let case = Case::new(&obj(""), MTL);
     let scene = case.path("scene.obj");
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 11] = [
+        (&["--threads", "0"], "--threads"),
+        (&["--threads", "1000000"], "--threads"),
         (&["--element-size", "0"], "--element-size"),
         (&["--element-size", "1e-7"], "raise --element-size"),
         (&["--subsources", "0"], "--subsources"),
