@@ -13,7 +13,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::{self, Accel, Occluder};
-use crate::form_factor::{FormFactor, Source};
+use crate::form_factor::{self, FormFactor, Source};
 use crate::geometry;
 use crate::hemicube::{self, ItemBuffer, Pretest};
 use crate::luminance;
@@ -467,6 +467,7 @@ impl<'a> Solver<'a> {
             item_buffers,
             form_factor: self.settings.form_factor,
             subsources: &subsources,
+            source_polygon: &patch.polygon,
             source_normal: surface.normal,
             source_offset: surface.offset,
             source_surface: surface_index,
@@ -558,6 +559,9 @@ struct Pair {
     origin: DVec3,
     /// Decided visible (true) or still to be decided by a ray (false).
     visible: bool,
+    /// The whole subsource is in front of the receiver (the segment starts
+    /// at its centre).
+    whole: bool,
 }
 
 /// Everything a vertex needs to gather from the shooting patch.
@@ -566,6 +570,7 @@ struct ShotContext<'s> {
     item_buffers: Option<&'s [ItemBuffer]>,
     form_factor: FormFactor,
     subsources: &'s [mesh::Subsource],
+    source_polygon: &'s [DVec3],
     source_normal: DVec3,
     source_offset: f64,
     source_surface: u32,
@@ -639,6 +644,7 @@ impl ShotContext<'_> {
                     subsource: k as u32,
                     origin,
                     visible,
+                    whole: all_front,
                 });
             }
         }
@@ -653,7 +659,30 @@ impl ShotContext<'_> {
                     .occluded(from, to, [self.source_surface, vertices[i].surface]);
         }
         let t2 = Instant::now();
-        for pair in pairs.iter().filter(|p| p.visible) {
+        // The analytic factor is additive over a partition of the source:
+        // a receiver that sees every subsource whole gets the factor of the
+        // whole patch, one contour of its outline instead of one per
+        // subsource, equal to the sum to round-off (Figure 4.5 of the paper;
+        // tests/experiments.rs checks it to 1e-9). The disk formulas are not
+        // additive, so they always go subsource by subsource.
+        let mut whole_patch = vec![false; vertices.len()];
+        if self.form_factor == FormFactor::Analytic {
+            let mut seen = vec![0usize; vertices.len()];
+            for pair in pairs.iter().filter(|p| p.visible && p.whole) {
+                seen[pair.vertex as usize] += 1;
+            }
+            for (i, count) in seen.into_iter().enumerate() {
+                if count == self.subsources.len() {
+                    whole_patch[i] = true;
+                    out[i].factor =
+                        form_factor::analytic(points[i], vertices[i].normal, self.source_polygon);
+                }
+            }
+        }
+        for pair in pairs
+            .iter()
+            .filter(|p| p.visible && !whole_patch[p.vertex as usize])
+        {
             let i = pair.vertex as usize;
             let sub = &self.subsources[pair.subsource as usize];
             let source = Source {
