@@ -210,15 +210,6 @@ impl Scene {
             Camera::framing(lo, hi)
         })
     }
-
-    /// Total emitted power, luminance-weighted (W).
-    #[must_use]
-    pub fn emitted_power(&self) -> f64 {
-        self.surfaces
-            .iter()
-            .map(|s| crate::luminance(s.emission) * s.area)
-            .sum()
-    }
 }
 
 /// Where in the input a problem is.
