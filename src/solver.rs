@@ -449,17 +449,16 @@ impl<'a> Solver<'a> {
         let item_buffers = match self.settings.visibility {
             Visibility::Ray => None,
             Visibility::HemicubePretest => {
-                let resolution = self.settings.hemicube_resolution;
-                self.item_buffers
-                    .resize_with(subsources.len(), || ItemBuffer::new(resolution));
+                // One buffer per subsource, allocated by `new`.
+                debug_assert_eq!(self.item_buffers.len(), subsources.len());
                 let surfaces = &self.scene.surfaces;
-                self.item_buffers[..subsources.len()]
+                self.item_buffers
                     .par_iter_mut()
                     .zip(&subsources)
                     .for_each(|(buffer, sub)| {
                         buffer.render(surfaces, sub.centroid, surface.normal, surface_index);
                     });
-                Some(&self.item_buffers[..subsources.len()])
+                Some(&self.item_buffers[..])
             }
         };
         let context = ShotContext {
