@@ -10,7 +10,7 @@ use crate::export::{self, Staged};
 use crate::mesh::{Mesh, MeshError};
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, Camera, Scene, SceneError};
-use crate::solver::{Settings, Solver, Stats, StopReason};
+use crate::solver::{Flow, Settings, Solver, Stats, StopReason};
 
 /// What to draw and where.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,6 +84,31 @@ pub struct Progress {
     /// Estimated completion in [0, 1], from whichever stopping rule is
     /// nearest.
     pub completion: f64,
+}
+
+/// Watches a run: told when the mesh is ready and after every shot, and
+/// able to stop the solve (the outputs are then written from the state
+/// reached). Progress displays, Ctrl-C handling and the live view are
+/// observers.
+pub trait Observer {
+    /// The scene is loaded and meshed; the solve is about to start.
+    fn started(&mut self, _scene: &Scene, _mesh: &Mesh) {}
+
+    /// A shot has completed. Return [`Flow::Stop`] to end the solve.
+    fn shot(&mut self, _solver: &Solver<'_>) -> Flow {
+        Flow::Continue
+    }
+}
+
+/// An observer that watches nothing.
+impl Observer for () {}
+
+/// A closure called with each shot's [`Progress`] is an observer.
+impl<F: FnMut(Progress)> Observer for F {
+    fn shot(&mut self, solver: &Solver<'_>) -> Flow {
+        self(progress_of(solver));
+        Flow::Continue
+    }
 }
 
 /// What a run did.
@@ -218,7 +243,7 @@ pub fn validate(job: &Job) -> Result<(), Error> {
 }
 
 /// Runs a job in the current rayon pool.
-pub fn run(job: &Job, progress: &mut dyn FnMut(Progress)) -> Result<Outcome, Error> {
+pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let start = Instant::now();
     validate(job)?;
     let scene = scene::load(&job.scene)?;
@@ -228,10 +253,11 @@ pub fn run(job: &Job, progress: &mut dyn FnMut(Progress)) -> Result<Outcome, Err
     settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
     let mesh = Mesh::build(&scene, &settings.mesh)?;
     let counts = Counts::of(&scene, &mesh);
+    observer.started(&scene, &mesh);
 
     let solve_start = Instant::now();
     let mut solver = Solver::new(&scene, &mesh, settings.clone());
-    let stop = solver.run(|s| progress(progress_of(s)));
+    let stop = solver.run(|s| observer.shot(s));
     let solve_time = solve_start.elapsed();
 
     let mut staged = Vec::new();
@@ -309,7 +335,8 @@ pub fn run(job: &Job, progress: &mut dyn FnMut(Progress)) -> Result<Outcome, Err
 
 /// Progress of a solver, with completion estimated from the nearest
 /// stopping rule (convergence on a log scale).
-fn progress_of(solver: &Solver<'_>) -> Progress {
+#[must_use]
+pub fn progress_of(solver: &Solver<'_>) -> Progress {
     let stats = solver.stats();
     let settings = solver.settings();
     let fraction = solver.unshot_fraction();

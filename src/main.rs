@@ -316,7 +316,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         None
     };
     let outcome = pool.install(|| {
-        app::run(&job, &mut |p| {
+        app::run(&job, &mut |p: app::Progress| {
             if let Some(bar) = &bar {
                 bar.set_position((p.completion * 1000.0) as u64);
                 bar.set_message(format!(

@@ -43,6 +43,8 @@ pub struct Settings {
     pub max_shots: Option<u64>,
     /// Stop once this many subsources have been shot.
     pub max_subsources: Option<u64>,
+    /// Stop before a shot once the solve has run this long.
+    pub time_limit: Option<Duration>,
 }
 
 /// Default `--converge`.
@@ -63,6 +65,7 @@ impl Settings {
             converge: DEFAULT_CONVERGE,
             max_shots: None,
             max_subsources: None,
+            time_limit: None,
         }
     }
 
@@ -112,9 +115,15 @@ impl Settings {
                 self.converge
             ));
         }
-        if self.converge == 0.0 && self.max_shots.is_none() && self.max_subsources.is_none() {
+        if self.converge == 0.0
+            && self.max_shots.is_none()
+            && self.max_subsources.is_none()
+            && self.time_limit.is_none()
+        {
             return Err(
-                "--converge 0 never stops by itself: give --max-shots or --max-subsources".into(),
+                "--converge 0 never stops by itself: give --max-shots, --max-subsources or \
+                 --time-limit"
+                    .into(),
             );
         }
         Ok(())
@@ -199,6 +208,15 @@ pub struct Stats {
     pub bookkeeping_time: Duration,
 }
 
+/// What an observer of the shooting loop wants after a shot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    /// Go on shooting.
+    Continue,
+    /// Stop now; the state reached is the result ([`StopReason::Stopped`]).
+    Stop,
+}
+
 /// Why the loop stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StopReason {
@@ -210,6 +228,10 @@ pub enum StopReason {
     MaxSubsources,
     /// Nothing left to shoot.
     NothingUnshot,
+    /// `--time-limit` reached.
+    TimeLimit,
+    /// Stopped from outside (Ctrl-C, or the live view's stop button).
+    Stopped,
 }
 
 impl StopReason {
@@ -221,6 +243,8 @@ impl StopReason {
             StopReason::MaxShots => "max-shots reached",
             StopReason::MaxSubsources => "max-subsources reached",
             StopReason::NothingUnshot => "no unshot power left",
+            StopReason::TimeLimit => "time limit reached",
+            StopReason::Stopped => "stopped",
         }
     }
 }
@@ -233,6 +257,8 @@ pub struct Solver<'a> {
     occluder: Box<dyn Occluder + 'a>,
     /// Radiosity accumulated at each vertex (emission included).
     radiosity: Vec<DVec3>,
+    /// Irradiance accumulated at each vertex (W/m^2).
+    irradiance: Vec<DVec3>,
     /// Unshot radiosity of each patch.
     unshot: Vec<DVec3>,
     /// Where each vertex gathers: the vertex moved a hair into its own
@@ -257,7 +283,7 @@ impl<'a> Solver<'a> {
     /// Starts a solve: `B_v = E`, `dB_p = E` of their surfaces.
     #[must_use]
     pub fn new(scene: &'a Scene, mesh: &'a Mesh, settings: Settings) -> Solver<'a> {
-        let radiosity = mesh
+        let radiosity: Vec<DVec3> = mesh
             .vertices
             .iter()
             .map(|v| scene.surfaces[v.surface as usize].emission)
@@ -296,6 +322,7 @@ impl<'a> Solver<'a> {
             },
             occluder: settings.accel.build(&scene.surfaces),
             settings,
+            irradiance: vec![DVec3::ZERO; radiosity.len()],
             radiosity,
             unshot,
             emitted_power,
@@ -327,6 +354,25 @@ impl<'a> Solver<'a> {
     #[must_use]
     pub fn radiosity(&self) -> &[DVec3] {
         &self.radiosity
+    }
+
+    /// Irradiance `E` at each vertex (W/m^2): the light arriving from every
+    /// shot so far, so that `B = E_surface + rho E` (ambient excluded).
+    #[must_use]
+    pub fn irradiance(&self) -> &[DVec3] {
+        &self.irradiance
+    }
+
+    /// The scene being solved.
+    #[must_use]
+    pub fn scene(&self) -> &Scene {
+        self.scene
+    }
+
+    /// The mesh being solved.
+    #[must_use]
+    pub fn mesh(&self) -> &Mesh {
+        self.mesh
     }
 
     /// Unshot radiosity of each patch.
@@ -408,15 +454,26 @@ impl<'a> Solver<'a> {
         None
     }
 
-    /// Shoots until a stopping rule holds; `progress` is called after each
-    /// shot.
-    pub fn run(&mut self, mut progress: impl FnMut(&Solver<'_>)) -> StopReason {
+    /// Shoots until a stopping rule holds or `after_shot`, called after
+    /// each shot, returns [`Flow::Stop`]. `--time-limit` counts from this
+    /// call.
+    pub fn run(&mut self, mut after_shot: impl FnMut(&Solver<'_>) -> Flow) -> StopReason {
+        let start = Instant::now();
         loop {
             if let Some(reason) = self.stop_reason() {
                 return reason;
             }
+            if self
+                .settings
+                .time_limit
+                .is_some_and(|limit| start.elapsed() >= limit)
+            {
+                return StopReason::TimeLimit;
+            }
             self.shoot();
-            progress(self);
+            if after_shot(self) == Flow::Stop {
+                return StopReason::Stopped;
+            }
         }
     }
 
@@ -493,7 +550,9 @@ impl<'a> Solver<'a> {
             self.stats.form_factor_time += times.form_factors;
             for g in chunk {
                 let rho = self.scene.surfaces[self.mesh.vertices[vertex].surface as usize].rho;
-                let increment = rho * unshot * g.factor;
+                let irradiance = unshot * g.factor;
+                let increment = rho * irradiance;
+                self.irradiance[vertex] += irradiance;
                 self.radiosity[vertex] += increment;
                 increments.push(increment);
                 self.stats.pairs += u64::from(g.pairs);

@@ -20,7 +20,7 @@ use radiosity::form_factor::FormFactor;
 use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::{self, Scene};
-use radiosity::solver::{Settings, Solver, Stats, Visibility};
+use radiosity::solver::{Flow, Settings, Solver, Stats, Visibility};
 
 struct Run {
     radiosity: Vec<DVec3>,
@@ -44,7 +44,7 @@ fn load(name: &str) -> (Scene, Mesh) {
 
 fn solve(scene: &Scene, mesh: &Mesh, settings: Settings) -> Run {
     let mut solver = Solver::new(scene, mesh, settings);
-    solver.run(|_| {});
+    solver.run(|_| Flow::Continue);
     Run {
         radiosity: solver.radiosity().to_vec(),
         stats: solver.stats().clone(),

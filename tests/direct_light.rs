@@ -8,7 +8,7 @@ use glam::DVec3;
 use radiosity::form_factor::closed_form;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::Scene;
-use radiosity::solver::{Settings, Solver};
+use radiosity::solver::{Flow, Settings, Solver};
 
 const HEIGHT: f64 = 1.0;
 const SIDE: f64 = 0.5;
@@ -57,7 +57,7 @@ fn first_shot(scene: &Scene) -> (Mesh, Vec<DVec3>) {
     let mesh = Mesh::build(scene, &settings.mesh).unwrap();
     let radiosity = {
         let mut solver = Solver::new(scene, &mesh, settings);
-        solver.run(|_| {});
+        solver.run(|_| Flow::Continue);
         solver.radiosity().to_vec()
     };
     (mesh, radiosity)

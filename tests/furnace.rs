@@ -7,7 +7,7 @@ mod common;
 
 use radiosity::form_factor::{self, FormFactor, Source};
 use radiosity::mesh::{self, Mesh, MeshSettings};
-use radiosity::solver::{Settings, Solver};
+use radiosity::solver::{Flow, Settings, Solver};
 
 const RHO: f64 = 0.5;
 
@@ -50,7 +50,7 @@ fn furnace_with_wallace_eq1_stays_within_the_bounds_its_closure_implies() {
     let settings = settings(FormFactor::Wallace);
     let mesh = Mesh::build(&scene, &settings.mesh).unwrap();
     let mut solver = Solver::new(&scene, &mesh, settings.clone());
-    solver.run(|_| {});
+    solver.run(|_| Flow::Continue);
 
     let subsources: Vec<(u32, Vec<mesh::Subsource>)> = mesh
         .patches
@@ -159,7 +159,7 @@ fn furnace_with_the_analytic_factor_holds_on_every_vertex() {
     settings.converge = 1e-7;
     let mesh = Mesh::build(&scene, &settings.mesh).unwrap();
     let mut solver = Solver::new(&scene, &mesh, settings);
-    solver.run(|_| {});
+    solver.run(|_| Flow::Continue);
     let mut worst = 0.0f64;
     for (j, b) in solver.radiosity().iter().enumerate() {
         for c in b.to_array() {

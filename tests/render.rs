@@ -40,7 +40,7 @@ fn cornell_box_red_wall_is_redder_and_exposure_is_sane() {
         vertices_csv: None,
         stats_json: None,
     };
-    app::run(&job, &mut |_| {}).unwrap();
+    app::run(&job, &mut ()).unwrap();
     let (w, h, rgb) = decode(&path);
     assert_eq!((w, h), (96, 96));
     let pixel = |x: u32, y: u32| {

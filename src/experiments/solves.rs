@@ -14,7 +14,7 @@ use crate::form_factor::FormFactor;
 use crate::mesh::{Mesh, MeshSettings};
 use crate::render::{self, Exposure, Image, RenderSettings};
 use crate::scene::{self, Scene};
-use crate::solver::{Settings, Solver, Stats, Visibility};
+use crate::solver::{Flow, Settings, Solver, Stats, Visibility};
 use crate::{app, luminance};
 
 /// A scene meshed with its suggested sizes, or with an element size chosen
@@ -59,7 +59,7 @@ fn meshed(name: &str, target_vertices: Option<usize>) -> Result<(Scene, Mesh), E
 fn timed_solve<'a>(scene: &'a Scene, mesh: &'a Mesh, settings: &Settings) -> (Solver<'a>, f64) {
     let start = Instant::now();
     let mut solver = Solver::new(scene, mesh, settings.clone());
-    solver.run(|_| {});
+    solver.run(|_| Flow::Continue);
     let seconds = start.elapsed().as_secs_f64();
     (solver, seconds)
 }
