@@ -403,7 +403,7 @@ impl ItemBuffer {
             let normal = self.to_local_vector(surface.normal);
             let offset = surface.offset - surface.normal.dot(origin);
             self.planes.push(LocalPlane { normal, offset });
-            self.groups.push(surface.face);
+            self.groups.push(surface.group);
             let index = index as u32;
             // A plane through the origin is seen edge-on and covers no
             // pixel centre; `1/w` would be unbounded on it.

@@ -6,7 +6,14 @@
 //! triangle a barycentric grid of `N^2` triangles, a convex n-gon a fan of
 //! such triangles with one common `N`. Patches are blocks of that grid, so
 //! elements of one surface share their vertices and no T-vertices arise.
-//! Vertices are never shared between surfaces (their normals differ).
+//! Vertices are shared within a surface id ([`Surface::group`]: the faces
+//! of one merged surface), never between ids (their normals differ). Points
+//! on a polygon's edge are computed from the edge's ends in a canonical
+//! order, so two faces that share an edge and cut it into the same number
+//! of pieces share its vertices; faces cutting it differently meet at
+//! T-vertices, which cost a little shading continuity and nothing else.
+//!
+//! [`Surface::group`]: crate::scene::Surface::group
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -68,6 +75,8 @@ pub struct Element {
     pub area: f64,
     /// The patch it belongs to.
     pub patch: u32,
+    /// The surface it was cut from.
+    pub surface: u32,
 }
 
 impl Element {
@@ -85,8 +94,11 @@ pub struct Vertex {
     pub position: DVec3,
     /// Unit normal of its surface.
     pub normal: DVec3,
-    /// Index of its surface.
+    /// Index of the surface that created it (vertices are shared within a
+    /// surface id, so other surfaces of its id may use it too).
     pub surface: u32,
+    /// Its surface id ([`Surface::group`](crate::scene::Surface::group)).
+    pub group: u32,
 }
 
 /// The meshed scene.
@@ -197,12 +209,14 @@ impl Mesh {
             });
         }
         let mut mesh = Mesh::default();
+        let mut lookup = HashMap::new();
         for (index, (surface, grid)) in scene.surfaces.iter().zip(grids).enumerate() {
             let mut builder = SurfaceBuilder {
                 mesh: &mut mesh,
                 surface: index as u32,
+                group: surface.group,
                 normal: surface.normal,
-                lookup: HashMap::new(),
+                lookup: &mut lookup,
             };
             match grid {
                 Grid::Quad { pu, pv, mu, mv } => builder.quad(&surface.polygon, pu, pv, mu, mv),
@@ -224,24 +238,46 @@ impl Mesh {
     }
 }
 
-/// Adds one surface's patches, elements and vertices, sharing vertices by
-/// their exact coordinates (shared grid points are computed by identical
-/// arithmetic, see [`SurfaceBuilder::triangle`]).
+/// The exact bits of a point, the key that shares vertices.
+fn point_key(p: DVec3) -> [u64; 3] {
+    // `+ 0.0` folds -0.0 into 0.0 so the sign of a zero cannot split a vertex.
+    [
+        (p.x + 0.0).to_bits(),
+        (p.y + 0.0).to_bits(),
+        (p.z + 0.0).to_bits(),
+    ]
+}
+
+/// The point `k / n` of the way from `a` to `b`, computed from whichever end
+/// has the smaller [`point_key`], so that every polygon with this edge gets
+/// the same bits; the ends themselves exactly.
+fn edge_point(a: DVec3, b: DVec3, k: u64, n: u64) -> DVec3 {
+    if k == 0 {
+        a
+    } else if k == n {
+        b
+    } else if point_key(a) <= point_key(b) {
+        a + (b - a) * (k as f64 / n as f64)
+    } else {
+        b + (a - b) * ((n - k) as f64 / n as f64)
+    }
+}
+
+/// Adds one surface's patches, elements and vertices, sharing vertices
+/// within its surface id by their exact coordinates (shared grid points are
+/// computed by identical arithmetic, see [`SurfaceBuilder::triangle`] and
+/// [`edge_point`]).
 struct SurfaceBuilder<'a> {
     mesh: &'a mut Mesh,
     surface: u32,
+    group: u32,
     normal: DVec3,
-    lookup: HashMap<[u64; 3], u32>,
+    lookup: &'a mut HashMap<(u32, [u64; 3]), u32>,
 }
 
 impl SurfaceBuilder<'_> {
     fn vertex(&mut self, p: DVec3) -> u32 {
-        // `+ 0.0` folds -0.0 into 0.0 so the sign of a zero cannot split a vertex.
-        let key = [
-            (p.x + 0.0).to_bits(),
-            (p.y + 0.0).to_bits(),
-            (p.z + 0.0).to_bits(),
-        ];
+        let key = (self.group, point_key(p));
         if let Some(&v) = self.lookup.get(&key) {
             return v;
         }
@@ -250,6 +286,7 @@ impl SurfaceBuilder<'_> {
             position: p,
             normal: self.normal,
             surface: self.surface,
+            group: self.group,
         });
         self.lookup.insert(key, v);
         v
@@ -269,6 +306,7 @@ impl SurfaceBuilder<'_> {
                 corner_count: count as u8,
                 area: geometry::area(&corners[..count]),
                 patch,
+                surface: self.surface,
             });
         }
         let area = geometry::area(&polygon);
@@ -282,7 +320,20 @@ impl SurfaceBuilder<'_> {
 
     fn quad(&mut self, polygon: &[DVec3], pu: u64, pv: u64, mu: u64, mv: u64) {
         let (nu, nv) = (pu * mu, pv * mv);
-        let point = |i: u64, j: u64| bilinear(polygon, i as f64 / nu as f64, j as f64 / nv as f64);
+        let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
+        let point = |i: u64, j: u64| {
+            if j == 0 {
+                edge_point(v0, v1, i, nu)
+            } else if j == nv {
+                edge_point(v3, v2, i, nu)
+            } else if i == 0 {
+                edge_point(v0, v3, j, nv)
+            } else if i == nu {
+                edge_point(v1, v2, j, nv)
+            } else {
+                bilinear(polygon, i as f64 / nu as f64, j as f64 / nv as f64)
+            }
+        };
         let mut cells = Vec::with_capacity((mu * mv) as usize);
         for b in 0..pv {
             for a in 0..pu {
@@ -312,12 +363,22 @@ impl SurfaceBuilder<'_> {
     }
 
     /// A triangle `v0 v1 v2` on a barycentric grid of `n = p m` steps; the
-    /// point `(i, j)` is `v0 + (i/n)(v1 - v0) + (j/n)(v2 - v0)`. In a fan,
-    /// the shared diagonal `v0 v_k` is `(0, k)` of one triangle and `(k, 0)`
-    /// of the next, which this formula computes to the same bits.
+    /// point `(i, j)` is `v0 + (i/n)(v1 - v0) + (j/n)(v2 - v0)`, or on an edge
+    /// its [`edge_point`], so a fan's shared diagonals and the edges other
+    /// faces share get the same bits from both sides.
     fn triangle(&mut self, tri: [DVec3; 3], p: u64, m: u64) {
         let n = p * m;
-        let point = |i: u64, j: u64| barycentric(tri, i as f64 / n as f64, j as f64 / n as f64);
+        let point = |i: u64, j: u64| {
+            if j == 0 {
+                edge_point(tri[0], tri[1], i, n)
+            } else if i == 0 {
+                edge_point(tri[0], tri[2], j, n)
+            } else if i + j == n {
+                edge_point(tri[1], tri[2], j, n)
+            } else {
+                barycentric(tri, i as f64 / n as f64, j as f64 / n as f64)
+            }
+        };
         // Coarse patch (I, J, up?) -> its fine triangles.
         let mut groups: Vec<Vec<([DVec3; 4], u8)>> = vec![Vec::new(); (2 * p * p) as usize];
         let group = |ci: u64, cj: u64, up: bool| ((ci * p + cj) * 2 + u64::from(!up)) as usize;

@@ -526,7 +526,7 @@ impl<'a> Solver<'a> {
             source_polygon: &patch.polygon,
             source_normal: surface.normal,
             source_offset: surface.offset,
-            source_surface: surface_index,
+            source_group: surface.group,
             tolerance: 1e-9 * surface.area.sqrt().max(1e-9),
         };
         let gather_start = Instant::now();
@@ -631,7 +631,7 @@ struct ShotContext<'s> {
     source_polygon: &'s [DVec3],
     source_normal: DVec3,
     source_offset: f64,
-    source_surface: u32,
+    source_group: u32,
     tolerance: f64,
 }
 
@@ -647,7 +647,7 @@ impl ShotContext<'_> {
         // Receivers in front of the source's plane.
         let receivers: Vec<usize> = (0..vertices.len())
             .filter(|&i| {
-                vertices[i].surface != self.source_surface
+                vertices[i].group != self.source_group
                     && self.source_normal.dot(points[i]) - self.source_offset > 0.0
             })
             .collect();
@@ -714,7 +714,7 @@ impl ShotContext<'_> {
             pair.visible =
                 !self
                     .occluder
-                    .occluded(from, to, [self.source_surface, vertices[i].surface]);
+                    .occluded(from, to, [self.source_group, vertices[i].group]);
         }
         let t2 = Instant::now();
         // The analytic factor is additive over a partition of the source:

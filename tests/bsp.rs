@@ -12,7 +12,8 @@ use radiosity::scene::Surface;
 mod common;
 
 use common::soup::{
-    Rng, bounds, builtin, grid_rectangle, random_point, random_skip, shared_edge_group, surface,
+    Rng, bounds, builtin, grid_rectangle, numbered, random_point, random_skip, shared_edge_group,
+    surface,
 };
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
@@ -69,6 +70,8 @@ fn all_settings() -> Vec<(&'static str, BspSettings)> {
 }
 
 fn check_scene(name: &str, surfaces: &[Surface], seed: u64, count: usize) {
+    let numbered = numbered(surfaces);
+    let surfaces = &numbered[..];
     for (preset, settings) in all_settings() {
         let bsp = Bsp::with_settings(surfaces, settings);
         if let Err(e) = bsp.validate() {

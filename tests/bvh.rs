@@ -14,7 +14,8 @@ use radiosity::scene::Surface;
 mod common;
 
 use common::soup::{
-    Rng, bounds, builtin, grid_rectangle, random_point, random_skip, shared_edge_group, surface,
+    Rng, bounds, builtin, grid_rectangle, numbered, random_point, random_skip, shared_edge_group,
+    surface,
 };
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
@@ -141,6 +142,8 @@ fn all_settings() -> Vec<(&'static str, BvhSettings)> {
 }
 
 fn check_scene(name: &str, surfaces: &[Surface], seed: u64, count: usize) {
+    let numbered = numbered(surfaces);
+    let surfaces = &numbered[..];
     for (preset, settings) in all_settings() {
         let bvh = Bvh::with_settings(surfaces, settings);
         if let Err(e) = bvh.validate() {

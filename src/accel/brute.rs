@@ -25,7 +25,7 @@ impl BruteForce {
 impl Occluder for BruteForce {
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool {
         (0..self.prepared.len() as u32)
-            .any(|i| i != skip[0] && i != skip[1] && self.prepared.crosses(i, from, to))
+            .any(|i| !self.prepared.skips(i, skip) && self.prepared.crosses(i, from, to))
     }
 }
 

@@ -659,7 +659,7 @@ impl<'a> Bsp<'a> {
             let node = &self.nodes[index as usize];
             for &entry in &self.entries[node.first as usize..node.end as usize] {
                 let id = entry & !SPLIT_FLAG;
-                if id == skip[0] || id == skip[1] {
+                if self.prepared.skips(id, skip) {
                     continue;
                 }
                 let split = entry & SPLIT_FLAG != 0;

@@ -857,7 +857,7 @@ impl<'a> Bvh<'a> {
         let magnitude = from.abs().max_element().max(to.abs().max_element());
         let mut tested = 0u32;
         let mut blocks = |id: u32| {
-            if id == skip[0] || id == skip[1] {
+            if self.prepared.skips(id, skip) {
                 return false;
             }
             tested += 1;

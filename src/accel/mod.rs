@@ -62,11 +62,11 @@ impl Accel {
 
 /// A shadow-segment query structure.
 pub trait Occluder: Sync {
-    /// True when a surface other than `skip[0]` and `skip[1]` crosses the
-    /// open segment `from -> to`. Callers pass the source's and receiver's
-    /// surfaces as `skip`: a planar convex surface cannot hide its own
-    /// points from a point in front of it, and skipping them makes the test
-    /// immune to round-off at both ends.
+    /// True when a surface whose [`Surface::group`] is neither `skip[0]` nor
+    /// `skip[1]` crosses the open segment `from -> to`. Callers pass the
+    /// surface ids of the source and the receiver as `skip`: a planar surface
+    /// cannot hide its own points from a point in front of it, and skipping
+    /// them makes the test immune to round-off at both ends.
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool;
 
     /// Build statistics worth reporting (name, value), e.g. a tree's node
@@ -128,6 +128,7 @@ struct PreparedPlane {
     offset: f64,
     first_edge: u32,
     end_edge: u32,
+    group: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -164,6 +165,7 @@ impl PreparedSurfaces {
                 offset: surface.offset,
                 first_edge,
                 end_edge: prepared.edges.len() as u32,
+                group: surface.group,
             });
         }
         prepared
@@ -179,6 +181,15 @@ impl PreparedSurfaces {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.planes.is_empty()
+    }
+
+    /// True when surface `id` belongs to one of the surface ids a query
+    /// skips (see [`Occluder::occluded`]).
+    #[must_use]
+    #[inline]
+    pub fn skips(&self, id: u32, skip: [u32; 2]) -> bool {
+        let group = self.planes[id as usize].group;
+        group == skip[0] || group == skip[1]
     }
 
     /// [`segment_crosses`] for surface `id`.

@@ -7,6 +7,7 @@
 //! [`builtin`] holds the scenes shipped inside the binary.
 
 pub mod builtin;
+pub mod merge;
 pub mod obj;
 
 use std::fmt;
@@ -35,6 +36,14 @@ pub struct Surface {
     /// order); a concave face triangulated on loading gives several
     /// surfaces with the same face index.
     pub face: u32,
+    /// The surface id of the paper ("newly created surfaces can still share
+    /// the same surface id", section 2): surfaces with one id lie in one
+    /// plane, are connected and share a material, so none can hide another's
+    /// points. Item buffers store it, shadow rays skip the ids of their two
+    /// ends, and vertices are shared within it. [`Surface::new`] gives a
+    /// surface its face's id; [`merge::merge_coplanar`] gives adjacent
+    /// coplanar faces of one material a common one.
+    pub group: u32,
 }
 
 impl Surface {
@@ -53,6 +62,7 @@ impl Surface {
             rho,
             emission,
             face,
+            group: face,
         })
     }
 

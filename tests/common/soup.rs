@@ -66,6 +66,16 @@ pub fn surface(polygon: Vec<DVec3>) -> Option<Surface> {
     Surface::new(polygon, DVec3::splat(0.5), DVec3::ZERO, 0)
 }
 
+/// The surfaces, each its own surface id (`group` = its index), as a soup
+/// loaded without merging; skip lists in the tests name surfaces by index.
+pub fn numbered(surfaces: &[Surface]) -> Vec<Surface> {
+    let mut out = surfaces.to_vec();
+    for (i, s) in out.iter_mut().enumerate() {
+        s.group = i as u32;
+    }
+    out
+}
+
 pub fn builtin(name: &str) -> Scene {
     radiosity::scene::builtin::load(name)
         .expect("the scene is built in")
