@@ -246,7 +246,10 @@ pub fn validate(job: &Job) -> Result<(), Error> {
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let start = Instant::now();
     validate(job)?;
-    let scene = scene::load(&job.scene)?;
+    let mut scene = scene::load(&job.scene)?;
+    if job.settings.merge_coplanar {
+        scene::merge::merge_coplanar(&mut scene.surfaces);
+    }
     let mut settings = job.settings.clone();
     let suggested = scene.default_mesh_sizes();
     settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
@@ -391,6 +394,9 @@ fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
             .map(|(k, v)| (k.to_string(), serde_json::Value::from(*v)))
             .collect::<serde_json::Map<_, _>>(),
         "settings": {
+            "shooting": settings.shooting.name(),
+            "merge_coplanar": settings.merge_coplanar,
+            "tolerance": settings.tolerance,
             "form_factor": settings.form_factor.name(),
             "accel": settings.accel.name(),
             "visibility": settings.visibility.name(),
@@ -401,6 +407,7 @@ fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
             "converge": settings.converge,
             "max_shots": settings.max_shots,
             "max_subsources": settings.max_subsources,
+            "time_limit": settings.time_limit.map(|t| t.as_secs_f64()),
         },
     })
 }

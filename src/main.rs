@@ -15,7 +15,7 @@ use radiosity::experiments;
 use radiosity::form_factor::FormFactor;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, builtin};
-use radiosity::solver::{DEFAULT_CONVERGE, Settings, Visibility};
+use radiosity::solver::{DEFAULT_CONVERGE, Settings, Shooting, Visibility};
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
 /// visibility (Wallace et al. 1989; Wong & Tsang 1993).
@@ -81,11 +81,32 @@ struct RenderArgs {
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
 
-    /// Named settings: wong-tsang93 (hemicube pre-test, BSP shadow rays,
-    /// analytic form factor: the paper's method) or wallace89 (a ray per
-    /// pair against every surface, Wallace's disk formula, eq. 1).
-    #[arg(long, default_value = "wong-tsang93", value_parser = ["wong-tsang93", "wallace89"])]
+    /// Named settings. adaptive (the default, the most accurate and
+    /// fastest): unshot radiosity per element, clusters of elements as
+    /// shooters refined per receiver, analytic factor, BVH shadow rays,
+    /// coplanar faces merged. wong-tsang93: the paper's method (patches,
+    /// hemicube pre-test, BSP shadow rays, analytic factor). wallace89: the
+    /// 1989 baseline (patches, a ray per pair against every surface,
+    /// Wallace's disk formula, eq. 1).
+    #[arg(long, default_value = "adaptive", value_parser = ["adaptive", "wong-tsang93", "wallace89"])]
     preset: String,
+
+    /// How shooters send their unshot radiosity: patches (the paper's: one
+    /// uniform radiosity per patch, a fixed grid of subsources) or adaptive
+    /// (per element, refined per receiver). Overrides the preset.
+    #[arg(long, value_name = "NAME", value_parser = names(&Shooting::ALL.map(Shooting::name)))]
+    shooting: Option<String>,
+
+    /// Adaptive shooting's accuracy: a receiver takes a part of a shooter
+    /// as one source when the irradiance it can send is below this fraction
+    /// of the scene's mean radiosity (default 1e-3).
+    #[arg(long, value_name = "FRACTION")]
+    tolerance: Option<f64>,
+
+    /// Give adjacent coplanar faces of one material one surface id (on in
+    /// the adaptive preset, off in the paper's). Overrides the preset.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
+    merge_coplanar: Option<String>,
 
     /// Point-to-polygon form factor: wallace (eq. 1), disk (eq. 3) or
     /// analytic (eq. 2). Overrides the preset.
@@ -179,10 +200,20 @@ impl RenderArgs {
     /// The validated job (second stage after clap's raw values).
     fn job(&self) -> Result<Job> {
         let mut settings = match self.preset.as_str() {
+            "adaptive" => Settings::adaptive(),
             "wallace89" => Settings::wallace89(),
             "wong-tsang93" => Settings::wong_tsang93(),
             other => return Err(anyhow!("unknown preset '{other}'")),
         };
+        if let Some(name) = &self.shooting {
+            settings.shooting = Shooting::from_name(name).context("shooting")?;
+        }
+        if let Some(t) = self.tolerance {
+            settings.tolerance = t;
+        }
+        if let Some(m) = &self.merge_coplanar {
+            settings.merge_coplanar = m == "on";
+        }
         // clap has already checked the names against the lists above.
         if let Some(name) = &self.form_factor {
             settings.form_factor = FormFactor::from_name(name).context("form factor")?;

@@ -209,7 +209,7 @@ fn path_that_does_not_exist() {
 fn bad_settings_are_refused_before_any_work() {
     let case = Case::new(&obj(""), MTL);
     let scene = case.path("scene.obj");
-    let cases: [(&[&str], &str); 11] = [
+    let cases: [(&[&str], &str); 13] = [
         (&["--threads", "0"], "--threads"),
         (&["--threads", "1000000"], "--threads"),
         (&["--element-size", "0"], "--element-size"),
@@ -218,7 +218,15 @@ fn bad_settings_are_refused_before_any_work() {
         (&["--converge", "1.5"], "--converge"),
         (&["--width", "0"], "--width"),
         (&["--width", "16000", "--height", "16000"], "lower --width"),
-        (&["--subsources", "64"], "lower --subsources"),
+        (
+            &["--preset", "wong-tsang93", "--subsources", "64"],
+            "lower --subsources",
+        ),
+        (
+            &["--visibility", "hemicube"],
+            "use it with --shooting patches",
+        ),
+        (&["--tolerance", "0"], "--tolerance"),
         (&["--camera", "1,2,3"], "10 numbers"),
         (&["--output", "/no/such/folder/x.png"], "does not exist"),
     ];
@@ -338,25 +346,47 @@ fn presets_set_every_switch_and_explicit_switches_override_them() {
         let value: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         let s = &value["settings"];
-        (
+        [
+            s["shooting"].as_str().unwrap().to_string(),
             s["visibility"].as_str().unwrap().to_string(),
             s["accel"].as_str().unwrap().to_string(),
             s["form_factor"].as_str().unwrap().to_string(),
-        )
+            s["merge_coplanar"].to_string(),
+        ]
     };
-    let owned = |a: &str, b: &str, c: &str| (a.to_string(), b.to_string(), c.to_string());
-    assert_eq!(stats(&[]), owned("hemicube", "bsp", "analytic"));
+    let owned = |a: [&str; 5]| a.map(str::to_string);
+    assert_eq!(
+        stats(&[]),
+        owned(["adaptive", "ray", "bvh", "analytic", "true"])
+    );
+    assert_eq!(
+        stats(&["--preset", "wong-tsang93"]),
+        owned(["patches", "hemicube", "bsp", "analytic", "false"])
+    );
     assert_eq!(
         stats(&["--preset", "wallace89"]),
-        owned("ray", "brute", "wallace")
+        owned(["patches", "ray", "brute", "wallace", "false"])
     );
     assert_eq!(
         stats(&["--preset", "wallace89", "--form-factor", "analytic"]),
-        owned("ray", "brute", "analytic")
+        owned(["patches", "ray", "brute", "analytic", "false"])
     );
     assert_eq!(
-        stats(&["--visibility", "ray", "--accel", "brute"]),
-        owned("ray", "brute", "analytic")
+        stats(&[
+            "--preset",
+            "wong-tsang93",
+            "--visibility",
+            "ray",
+            "--accel",
+            "brute",
+            "--merge-coplanar",
+            "on"
+        ]),
+        owned(["patches", "ray", "brute", "analytic", "true"])
+    );
+    assert_eq!(
+        stats(&["--shooting", "patches", "--merge-coplanar", "off"]),
+        owned(["patches", "ray", "bvh", "analytic", "false"])
     );
     let out = run(&["render", "cornell", "--accel", "octree"]);
     assert!(!out.status.success());

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Generate the built-in scenes of `radiosity` as Wavefront OBJ + MTL files.
 
-Writes scenes/cornell.{obj,mtl} and scenes/room.{obj,mtl}, byte-identical on
+Writes scenes/{cornell,room,tworooms}.{obj,mtl}, byte-identical on
 every run, after checking every face against the loader's rules, and prints
 each scene's mesh counts under the renderer's default meshing rule (which is
 replicated here in `mesh_counts`).
@@ -667,6 +667,65 @@ def room():
     return scene
 
 
+def tworooms():
+    """Two rooms joined by a doorway; only the first has a light.
+
+    Room A spans x 0..4, room B x 4.2..8.2 (a 0.2 m wall between them), both
+    z 0..4 and y 0..2.6. A 1.0 x 2.1 m doorway in the shared wall, with its
+    jambs and lintel, is the only way light reaches room B: all of B's light
+    is indirect, and most of it comes from A's walls near the door, whose
+    radiosity varies strongly across them. A block in each room casts
+    shadows. The hard case for shooters that carry one uniform radiosity.
+    """
+    H, T, D = 2.6, 0.2, 4.0
+    ax0, ax1 = 0.0, 4.0
+    bx0, bx1 = ax1 + T, ax1 + T + 4.0
+    dz0, dz1, dh = 2.6, 3.6, 2.1
+    scene = Scene(
+        "tworooms",
+        ["Two rooms joined by a doorway; only the first has a light, so all of",
+         "the second room's light is indirect, through the door.",
+         f"Rooms x {num(ax0)}..{num(ax1)} and {num(bx0)}..{num(bx1)}, z 0..{num(D)}, height {num(H)} m; y up."],
+        ((7.9, 1.6, 0.3), (1.5, 1.0, 3.2), (0.0, 1.0, 0.0), 70.0))
+    scene.material("wall", (0.75, 0.74, 0.70), note="off-white walls")
+    scene.material("wall_b", (0.55, 0.62, 0.70), note="room B: pale blue walls")
+    scene.material("ceiling", (0.82, 0.82, 0.80), note="white ceilings")
+    scene.material("floor", (0.45, 0.33, 0.22), note="wooden floors")
+    scene.material("block", (0.60, 0.25, 0.18), note="red-brown blocks")
+    scene.material("light", (0.0, 0.0, 0.0), ke=(60.0, 58.0, 52.0), note="ceiling panel, 1 x 1 m")
+
+    def shell(name, x0, x1, wall, outer, door):
+        """Floor, ceiling and walls of one room; `outer` and `door` are
+        (side, x) of its end walls, the second holding the doorway."""
+        scene.object(name)
+        scene.rect("floor", "+y", (x0, 0.0, 0.0), (x1, 0.0, D))
+        scene.rect("ceiling", "-y", (x0, H, 0.0), (x1, H, D))
+        scene.rect(wall, "+z", (x0, 0.0, 0.0), (x1, H, 0.0))
+        scene.rect(wall, "-z", (x0, 0.0, D), (x1, H, D))
+        (outer_side, xo), (door_side, xd) = outer, door
+        scene.rect(wall, outer_side, (xo, 0.0, 0.0), (xo, H, D))
+        # The wall with the doorway, in three pieces around it.
+        scene.rect(wall, door_side, (xd, 0.0, 0.0), (xd, H, dz0))
+        scene.rect(wall, door_side, (xd, 0.0, dz1), (xd, H, D))
+        scene.rect(wall, door_side, (xd, dh, dz0), (xd, H, dz1))
+
+    shell("room_a", ax0, ax1, "wall", ("+x", ax0), ("-x", ax1))
+    shell("room_b", bx0, bx1, "wall_b", ("-x", bx1), ("+x", bx0))
+    scene.object("doorway")
+    scene.rect("wall", "+z", (ax1, 0.0, dz0), (bx0, dh, dz0))
+    scene.rect("wall", "-z", (ax1, 0.0, dz1), (bx0, dh, dz1))
+    scene.rect("wall", "-y", (ax1, dh, dz0), (bx0, dh, dz1))
+    scene.solid((ax1, 0.0, 0.0), (bx0, H, dz0))
+    scene.solid((ax1, 0.0, dz1), (bx0, H, D))
+    scene.object("light")
+    scene.rect("light", "-y", (1.5, H - 0.001, 1.5), (2.5, H - 0.001, 2.5))
+    scene.object("block_a")
+    scene.box("block", (2.6, 0.0, 2.6), (3.4, 0.8, 3.4), omit=("-y",))
+    scene.object("block_b")
+    scene.box("block", (5.0, 0.0, 1.4), (5.8, 1.0, 2.2), omit=("-y",))
+    return scene
+
+
 # --------------------------------------------------------------------------
 
 def main():
@@ -681,7 +740,7 @@ def main():
 
     print(f"mesh sizes: patch P = {num(args.patch_size)} m, element E = {num(args.element_size)} m")
     stale = []
-    for build in (cornell, room):
+    for build in (cornell, room, tworooms):
         try:
             scene = build()
             check(scene)

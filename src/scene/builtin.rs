@@ -1,7 +1,9 @@
 //! The built-in scenes, kept as OBJ + MTL files under `scenes/` in the
 //! repository and embedded in the binary so `radiosity` works from any
-//! folder: `room`, a furnished room after the paper's Figure 5.1, and
-//! `cornell`, the Cornell box from Cornell's published measurements.
+//! folder: `room`, a furnished room after the paper's Figure 5.1,
+//! `cornell`, the Cornell box from Cornell's published measurements, and
+//! `tworooms`, two rooms joined by a doorway (all light in the second is
+//! indirect).
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +18,7 @@ struct Builtin {
     mtl: &'static str,
 }
 
-const BUILTINS: [Builtin; 2] = [
+const BUILTINS: [Builtin; 3] = [
     Builtin {
         name: "room",
         description: "a furnished room after the paper's Figure 5.1 (ceiling lights of several sizes)",
@@ -30,6 +32,13 @@ const BUILTINS: [Builtin; 2] = [
         obj: include_str!("../../scenes/cornell.obj"),
         mtl_name: "cornell.mtl",
         mtl: include_str!("../../scenes/cornell.mtl"),
+    },
+    Builtin {
+        name: "tworooms",
+        description: "two rooms joined by a doorway, the second lit only through it",
+        obj: include_str!("../../scenes/tworooms.obj"),
+        mtl_name: "tworooms.mtl",
+        mtl: include_str!("../../scenes/tworooms.mtl"),
     },
 ];
 
