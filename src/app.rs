@@ -84,6 +84,87 @@ pub struct Progress {
     /// Estimated completion in [0, 1], from whichever stopping rule is
     /// nearest.
     pub completion: f64,
+    /// Time since the solve started.
+    pub elapsed: Duration,
+    /// Shadow rays per second over the recent past.
+    pub rays_per_second: f64,
+    /// Estimated time until a stopping rule holds, once there is enough
+    /// history to say.
+    pub remaining: Option<Duration>,
+}
+
+/// Follows a solve to estimate its speed and the time left: rays per
+/// second, and the time until the first stopping rule holds, extrapolated
+/// from the recent past (the last third of the run, at least ten seconds).
+/// Convergence is followed on a log scale: the unshot fraction falls
+/// roughly geometrically with the shots, but ever more slowly as the
+/// brightest shooters are done, so only the recent rate predicts the rest.
+#[derive(Clone, Debug)]
+pub struct ProgressMeter {
+    start: Instant,
+    /// `(elapsed, ln unshot fraction, rays, shots)` after recent shots.
+    history: std::collections::VecDeque<(Duration, f64, u64, u64)>,
+}
+
+impl Default for ProgressMeter {
+    fn default() -> Self {
+        ProgressMeter::new()
+    }
+}
+
+impl ProgressMeter {
+    /// Starts timing now.
+    #[must_use]
+    pub fn new() -> ProgressMeter {
+        ProgressMeter {
+            start: Instant::now(),
+            history: std::collections::VecDeque::new(),
+        }
+    }
+
+    /// Records the solver's state after a shot and estimates progress.
+    pub fn update(&mut self, solver: &Solver<'_>) -> Progress {
+        let mut progress = progress_of(solver);
+        let elapsed = self.start.elapsed();
+        let stats = solver.stats();
+        let ln_fraction = progress.unshot_fraction.max(1e-300).ln();
+        self.history
+            .push_back((elapsed, ln_fraction, stats.rays_cast, stats.shots));
+        let window = (elapsed / 3).max(Duration::from_secs(10));
+        while self.history.len() > 2 && elapsed - self.history[1].0 >= window {
+            self.history.pop_front();
+        }
+        progress.elapsed = elapsed;
+        let (t0, f0, rays0, shots0) = self.history[0];
+        let span = (elapsed - t0).as_secs_f64();
+        if span > 0.0 {
+            progress.rays_per_second = (stats.rays_cast - rays0) as f64 / span;
+        }
+        let settings = solver.settings();
+        let mut remaining: Option<f64> = None;
+        let mut nearest = |t: f64| {
+            if t.is_finite() && t >= 0.0 {
+                remaining = Some(remaining.map_or(t, |r: f64| r.min(t)));
+            }
+        };
+        if span >= 1.0 && self.history.len() >= 3 {
+            let rate = (f0 - ln_fraction) / span;
+            if settings.converge > 0.0 && rate > 0.0 {
+                nearest(((ln_fraction - settings.converge.ln()) / rate).max(0.0));
+            }
+            let shot_rate = (stats.shots - shots0) as f64 / span;
+            if let Some(max) = settings.max_shots
+                && shot_rate > 0.0
+            {
+                nearest(max.saturating_sub(stats.shots) as f64 / shot_rate);
+            }
+        }
+        if let Some(limit) = settings.time_limit {
+            nearest(limit.saturating_sub(elapsed).as_secs_f64());
+        }
+        progress.remaining = remaining.map(Duration::from_secs_f64);
+        progress
+    }
 }
 
 /// Watches a run: told when the mesh is ready and after every shot, and
@@ -143,7 +224,9 @@ pub struct Outcome {
 pub struct Counts {
     /// Planar convex input surfaces.
     pub surfaces: usize,
-    /// Shooting patches.
+    /// Surface ids: surfaces after merging adjacent coplanar faces.
+    pub surface_ids: usize,
+    /// Shooting units: patches, or the shooters of adaptive shooting.
     pub patches: usize,
     /// Receiving elements.
     pub elements: usize,
@@ -155,8 +238,12 @@ impl Counts {
     /// Counts of a meshed scene.
     #[must_use]
     pub fn of(scene: &Scene, mesh: &Mesh) -> Counts {
+        let mut ids: Vec<u32> = scene.surfaces.iter().map(|s| s.group).collect();
+        ids.sort_unstable();
+        ids.dedup();
         Counts {
             surfaces: scene.surfaces.len(),
+            surface_ids: ids.len(),
             patches: mesh.patches.len(),
             elements: mesh.elements.len(),
             vertices: mesh.vertices.len(),
@@ -255,11 +342,12 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
     settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
     let mesh = Mesh::build(&scene, &settings.mesh)?;
-    let counts = Counts::of(&scene, &mesh);
+    let mut counts = Counts::of(&scene, &mesh);
     observer.started(&scene, &mesh);
 
     let solve_start = Instant::now();
     let mut solver = Solver::new(&scene, &mesh, settings.clone());
+    counts.patches = solver.shooters();
     let stop = solver.run(|s| observer.shot(s));
     let solve_time = solve_start.elapsed();
 
@@ -359,6 +447,9 @@ pub fn progress_of(solver: &Solver<'_>) -> Progress {
         subsources: stats.subsources,
         unshot_fraction: fraction,
         completion: completion.min(1.0),
+        elapsed: Duration::ZERO,
+        rays_per_second: 0.0,
+        remaining: None,
     }
 }
 
@@ -368,6 +459,7 @@ fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
     serde_json::json!({
         "scene": outcome.scene,
         "surfaces": outcome.counts.surfaces,
+        "surface_ids": outcome.counts.surface_ids,
         "patches": outcome.counts.patches,
         "elements": outcome.counts.elements,
         "vertices": outcome.counts.vertices,

@@ -4,6 +4,8 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow};
 use clap::{Parser, Subcommand};
@@ -13,9 +15,11 @@ use radiosity::accel::Accel;
 use radiosity::app::{self, ImageJob, Job, Outcome};
 use radiosity::experiments;
 use radiosity::form_factor::FormFactor;
+use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
+use radiosity::scene::Scene;
 use radiosity::scene::{Camera, builtin};
-use radiosity::solver::{DEFAULT_CONVERGE, Settings, Shooting, Visibility};
+use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
 /// visibility (Wallace et al. 1989; Wong & Tsang 1993).
@@ -152,6 +156,11 @@ struct RenderArgs {
     #[arg(long, value_name = "N")]
     max_subsources: Option<u64>,
 
+    /// Stop the solve after this many seconds and write every output from
+    /// the state reached (pictures with the ambient term for the rest).
+    #[arg(long, value_name = "SECONDS")]
+    time_limit: Option<f64>,
+
     /// Worker threads (default: every core).
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
@@ -233,6 +242,14 @@ impl RenderArgs {
         settings.converge = self.converge;
         settings.max_shots = self.max_shots;
         settings.max_subsources = self.max_subsources;
+        if let Some(seconds) = self.time_limit {
+            if !(seconds.is_finite() && seconds > 0.0 && seconds <= 1e9) {
+                return Err(anyhow!(
+                    "--time-limit must be a positive number of seconds, not {seconds}"
+                ));
+            }
+            settings.time_limit = Some(Duration::from_secs_f64(seconds));
+        }
         let camera = self
             .camera
             .as_deref()
@@ -333,35 +350,10 @@ fn render(args: &RenderArgs) -> Result<()> {
     let job = args.job()?;
     app::validate(&job)?;
     let pool = pool(args.threads)?;
-
-    let bar = if !args.quiet && std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(1000);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} eta {eta} {msg}",
-            )
-            .expect("static template"),
-        );
-        Some(bar)
-    } else {
-        None
-    };
-    let outcome = pool.install(|| {
-        app::run(&job, &mut |p: app::Progress| {
-            if let Some(bar) = &bar {
-                bar.set_position((p.completion * 1000.0) as u64);
-                bar.set_message(format!(
-                    "{} shots, {} subsources, unshot {:.2}%",
-                    p.shots,
-                    p.subsources,
-                    100.0 * p.unshot_fraction
-                ));
-            }
-        })
-    });
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    let interrupted = interrupt_handler()?;
+    let mut display = ProgressDisplay::new(args.quiet, interrupted);
+    let outcome = pool.install(|| app::run(&job, &mut display));
+    display.finish();
     let outcome = outcome?;
     for warning in &outcome.warnings {
         eprintln!("warning: {warning}");
@@ -372,11 +364,127 @@ fn render(args: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// Ctrl-C once asks the solve to stop after the current shot and write its
+/// outputs from the state reached; a second Ctrl-C aborts at once, writing
+/// nothing. Returns the flag the first one raises.
+fn interrupt_handler() -> Result<&'static AtomicBool> {
+    static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+    ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            eprintln!("\naborted: no output written");
+            std::process::exit(130);
+        }
+        eprintln!(
+            "\nstopping after this shot and writing the outputs (Ctrl-C again aborts without \
+             writing)"
+        );
+    })
+    .context("cannot install the Ctrl-C handler")?;
+    Ok(&INTERRUPTED)
+}
+
+/// How often a progress line is printed when standard error is not a
+/// terminal (a log).
+const PROGRESS_LINE_INTERVAL: Duration = Duration::from_secs(10);
+
+/// Shows a solve's progress: a bar on a terminal, a line every
+/// [`PROGRESS_LINE_INTERVAL`] in a log, nothing with `--quiet`; stops the
+/// solve after a Ctrl-C.
+struct ProgressDisplay {
+    bar: Option<ProgressBar>,
+    lines: bool,
+    meter: app::ProgressMeter,
+    last_line: Instant,
+    interrupted: &'static AtomicBool,
+}
+
+impl ProgressDisplay {
+    fn new(quiet: bool, interrupted: &'static AtomicBool) -> ProgressDisplay {
+        let terminal = std::io::stderr().is_terminal();
+        let bar = (!quiet && terminal).then(|| {
+            let bar = ProgressBar::new(1000);
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {msg}")
+                    .expect("static template"),
+            );
+            bar
+        });
+        ProgressDisplay {
+            bar,
+            lines: !quiet && !terminal,
+            meter: app::ProgressMeter::new(),
+            last_line: Instant::now(),
+            interrupted,
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// `1:02:03` or `2:03`.
+fn clock(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
+}
+
+impl app::Observer for ProgressDisplay {
+    fn started(&mut self, scene: &Scene, mesh: &Mesh) {
+        self.meter = app::ProgressMeter::new();
+        self.last_line = Instant::now();
+        if self.lines {
+            eprintln!(
+                "solving {}: {} surfaces, {} patches, {} elements, {} vertices",
+                scene.name,
+                scene.surfaces.len(),
+                mesh.patches.len(),
+                mesh.elements.len(),
+                mesh.vertices.len()
+            );
+        }
+    }
+
+    fn shot(&mut self, solver: &Solver<'_>) -> Flow {
+        let p = self.meter.update(solver);
+        let left = p.remaining.map_or_else(
+            || "estimating time left".to_string(),
+            |r| format!("about {} left", clock(r)),
+        );
+        let message = format!(
+            "{} shots, unshot {:.2}% (stop at {:.2}%), {:.2}M rays/s, {}",
+            p.shots,
+            100.0 * p.unshot_fraction,
+            100.0 * solver.settings().converge,
+            p.rays_per_second / 1e6,
+            left
+        );
+        if let Some(bar) = &self.bar {
+            bar.set_position((p.completion * 1000.0) as u64);
+            bar.set_message(message);
+        } else if self.lines && self.last_line.elapsed() >= PROGRESS_LINE_INTERVAL {
+            self.last_line = Instant::now();
+            eprintln!("progress: {}, {} elapsed", message, clock(p.elapsed));
+        }
+        if self.interrupted.load(Ordering::SeqCst) {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+}
+
 fn print_summary(o: &Outcome) {
     let c = o.counts;
     println!(
-        "{}: {} surfaces, {} patches, {} elements, {} vertices",
-        o.scene, c.surfaces, c.patches, c.elements, c.vertices
+        "{}: {} surfaces ({} surface ids), {} shooters, {} elements, {} vertices",
+        o.scene, c.surfaces, c.surface_ids, c.patches, c.elements, c.vertices
     );
     println!(
         "solved: {} shots, {} subsources, {} rays, unshot {:.2}% ({}) in {:.2} s on {} thread(s)",

@@ -32,6 +32,9 @@ pub struct MeshSettings {
     pub element_size: f64,
     /// Refuse meshes with more elements than this.
     pub max_elements: usize,
+    /// Cut triangles by longest-edge bisection (each surface one patch)
+    /// instead of the regular grid; see [`Grid::Bisect`].
+    pub bisect_triangles: bool,
 }
 
 impl Default for MeshSettings {
@@ -40,6 +43,7 @@ impl Default for MeshSettings {
             patch_size: DEFAULT_PATCH_SIZE,
             element_size: DEFAULT_ELEMENT_SIZE,
             max_elements: 4_000_000,
+            bisect_triangles: false,
         }
     }
 }
@@ -145,10 +149,29 @@ enum Grid {
     Quad { pu: u64, pv: u64, mu: u64, mv: u64 },
     /// Triangle fan of `fans` triangles: `p^2` patches of `m^2` elements each.
     Fan { fans: u64, p: u64, m: u64 },
+    /// Triangle fan whose triangles are halved across their longest edge
+    /// until no edge is longer than the element size (Rivara 1984), one
+    /// patch for the surface: `elements` of them. A regular grid cuts a
+    /// triangle into `n^2` pieces by its longest edge, so a sliver 10 m by
+    /// 5 cm (common in exported models) becomes a hundred needles;
+    /// bisection makes it sixteen pieces no thinner than it.
+    Bisect { elements: u64 },
 }
 
 impl Grid {
     fn choose(polygon: &[DVec3], settings: &MeshSettings) -> Grid {
+        if settings.bisect_triangles && polygon.len() != 4 {
+            let budget = settings.max_elements as u64 + 1;
+            let mut elements = 0;
+            for pair in polygon[1..].windows(2) {
+                elements += bisection_count(
+                    [polygon[0], pair[0], pair[1]],
+                    settings.element_size,
+                    budget - elements.min(budget),
+                );
+            }
+            return Grid::Bisect { elements };
+        }
         if polygon.len() == 4 {
             let [v0, v1, v2, v3] = [polygon[0], polygon[1], polygon[2], polygon[3]];
             let lu = v0.distance(v1).max(v3.distance(v2));
@@ -182,8 +205,38 @@ impl Grid {
         match self {
             Grid::Quad { pu, pv, mu, mv } => (pu * mu) as u128 * (pv * mv) as u128,
             Grid::Fan { fans, p, m } => fans as u128 * ((p * m) as u128).pow(2),
+            Grid::Bisect { elements } => elements as u128,
         }
     }
+}
+
+/// The corners of `tri` reordered so its longest edge runs from the first
+/// to the second (keeping the winding), with that edge's length.
+fn longest_edge_first(tri: [DVec3; 3]) -> ([DVec3; 3], f64) {
+    let lengths = [
+        tri[0].distance(tri[1]),
+        tri[1].distance(tri[2]),
+        tri[2].distance(tri[0]),
+    ];
+    let k = if lengths[0] >= lengths[1] && lengths[0] >= lengths[2] {
+        0
+    } else if lengths[1] >= lengths[2] {
+        1
+    } else {
+        2
+    };
+    ([tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]], lengths[k])
+}
+
+/// Pieces longest-edge bisection cuts `tri` into, counting at most `budget`.
+fn bisection_count(tri: [DVec3; 3], size: f64, budget: u64) -> u64 {
+    let (t, longest) = longest_edge_first(tri);
+    if budget <= 1 || !(longest > size) {
+        return 1;
+    }
+    let m = edge_point(t[0], t[1], 1, 2);
+    let first = bisection_count([t[0], m, t[2]], size, budget - 1);
+    first + bisection_count([m, t[1], t[2]], size, budget.saturating_sub(first))
 }
 
 impl Mesh {
@@ -225,6 +278,14 @@ impl Mesh {
                     for pair in surface.polygon[1..].windows(2) {
                         builder.triangle([v0, pair[0], pair[1]], p, m);
                     }
+                }
+                Grid::Bisect { elements } => {
+                    let mut cells = Vec::with_capacity(elements as usize);
+                    let v0 = surface.polygon[0];
+                    for pair in surface.polygon[1..].windows(2) {
+                        bisect([v0, pair[0], pair[1]], settings.element_size, &mut cells);
+                    }
+                    builder.push_patch(surface.polygon.clone(), &cells);
                 }
             }
         }
@@ -414,6 +475,20 @@ impl SurfaceBuilder<'_> {
     }
 }
 
+/// Cuts `tri` by longest-edge bisection into pieces no longer than `size`,
+/// appending them (counter-clockwise) to `out`. Midpoints are
+/// [`edge_point`]s, so two faces halving a shared edge share its midpoint.
+fn bisect(tri: [DVec3; 3], size: f64, out: &mut Vec<([DVec3; 4], u8)>) {
+    let (t, longest) = longest_edge_first(tri);
+    if !(longest > size) {
+        out.push(([tri[0], tri[1], tri[2], DVec3::ZERO], 3));
+        return;
+    }
+    let m = edge_point(t[0], t[1], 1, 2);
+    bisect([t[0], m, t[2]], size, out);
+    bisect([m, t[1], t[2]], size, out);
+}
+
 /// The point at `(s, t)` of the bilinear map of a quad `v0 v1 v2 v3` (`s`
 /// along `v0 -> v1`, `t` along `v0 -> v3`).
 fn bilinear(quad: &[DVec3], s: f64, t: f64) -> DVec3 {
@@ -580,6 +655,7 @@ mod tests {
             patch_size: 2.5,
             element_size: 0.2,
             max_elements: 1_000_000,
+            bisect_triangles: false,
         };
         let mesh = Mesh::build(&scene, &settings).unwrap();
         // 6 m: 3 patches of 2 m, 10 elements each; 3 m: 2 patches of 1.5 m,
@@ -608,6 +684,7 @@ mod tests {
             patch_size: 1.0,
             element_size: 0.3,
             max_elements: 1_000_000,
+            bisect_triangles: false,
         };
         let mesh = Mesh::build(&scene, &settings).unwrap();
         check_conforming(&scene, &mesh);
@@ -641,6 +718,7 @@ mod tests {
             patch_size: 1.0,
             element_size: 1e-4,
             max_elements: 1_000_000,
+            bisect_triangles: false,
         };
         let err = Mesh::build(&scene, &settings).unwrap_err();
         assert!(err.to_string().contains("--element-size"), "{err}");

@@ -49,6 +49,7 @@ fn first_shot(scene: &Scene) -> (Mesh, Vec<DVec3>) {
             patch_size: 4.0,
             element_size: 0.25,
             max_elements: 100_000,
+            bisect_triangles: false,
         },
         subsources: SUBSOURCES,
         max_shots: Some(1),

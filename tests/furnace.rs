@@ -17,6 +17,7 @@ fn settings(form_factor: FormFactor) -> Settings {
             patch_size: 0.5,
             element_size: 0.125,
             max_elements: 100_000,
+            bisect_triangles: false,
         },
         form_factor,
         converge: 1e-7,

@@ -219,6 +219,7 @@ fn room_agreement(resolution: u32) -> (PretestCounts, u64) {
             patch_size: 2.5,
             element_size: 0.2,
             max_elements: 4_000_000,
+            bisect_triangles: false,
         },
     )
     .expect("meshes");

@@ -74,8 +74,11 @@ pub(crate) struct AdaptiveShooting {
     /// Unshot power (luminance) of each shooter.
     shooter_power: Vec<f64>,
     /// Irradiance (luminance, W/m^2) a source may send and still be
-    /// accepted whole: the tolerance times the scene's mean radiosity.
+    /// accepted whole: the tolerance times the scene's mean radiosity, or
+    /// times a receiver's irradiance so far where that is larger.
     negligible: f64,
+    /// The scene's mean radiosity, estimated (luminance).
+    mean_radiosity: f64,
     /// Per-node source data of the current shot, reused.
     sources: Vec<NodeSource>,
 }
@@ -138,10 +141,16 @@ impl AdaptiveShooting {
             hierarchy,
             unshot,
             negligible: settings.tolerance * mean_radiosity,
+            mean_radiosity: mean_radiosity.max(f64::MIN_POSITIVE),
             sources: Vec::new(),
         };
         shooting.total_shooter_power(mesh);
         shooting
+    }
+
+    /// Number of shooters.
+    pub(crate) fn shooters(&self) -> usize {
+        self.hierarchy.shooters.len()
     }
 
     /// Unshot power, per channel.
@@ -210,11 +219,13 @@ impl AdaptiveShooting {
             occluder: inputs.occluder,
             form_factor: inputs.settings.form_factor,
             negligible: self.negligible,
+            mean_radiosity: self.mean_radiosity,
         };
         let gathered: Vec<(Vec<DVec3>, Counters)> = inputs
             .receivers
             .par_chunks(RECEIVERS_PER_CHUNK)
-            .map(|chunk| context.gather_chunk(chunk))
+            .zip(inputs.irradiance.par_chunks(RECEIVERS_PER_CHUNK))
+            .map(|(chunk, irradiance)| context.gather_chunk(chunk, irradiance))
             .collect();
         let gather_end = Instant::now();
 
@@ -232,6 +243,18 @@ impl AdaptiveShooting {
         }
         stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
+        if std::env::var("RAD_DEBUG").is_ok() {
+            let node = &self.hierarchy.nodes[root as usize];
+            eprintln!(
+                "shot {} shooter {shooter} elements {elements} radius {:.2} group {} power {:.3e} rays {} time {:.2}s",
+                stats.shots,
+                node.radius,
+                node.group,
+                luminance(power),
+                stats.rays_cast,
+                (gather_end - gather_start).as_secs_f64()
+            );
+        }
         Shot {
             irradiance,
             power,
@@ -391,11 +414,14 @@ struct Gatherer<'s> {
     origin: DVec3,
     occluder: &'s dyn Occluder,
     form_factor: FormFactor,
+    /// Negligible irradiance for a receiver with no more than the mean
+    /// radiosity.
     negligible: f64,
+    mean_radiosity: f64,
 }
 
 impl Gatherer<'_> {
-    fn gather_chunk(&self, receivers: &[Receiver]) -> (Vec<DVec3>, Counters) {
+    fn gather_chunk(&self, receivers: &[Receiver], irradiance: &[DVec3]) -> (Vec<DVec3>, Counters) {
         let start = Instant::now();
         let mut counters = Counters::default();
         let mut stack = Vec::with_capacity(64);
@@ -404,9 +430,16 @@ impl Gatherer<'_> {
         let mut clipped = Vec::with_capacity(8);
         let out = receivers
             .iter()
-            .map(|r| {
+            .zip(irradiance)
+            .map(|(r, e)| {
+                // Errors are weighed against what the receiver has already
+                // gathered (or, before it has, the scene's mean radiosity):
+                // a bright source is shot carefully everywhere, a dim one
+                // coarsely where it adds little to what is there.
+                let negligible = self.negligible * (luminance(*e) / self.mean_radiosity).max(1.0);
                 self.gather(
                     r,
+                    negligible,
                     &mut stack,
                     &mut pieces,
                     &mut polygon,
@@ -427,6 +460,7 @@ impl Gatherer<'_> {
     fn gather(
         &self,
         r: &Receiver,
+        negligible: f64,
         stack: &mut Vec<u32>,
         pieces: &mut Vec<u32>,
         polygon: &mut Vec<DVec3>,
@@ -449,17 +483,35 @@ impl Gatherer<'_> {
                 continue;
             }
             let distance = node.centre.distance(r.point);
-            let clearance = distance - node.radius;
-            let bound = if clearance > 0.0 {
-                source.weight / (PI * clearance * clearance)
+            if distance < FAR_RATIO * node.radius {
+                // Near: accepted whole only if even all its power at the
+                // nearest point of its bounding sphere would be negligible.
+                let clearance = distance - node.radius;
+                if clearance > 0.0 && source.weight <= negligible * PI * clearance * clearance {
+                    sum += self.bins_irradiance(n, source, r, pieces, polygon, counters);
+                    continue;
+                }
             } else {
-                f64::INFINITY
-            };
-            if bound <= self.negligible
-                || (distance >= FAR_RATIO * node.radius && bound <= FAR_FACTOR * self.negligible)
-            {
-                sum += self.bins_irradiance(n, source, r, pieces, polygon, counters);
-                continue;
+                // Far: the corrected point sources are accurate; what is
+                // left to judge is occlusion.
+                let estimate: f64 = (0..6)
+                    .filter(|k| source.used & (1 << k) != 0)
+                    .map(|k| {
+                        let bin = &source.bins[k];
+                        bin.weight * point_factor(bin, self.origin, r)
+                    })
+                    .sum();
+                if estimate <= FAR_FACTOR * negligible {
+                    sum += self.bins_irradiance(n, source, r, pieces, polygon, counters);
+                    continue;
+                }
+                if let Some(visible) = self.uniform_visibility(n, r, counters) {
+                    if visible {
+                        let geometry = self.node_geometry(n, r, pieces, polygon, counters);
+                        sum += geometry.iter().sum::<DVec3>();
+                    }
+                    continue;
+                }
             }
             stack.push(node.second);
             stack.push(n + 1);
@@ -487,12 +539,7 @@ impl Gatherer<'_> {
     }
 
     /// A node as up to six sources by normal direction, each behind one
-    /// shadow ray from its representative element's centre. The geometry of
-    /// each is integrated over pieces of the node (its descendants) small
-    /// enough to be seen as points, at least [`QUADRATURE_RATIO`] of their
-    /// radii away: the midpoint rule over a node seen from three of its
-    /// radii errs by a few per cent, over pieces seen from eight by a tenth
-    /// of that, and the extra factors cost no rays.
+    /// shadow ray from its representative element's centre.
     fn bins_irradiance(
         &self,
         n: u32,
@@ -502,6 +549,80 @@ impl Gatherer<'_> {
         polygon: &mut Vec<DVec3>,
         counters: &mut Counters,
     ) -> DVec3 {
+        let geometry = self.node_geometry(n, r, pieces, polygon, counters);
+        let mut sum = DVec3::ZERO;
+        for (k, bin) in source.bins.iter().enumerate() {
+            if source.used & (1 << k) == 0 || geometry[k] == DVec3::ZERO {
+                continue;
+            }
+            counters.pairs += 1;
+            if self.visible_from(bin.representative, r, counters) {
+                sum += geometry[k];
+            }
+        }
+        sum
+    }
+
+    /// Whether the receiver sees all of a node or none of it, judged by
+    /// shadow rays from up to four points spread over it (the
+    /// representatives of its grandchildren, or children where the tree
+    /// ends); `None` when they disagree, and the node must be refined. A
+    /// bright source's node is accepted this way only in full view or full
+    /// shadow, so penumbrae are resolved down to elements while open view
+    /// costs four rays.
+    fn uniform_visibility(&self, n: u32, r: &Receiver, counters: &mut Counters) -> Option<bool> {
+        let nodes = &self.hierarchy.nodes;
+        let node = &nodes[n as usize];
+        let mut samples = [NONE; 4];
+        let mut count = 0;
+        for child in [n + 1, node.second] {
+            let c = &nodes[child as usize];
+            if c.is_leaf() {
+                samples[count] = child;
+                count += 1;
+            } else {
+                samples[count] = child + 1;
+                samples[count + 1] = c.second;
+                count += 2;
+            }
+        }
+        let mut seen = None;
+        for &piece in &samples[..count] {
+            let source = &self.sources[(piece - self.root) as usize];
+            let Some(bin) = (0..6)
+                .filter(|k| source.used & (1 << k) != 0)
+                .map(|k| &source.bins[k])
+                .max_by(|a, b| a.weight.total_cmp(&b.weight))
+            else {
+                continue;
+            };
+            counters.pairs += 1;
+            let visible = self.visible_from(bin.representative, r, counters);
+            match seen {
+                None => seen = Some(visible),
+                Some(v) if v != visible => return None,
+                Some(_) => {}
+            }
+        }
+        seen
+    }
+
+    /// The irradiance each of a node's bins sends to the receiver, ignoring
+    /// occlusion. The geometry of each is integrated over pieces of the node
+    /// (its descendants) small enough to be seen as points, at least
+    /// [`QUADRATURE_RATIO`] of their radii away (elements nearer than that
+    /// by their exact factor): the midpoint rule over a node seen from three
+    /// of its radii errs by a few per cent, over pieces seen from four with
+    /// the correction of [`point_factor`] by far less, and the extra factors
+    /// cost no rays.
+    fn node_geometry(
+        &self,
+        n: u32,
+        r: &Receiver,
+        pieces: &mut Vec<u32>,
+        polygon: &mut Vec<DVec3>,
+        counters: &mut Counters,
+    ) -> [DVec3; 6] {
         let nodes = &self.hierarchy.nodes;
         let t0 = Instant::now();
         let mut geometry = [DVec3::ZERO; 6];
@@ -533,20 +654,7 @@ impl Gatherer<'_> {
             }
         }
         counters.form_factor_time += t0.elapsed();
-        let mut sum = DVec3::ZERO;
-        for (k, bin) in source.bins.iter().enumerate() {
-            if source.used & (1 << k) == 0 || geometry[k] == DVec3::ZERO {
-                continue;
-            }
-            counters.pairs += 1;
-            let e = bin.representative as usize;
-            let origin = self.hierarchy.centroids[e];
-            let group = self.scene.surfaces[self.mesh.elements[e].surface as usize].group;
-            if self.visible(origin, r, group, counters) {
-                sum += geometry[k];
-            }
-        }
-        sum
+        geometry
     }
 
     /// One element as a source: its polygon's factor (clipped to the
@@ -630,6 +738,13 @@ impl Gatherer<'_> {
                 area: element.area,
             },
         )
+    }
+
+    /// Whether the receiver sees the centre of element `e`.
+    fn visible_from(&self, e: u32, r: &Receiver, counters: &mut Counters) -> bool {
+        let e = e as usize;
+        let group = self.scene.surfaces[self.mesh.elements[e].surface as usize].group;
+        self.visible(self.hierarchy.centroids[e], r, group, counters)
     }
 
     fn visible(&self, origin: DVec3, r: &Receiver, group: u32, counters: &mut Counters) -> bool {

@@ -119,6 +119,10 @@ impl Settings {
     #[must_use]
     pub fn adaptive() -> Settings {
         Settings {
+            mesh: MeshSettings {
+                bisect_triangles: true,
+                ..MeshSettings::default()
+            },
             shooting: Shooting::Adaptive,
             merge_coplanar: true,
             form_factor: FormFactor::Analytic,
@@ -529,6 +533,15 @@ impl<'a> Solver<'a> {
         self.mesh
     }
 
+    /// Shooting units: the mesh's patches, or adaptive shooting's shooters.
+    #[must_use]
+    pub fn shooters(&self) -> usize {
+        match &self.method {
+            Method::Patches(_) => self.mesh.patches.len(),
+            Method::Adaptive(a) => a.shooters(),
+        }
+    }
+
     /// Unshot power left, per channel (W).
     #[must_use]
     pub fn unshot_power(&self) -> DVec3 {
@@ -636,6 +649,7 @@ impl<'a> Solver<'a> {
             settings: &self.settings,
             occluder: self.occluder.as_ref(),
             receivers: &self.receivers,
+            irradiance: &self.irradiance,
         };
         let shot = match &mut self.method {
             Method::Patches(p) => p.shoot(&context, &mut self.stats),
@@ -671,6 +685,8 @@ pub(crate) struct ShotInputs<'s> {
     pub(crate) settings: &'s Settings,
     pub(crate) occluder: &'s dyn Occluder,
     pub(crate) receivers: &'s [Receiver],
+    /// Irradiance each receiver has gathered so far.
+    pub(crate) irradiance: &'s [DVec3],
 }
 
 /// What a shot produced: the irradiance each receiver gathered and the
