@@ -605,8 +605,8 @@ fn live_frames_decode_to_the_solvers_colours() {
     let csv = read_csv(&served.path("out.csv"));
     assert_eq!(csv.len(), v);
     for (i, (position, b)) in csv.iter().enumerate() {
-        for k in 0..3 {
-            assert!((f64::from(mesh.positions[i][k]) - position[k]).abs() < 1e-5);
+        for (sent, written) in mesh.positions[i].iter().zip(position) {
+            assert!((f64::from(*sent) - written).abs() < 1e-5);
         }
         let decoded = decode_rgbe(colours[i]);
         let tolerance = b.iter().copied().fold(0.0, f64::max) / 128.0 + 1e-30;

@@ -60,7 +60,8 @@ let info = null; // the scene message
 let mesh = null;
 let radiosity = null; // Float32Array, 3 per vertex, W/m^2
 let keyScale = null; // 0.8 / p90, null until measured
-let updates = 0;
+let updates = 0; // colour frames drawn
+let undrawn = null; // seq of a colour frame not drawn yet
 let picked = null;
 let status = null;
 const marker = new THREE.Mesh(
@@ -141,6 +142,14 @@ function draw() {
     material.uniforms.scale.value = (keyScale ?? 1) * 2 ** ev;
     material.uniforms.ambientOn.value = $('ambient').checked ? 1 : 0;
     renderer.render(scene, camera);
+    if (undrawn !== null) {
+      // Counted once drawn, so that a test reading the count sees the
+      // frame on the canvas.
+      document.body.dataset.seq = String(undrawn);
+      undrawn = null;
+      updates += 1;
+      document.body.dataset.updates = String(updates);
+    }
   });
 }
 
@@ -188,10 +197,8 @@ function onColours(buffer) {
   }
   mesh.geometry.attributes.radiosity.needsUpdate = true;
   measureKey();
+  undrawn = seq;
   draw();
-  updates += 1;
-  document.body.dataset.updates = String(updates);
-  document.body.dataset.seq = String(seq);
   if (picked !== null) pickVertex(picked);
 }
 
@@ -210,6 +217,7 @@ function formatTime(s) {
 
 function onStatus(s) {
   status = s;
+  document.body.dataset.status = String(s.seq);
   let phase = s.phase;
   if (s.phase === 'finished' && s.stop_reason) phase = `finished (${s.stop_reason})`;
   else if (s.stop_requested && s.phase !== 'finished') phase = 'stopping';
