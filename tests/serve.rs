@@ -357,6 +357,13 @@ fn read_csv(path: &Path) -> Vec<([f64; 3], [f64; 3])> {
         .collect()
 }
 
+/// A JSON array of three numbers.
+fn vec3(value: &Value) -> [f64; 3] {
+    let a = value.as_array().expect("an array");
+    assert_eq!(a.len(), 3);
+    [0, 1, 2].map(|k| a[k].as_f64().unwrap())
+}
+
 fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -627,12 +634,7 @@ fn live_frames_decode_to_the_solvers_colours() {
         let r = served.get(&format!("/api/vertex/{i}"));
         assert_eq!(r.status, 200);
         let vertex: Value = serde_json::from_slice(&r.body).unwrap();
-        let b: Vec<f64> = vertex["radiosity"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
+        let b = vec3(&vertex["radiosity"]);
         for k in 0..3 {
             // serde_json parses floats to within an ulp or so.
             assert!(
@@ -640,12 +642,7 @@ fn live_frames_decode_to_the_solvers_colours() {
                 "vertex {i}: {b:?}"
             );
         }
-        let ambient: Vec<f64> = vertex["ambient"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
+        let ambient = vec3(&vertex["ambient"]);
         for k in 0..3 {
             assert!(
                 (ambient[k] - f64::from(final_ambient[k])).abs() <= 1e-6 * ambient[k].max(1e-9)

@@ -209,22 +209,19 @@ async fn live(State(app): State<App>, upgrade: WebSocketUpgrade) -> Response {
         })
 }
 
-/// Why a client's feed ended.
-enum Closed {
-    /// The client left or the connection broke.
-    Gone,
-}
+/// A client's feed ended: it left or the connection broke.
+struct Gone;
 
-impl From<axum::Error> for Closed {
-    fn from(_: axum::Error) -> Closed {
-        Closed::Gone
+impl From<axum::Error> for Gone {
+    fn from(_: axum::Error) -> Gone {
+        Gone
     }
 }
 
 /// Handles whatever the client sent while we waited; `Err` when it left.
-fn client_message(message: Option<Result<Message, axum::Error>>) -> Result<(), Closed> {
+fn client_message(message: Option<Result<Message, axum::Error>>) -> Result<(), Gone> {
     match message {
-        None | Some(Err(_)) | Some(Ok(Message::Close(_))) => Err(Closed::Gone),
+        None | Some(Err(_)) | Some(Ok(Message::Close(_))) => Err(Gone),
         // The page sends nothing else; pings are answered by the library.
         Some(Ok(_)) => Ok(()),
     }
@@ -235,18 +232,18 @@ fn client_message(message: Option<Result<Message, axum::Error>>) -> Result<(), C
 /// [`SNAPSHOT_INTERVAL`], each frame carrying only what changed since the
 /// client's previous one. A slow client gets fewer, never stale, frames,
 /// and never slows the solve.
-async fn feed(mut socket: WebSocket, shared: Arc<Shared>) -> Result<(), Closed> {
+async fn feed(mut socket: WebSocket, shared: Arc<Shared>) -> Result<(), Gone> {
     let mut changes = shared.subscribe();
     let mut closing = shared.closing();
     if *closing.borrow() {
-        return Err(Closed::Gone);
+        return Err(Gone);
     }
     let scene = loop {
         if let Some(scene) = shared.scene() {
             break scene;
         }
         tokio::select! {
-            r = changes.changed() => if r.is_err() { return Err(Closed::Gone) },
+            r = changes.changed() => if r.is_err() { return Err(Gone) },
             m = socket.recv() => client_message(m)?,
             _ = closing.changed() => return close(socket).await,
         }
@@ -261,7 +258,7 @@ async fn feed(mut socket: WebSocket, shared: Arc<Shared>) -> Result<(), Closed> 
     changes.mark_changed();
     loop {
         tokio::select! {
-            r = changes.changed() => if r.is_err() { return Err(Closed::Gone) },
+            r = changes.changed() => if r.is_err() { return Err(Gone) },
             m = socket.recv() => { client_message(m)?; continue; }
             _ = closing.changed() => return close(socket).await,
         }
@@ -304,7 +301,7 @@ async fn feed(mut socket: WebSocket, shared: Arc<Shared>) -> Result<(), Closed> 
 }
 
 /// Says goodbye when the server closes.
-async fn close(mut socket: WebSocket) -> Result<(), Closed> {
+async fn close(mut socket: WebSocket) -> Result<(), Gone> {
     socket.send(Message::Close(None)).await?;
     // Give the client a moment to answer the close, then drop it.
     let _ = tokio::time::timeout(Duration::from_millis(500), socket.recv()).await;

@@ -374,6 +374,26 @@ impl Shared {
     }
 }
 
+/// The ambient term before any shot, when every patch's unshot radiosity
+/// is its emission: [`Solver::ambient`] at the start (Cohen et al. 1988;
+/// design.md section 2), without building a solver.
+#[must_use]
+pub fn initial_ambient(scene: &Scene, mesh: &Mesh) -> DVec3 {
+    let mut area = 0.0;
+    let mut unshot = DVec3::ZERO;
+    let mut rho = DVec3::ZERO;
+    for patch in &mesh.patches {
+        let surface = &scene.surfaces[patch.surface as usize];
+        area += patch.area;
+        unshot += surface.emission * patch.area;
+        rho += surface.rho * patch.area;
+    }
+    if area <= 0.0 {
+        return DVec3::ZERO;
+    }
+    (unshot / area) / (DVec3::ONE - rho / area)
+}
+
 /// The [`Observer`] that feeds the live view from the solve thread.
 pub struct LiveObserver {
     shared: Arc<Shared>,
@@ -438,16 +458,18 @@ impl LiveObserver {
 impl Observer for LiveObserver {
     fn started(&mut self, scene: &Scene, mesh: &Mesh) {
         self.shared.set_scene(scene, mesh);
-        // Before the first shot only the emitters shine; show them while
-        // the first shot (long on a large scene) runs.
+        // Before the first shot only the emitters shine, and the ambient
+        // term stands for all the rest: shown while the first shot (long
+        // on a large scene) runs.
         let radiosity = mesh
             .vertices
             .iter()
             .map(|v| scene.surfaces[v.surface as usize].emission)
             .collect();
-        self.shared.publish(radiosity, DVec3::ZERO, |status| {
-            status.phase = Phase::Solving;
-        });
+        self.shared
+            .publish(radiosity, initial_ambient(scene, mesh), |status| {
+                status.phase = Phase::Solving;
+            });
         self.solve_start = Instant::now();
     }
 
@@ -477,5 +499,36 @@ impl Observer for LiveObserver {
 
     fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
         self.publish(solver, Phase::Writing, Some(stop));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::MeshSettings;
+    use crate::solver::Settings;
+
+    /// The ambient term shown before the first shot is the solver's own at
+    /// the start.
+    #[test]
+    fn initial_ambient_is_the_solvers() {
+        for name in ["cornell", "room"] {
+            let scene = crate::scene::load(name).unwrap();
+            let hint = scene.default_mesh_sizes();
+            let settings = MeshSettings {
+                patch_size: hint.patch_size,
+                element_size: hint.element_size * 4.0,
+                ..MeshSettings::default()
+            };
+            let mesh = Mesh::build(&scene, &settings).unwrap();
+            let solver = Solver::new(&scene, &mesh, Settings::wong_tsang93());
+            let expected = solver.ambient();
+            let got = initial_ambient(&scene, &mesh);
+            assert!(expected.max_element() > 0.0);
+            assert!(
+                (got - expected).length() <= 1e-12 * expected.length(),
+                "{name}: {got} vs {expected}"
+            );
+        }
     }
 }
