@@ -1,13 +1,15 @@
 //! `radiosity serve`: the solution converging live in a browser, the way
 //! progressive refinement was meant to be watched (Cohen, Chen, Wallace &
 //! Greenberg, *A Progressive Refinement Approach to Fast Radiosity Image
-//! Generation*, SIGGRAPH 1988; the paper's Figure 5.1 shows the room after
-//! 9, 48 and 72 subsources). A local web server shows the element mesh with
+//! Generation*, SIGGRAPH 1988; Wong & Tsang's Figure 5.1 shows their room
+//! after 9, 48 and 72 subsources). A local web server shows the element mesh with
 //! Gouraud-shaded vertex colours from the scene's camera, updated a few
 //! times a second while the solve runs, with the page's controls: pause and
 //! resume, stop (the outputs asked for on the command line are then written
 //! from the state reached), the ambient term on or off, an exposure slider,
-//! and a picker that shows one vertex's radiosity.
+//! and a picker that shows one vertex's radiosity. Pause and stop take
+//! effect when the current shot ends (a shot of a large scene can take a
+//! while on a small machine).
 //!
 //! # Threads
 //! The solve runs on the caller's thread through [`crate::app::run`] with
@@ -88,8 +90,9 @@
 //! linear light and tone-mapped per pixel like the pictures of
 //! [`crate::render`]: scaled so the 90th percentile of the luminance of the
 //! covered pixels maps to 0.8, then by the slider's stops, then clamped and
-//! sRGB-encoded. The percentile is taken (on the GPU, at reduced size) from
-//! the picture *with* the ambient term, an estimate of the converged
+//! sRGB-encoded. The percentile is taken (on the GPU, at reduced size, from
+//! the current view, again whenever the view stops moving) from the
+//! picture *with* the ambient term, an estimate of the converged
 //! picture, whichever is shown: the exposure then holds still while the
 //! solution converges, so the picture without the ambient term visibly
 //! brightens; once converged the ambient term is negligible and the
@@ -122,7 +125,7 @@ pub const DEFAULT_PORT: u16 = 7788;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// The address could not be bound.
-    #[error("cannot listen on {address}: {source}")]
+    #[error("cannot listen on {address}: {source} (--port 0 takes any free port)")]
     Bind {
         /// The address asked for.
         address: SocketAddr,

@@ -241,8 +241,12 @@ function onStatus(s) {
 }
 
 async function control(action) {
-  const response = await fetch(`/api/${action}`, { method: 'POST' });
-  if (response.ok) onStatus(await response.json());
+  try {
+    const response = await fetch(`/api/${action}`, { method: 'POST' });
+    if (response.ok) onStatus(await response.json());
+  } catch {
+    // The server has gone; the socket's close handler says so.
+  }
 }
 
 function showExposure() {
@@ -253,9 +257,14 @@ function showExposure() {
 const rgb = (a, digits = 4) => a.map((x) => x.toPrecision(digits)).join(', ');
 
 async function pickVertex(index) {
-  const response = await fetch(`/api/vertex/${index}`);
-  if (!response.ok) return;
-  const v = await response.json();
+  let v;
+  try {
+    const response = await fetch(`/api/vertex/${index}`);
+    if (!response.ok) return;
+    v = await response.json();
+  } catch {
+    return; // the server has gone
+  }
   if (picked !== index) return;
   $('picked').hidden = false;
   $('picked-index').textContent = String(v.index);
