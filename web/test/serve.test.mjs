@@ -163,6 +163,8 @@ try {
   const brighter = await brightness();
   assert.ok(brighter > 1.1 * off, `+1 EV ${brighter} vs ${off}`);
   await page.locator('#exposure').fill('0');
+  console.log(`paused: luma ${off.toFixed(1)}, with the ambient term ${on.toFixed(1)}, ` +
+    `at +1 EV ${brighter.toFixed(1)}`);
   await resume();
 
   // The picker while the solve runs (and the README's picture).
