@@ -179,6 +179,11 @@ pub trait Observer {
     fn shot(&mut self, _solver: &Solver<'_>) -> Flow {
         Flow::Continue
     }
+
+    /// The solve has ended, for `stop`, and the outputs are about to be
+    /// written from `solver`'s state: the last state a live view shows
+    /// (the last [`Observer::shot`] cannot know it is the last).
+    fn finished(&mut self, _solver: &Solver<'_>, _stop: StopReason) {}
 }
 
 /// An observer that watches nothing.
@@ -350,6 +355,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     counts.patches = solver.shooters();
     let stop = solver.run(|s| observer.shot(s));
     let solve_time = solve_start.elapsed();
+    observer.finished(&solver, stop);
 
     let mut staged = Vec::new();
     let stage = |path: &Path,

@@ -17,6 +17,7 @@ pub mod hemicube;
 pub mod mesh;
 pub mod render;
 pub mod scene;
+pub mod serve;
 pub mod solver;
 
 use glam::DVec3;

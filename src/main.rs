@@ -2,6 +2,7 @@
 //! [`radiosity::app::run`]. All logic lives in the library.
 
 use std::io::IsTerminal;
+use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,6 +20,7 @@ use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::Scene;
 use radiosity::scene::{Camera, builtin};
+use radiosity::serve;
 use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
@@ -42,6 +44,26 @@ enum Command {
     /// Reproduce the paper's experiments: a Markdown report and pictures
     /// per experiment in the output folder.
     Experiment(ExperimentArgs),
+    /// Solve a scene while a local web page shows the solution converging,
+    /// with pause, stop (writes the outputs asked for), ambient and
+    /// exposure controls; Ctrl-C quits.
+    Serve(Box<ServeArgs>),
+}
+
+#[derive(Parser, Debug)]
+struct ServeArgs {
+    #[command(flatten)]
+    render: RenderArgs,
+
+    /// Port to listen on; 0 takes any free port.
+    #[arg(long, value_name = "N", default_value_t = serve::DEFAULT_PORT)]
+    port: u16,
+
+    /// Address to listen on. The default takes connections from this
+    /// machine only; 0.0.0.0 (or ::) opens the page to every network the
+    /// machine is on.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1")]
+    host: IpAddr,
 }
 
 #[derive(Parser, Debug)]
@@ -307,6 +329,7 @@ fn real_main() -> Result<()> {
         }
         Some(Command::Render(args)) => render(&args),
         Some(Command::Experiment(args)) => experiment(&args),
+        Some(Command::Serve(args)) => serve(&args),
         None => render(&RenderArgs::parse_from(["radiosity"])),
     }
 }
@@ -499,4 +522,58 @@ fn print_summary(o: &Outcome) {
     for path in &o.written {
         println!("wrote {}", path.display());
     }
+}
+
+fn serve(args: &ServeArgs) -> Result<()> {
+    let job = args.render.job()?;
+    app::validate(&job)?;
+    let pool = pool(args.render.threads)?;
+    let server = serve::Server::start(
+        SocketAddr::new(args.host, args.port),
+        serve::Display {
+            camera: job.image.as_ref().and_then(|i| i.camera),
+            ambient: !args.render.no_ambient,
+            exposure: args.render.exposure,
+        },
+    )?;
+    // The first Ctrl-C stops the solve and writes the outputs; a second
+    // one gives up at once.
+    let handle = server.handle();
+    let interrupts = std::sync::atomic::AtomicUsize::new(0);
+    ctrlc::set_handler(move || {
+        if interrupts.fetch_add(1, std::sync::atomic::Ordering::SeqCst) == 0 {
+            handle.shutdown();
+        } else {
+            std::process::exit(130);
+        }
+    })
+    .context("cannot install the Ctrl-C handler")?;
+    println!("serving {}", server.url());
+    if !args.render.quiet {
+        eprintln!("open it in a browser; Ctrl-C stops the solve, writes the outputs and quits");
+    }
+
+    let outcome = pool.install(|| app::run(&job, &mut server.observer()));
+    let outcome = match outcome {
+        Ok(outcome) => outcome,
+        Err(error) => {
+            server.close();
+            return Err(error.into());
+        }
+    };
+    for warning in &outcome.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if !args.render.quiet {
+        print_summary(&outcome);
+    }
+    server.finished(&outcome);
+    if !server.shutdown_requested() && !args.render.quiet {
+        eprintln!(
+            "still serving the final state at {}; Ctrl-C quits",
+            server.url()
+        );
+    }
+    server.wait();
+    Ok(())
 }

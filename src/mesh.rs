@@ -231,7 +231,7 @@ fn longest_edge_first(tri: [DVec3; 3]) -> ([DVec3; 3], f64) {
 /// Pieces longest-edge bisection cuts `tri` into, counting at most `budget`.
 fn bisection_count(tri: [DVec3; 3], size: f64, budget: u64) -> u64 {
     let (t, longest) = longest_edge_first(tri);
-    if budget <= 1 || !(longest > size) {
+    if budget <= 1 || longest <= size {
         return 1;
     }
     let m = edge_point(t[0], t[1], 1, 2);
@@ -480,7 +480,7 @@ impl SurfaceBuilder<'_> {
 /// [`edge_point`]s, so two faces halving a shared edge share its midpoint.
 fn bisect(tri: [DVec3; 3], size: f64, out: &mut Vec<([DVec3; 4], u8)>) {
     let (t, longest) = longest_edge_first(tri);
-    if !(longest > size) {
+    if longest <= size {
         out.push(([tri[0], tri[1], tri[2], DVec3::ZERO], 3));
         return;
     }

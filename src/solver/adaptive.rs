@@ -392,6 +392,19 @@ fn point_factor(bin: &Bin, origin: DVec3, r: &Receiver) -> f64 {
     length * cos_s * cos_r / (PI * r2) * (1.0 + correction)
 }
 
+/// Buffers a task reuses from receiver to receiver.
+#[derive(Default)]
+struct Scratch {
+    /// Nodes still to visit.
+    stack: Vec<u32>,
+    /// Pieces of a node still to integrate.
+    pieces: Vec<u32>,
+    /// An element's corners.
+    polygon: Vec<DVec3>,
+    /// The part of an element in front of the receiver.
+    clipped: Vec<DVec3>,
+}
+
 /// Counters of one chunk of receivers.
 #[derive(Clone, Copy, Debug, Default)]
 struct Counters {
@@ -424,10 +437,7 @@ impl Gatherer<'_> {
     fn gather_chunk(&self, receivers: &[Receiver], irradiance: &[DVec3]) -> (Vec<DVec3>, Counters) {
         let start = Instant::now();
         let mut counters = Counters::default();
-        let mut stack = Vec::with_capacity(64);
-        let mut pieces = Vec::with_capacity(64);
-        let mut polygon = Vec::with_capacity(8);
-        let mut clipped = Vec::with_capacity(8);
+        let mut scratch = Scratch::default();
         let out = receivers
             .iter()
             .zip(irradiance)
@@ -437,15 +447,7 @@ impl Gatherer<'_> {
                 // a bright source is shot carefully everywhere, a dim one
                 // coarsely where it adds little to what is there.
                 let negligible = self.negligible * (luminance(*e) / self.mean_radiosity).max(1.0);
-                self.gather(
-                    r,
-                    negligible,
-                    &mut stack,
-                    &mut pieces,
-                    &mut polygon,
-                    &mut clipped,
-                    &mut counters,
-                )
+                self.gather(r, negligible, &mut scratch, &mut counters)
             })
             .collect();
         // Rays and factors are timed where they are cast; the rest is the
@@ -461,12 +463,15 @@ impl Gatherer<'_> {
         &self,
         r: &Receiver,
         negligible: f64,
-        stack: &mut Vec<u32>,
-        pieces: &mut Vec<u32>,
-        polygon: &mut Vec<DVec3>,
-        clipped: &mut Vec<DVec3>,
+        scratch: &mut Scratch,
         counters: &mut Counters,
     ) -> DVec3 {
+        let Scratch {
+            stack,
+            pieces,
+            polygon,
+            clipped,
+        } = scratch;
         let nodes = &self.hierarchy.nodes;
         let mut sum = DVec3::ZERO;
         stack.clear();

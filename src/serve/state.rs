@@ -1,0 +1,534 @@
+//! What the solve thread and the web server share: the scene sent to every
+//! client, the latest snapshot of the solution, the status line, and the
+//! page's controls (pause, stop). The solve thread writes a snapshot at
+//! most every [`SNAPSHOT_INTERVAL`] and never waits for the network; it
+//! blocks only while paused.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
+use std::time::{Duration, Instant};
+
+use axum::body::Bytes;
+use glam::DVec3;
+use serde::Serialize;
+use tokio::sync::watch;
+
+use super::wire::{self, Rgbe};
+use crate::app::{Counts, Observer, Outcome};
+use crate::mesh::Mesh;
+use crate::scene::{Camera, Scene};
+use crate::solver::{Flow, Solver, StopReason};
+
+/// Shortest time between two snapshots of the solution: clients are sent
+/// at most this many updates, and copying the radiosities costs the solve
+/// thread a copy of one vector this often.
+pub const SNAPSHOT_INTERVAL: Duration = Duration::from_millis(250);
+
+/// Where the run is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Phase {
+    /// Loading and meshing the scene.
+    Loading,
+    /// Shooting.
+    Solving,
+    /// Held by the page's pause button.
+    Paused,
+    /// The solve has ended; the outputs are being written.
+    Writing,
+    /// Outputs written; the final state is served until Ctrl-C.
+    Finished,
+}
+
+/// The status line every client shows, and `GET /api/status`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Status {
+    /// Where the run is.
+    pub phase: Phase,
+    /// Sequence number of the snapshot these counters belong to.
+    pub seq: u64,
+    /// Patches shot.
+    pub shots: u64,
+    /// Subsources shot.
+    pub subsources: u64,
+    /// Shadow rays cast.
+    pub rays: u64,
+    /// Rays a second over the time since the previous snapshot.
+    pub rays_per_second: f64,
+    /// Unshot power over emitted power.
+    pub unshot_fraction: f64,
+    /// Time spent solving, pauses excluded.
+    pub elapsed_seconds: f64,
+    /// The page asked for a pause that the solve has not reached yet.
+    pub pause_requested: bool,
+    /// The page (or Ctrl-C) asked to stop.
+    pub stop_requested: bool,
+    /// Why the solve ended, once it has.
+    pub stop_reason: Option<&'static str>,
+    /// Files written, once they are.
+    pub written: Vec<String>,
+}
+
+/// The solution at one moment.
+#[derive(Debug)]
+pub struct Snapshot {
+    /// Increases with every snapshot.
+    pub seq: u64,
+    /// Radiosity `B` per vertex (W/m^2, emission included, ambient
+    /// excluded).
+    pub radiosity: Vec<DVec3>,
+    /// The ambient term of Cohen et al. (1988), added for display as
+    /// `rho ambient`.
+    pub ambient: DVec3,
+    rgbe: OnceLock<Vec<Rgbe>>,
+}
+
+impl Snapshot {
+    /// The radiosities in RGBE, encoded once (by the server, off the solve
+    /// thread) for all clients.
+    pub fn rgbe(&self) -> &[Rgbe] {
+        self.rgbe
+            .get_or_init(|| self.radiosity.iter().map(|b| wire::rgbe(*b)).collect())
+    }
+}
+
+/// One vertex as the picker reports it.
+#[derive(Clone, Copy, Debug)]
+pub struct VertexInfo {
+    /// Position, metres.
+    pub position: DVec3,
+    /// Unit normal.
+    pub normal: DVec3,
+    /// The input face it lies on (as in the vertex CSV).
+    pub face: u32,
+    /// Reflectance of its surface.
+    pub rho: DVec3,
+    /// Exitance of its surface, W/m^2.
+    pub emission: DVec3,
+}
+
+/// The meshed scene, sent to every client when it connects.
+#[derive(Debug)]
+pub struct SceneInfo {
+    /// The first message: name, counts, camera, display settings (JSON).
+    pub json: String,
+    /// The second message: [`wire::mesh_message`].
+    pub mesh: Bytes,
+    /// Per-vertex data for the picker.
+    pub vertices: Vec<VertexInfo>,
+}
+
+/// The display settings the page starts with.
+#[derive(Clone, Copy, Debug)]
+pub struct Display {
+    /// The view; `None` takes the scene's camera or one framing it.
+    pub camera: Option<Camera>,
+    /// Show the ambient term.
+    pub ambient: bool,
+    /// Stops on top of automatic exposure.
+    pub exposure: f64,
+}
+
+struct Inner {
+    snapshot: Option<Arc<Snapshot>>,
+    status: Status,
+    paused: bool,
+}
+
+/// State shared by the solve thread, the server's tasks and the Ctrl-C
+/// handler.
+pub struct Shared {
+    display: Display,
+    scene: OnceLock<SceneInfo>,
+    inner: Mutex<Inner>,
+    /// Wakes a paused solve.
+    resume: Condvar,
+    /// Read on every shot without taking the lock.
+    pause_flag: AtomicBool,
+    stop_flag: AtomicBool,
+    shutdown_flag: AtomicBool,
+    /// Bumped on every change clients should see.
+    changed: watch::Sender<u64>,
+    /// Set when the server is to close.
+    closing: watch::Sender<bool>,
+}
+
+impl Shared {
+    /// Fresh state: loading, nothing to show yet.
+    pub fn new(display: Display) -> Shared {
+        Shared {
+            display,
+            scene: OnceLock::new(),
+            inner: Mutex::new(Inner {
+                snapshot: None,
+                status: Status {
+                    phase: Phase::Loading,
+                    seq: 0,
+                    shots: 0,
+                    subsources: 0,
+                    rays: 0,
+                    rays_per_second: 0.0,
+                    unshot_fraction: 1.0,
+                    elapsed_seconds: 0.0,
+                    pause_requested: false,
+                    stop_requested: false,
+                    stop_reason: None,
+                    written: Vec::new(),
+                },
+                paused: false,
+            }),
+            resume: Condvar::new(),
+            pause_flag: AtomicBool::new(false),
+            stop_flag: AtomicBool::new(false),
+            shutdown_flag: AtomicBool::new(false),
+            changed: watch::Sender::new(0),
+            closing: watch::Sender::new(false),
+        }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Inner> {
+        // A panic elsewhere while holding the lock leaves consistent data
+        // (every write is a plain assignment), so carry on.
+        self.inner
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    fn notify(&self) {
+        self.changed.send_modify(|v| *v = v.wrapping_add(1));
+    }
+
+    /// The meshed scene, once loaded.
+    pub fn scene(&self) -> Option<&SceneInfo> {
+        self.scene.get()
+    }
+
+    /// The status line and the latest snapshot.
+    pub fn current(&self) -> (Status, Option<Arc<Snapshot>>) {
+        let inner = self.lock();
+        (inner.status.clone(), inner.snapshot.clone())
+    }
+
+    /// Subscribes to changes of the status or the snapshot.
+    pub fn subscribe(&self) -> watch::Receiver<u64> {
+        self.changed.subscribe()
+    }
+
+    /// Subscribes to the server's closing.
+    pub fn closing(&self) -> watch::Receiver<bool> {
+        self.closing.subscribe()
+    }
+
+    /// Holds the solve after its current shot.
+    pub fn pause(&self) {
+        let mut inner = self.lock();
+        if matches!(inner.status.phase, Phase::Loading | Phase::Solving) {
+            inner.paused = true;
+            inner.status.pause_requested = true;
+            self.pause_flag.store(true, Ordering::SeqCst);
+        }
+        drop(inner);
+        self.notify();
+    }
+
+    /// Lets a paused solve go on.
+    pub fn resume(&self) {
+        let mut inner = self.lock();
+        inner.paused = false;
+        inner.status.pause_requested = false;
+        self.pause_flag.store(false, Ordering::SeqCst);
+        drop(inner);
+        self.resume.notify_all();
+        self.notify();
+    }
+
+    /// Ends the solve after its current shot; the outputs are then written
+    /// from the state reached.
+    pub fn stop(&self) {
+        let mut inner = self.lock();
+        if !matches!(inner.status.phase, Phase::Writing | Phase::Finished) {
+            inner.status.stop_requested = true;
+        }
+        self.stop_flag.store(true, Ordering::SeqCst);
+        drop(inner);
+        self.resume.notify_all();
+        self.notify();
+    }
+
+    /// Ctrl-C: stop the solve (if it still runs), then close once the
+    /// outputs are written.
+    pub fn request_shutdown(&self) {
+        self.shutdown_flag.store(true, Ordering::SeqCst);
+        self.stop();
+    }
+
+    /// Whether Ctrl-C (or [`Shared::request_shutdown`]) was received.
+    pub fn shutdown_requested(&self) -> bool {
+        self.shutdown_flag.load(Ordering::SeqCst)
+    }
+
+    /// Tells the server's tasks to close their connections.
+    pub fn close(&self) {
+        self.closing.send_replace(true);
+    }
+
+    /// The run is over: `outcome`'s files are written.
+    pub fn finished(&self, outcome: &Outcome) {
+        let mut inner = self.lock();
+        inner.status.phase = Phase::Finished;
+        inner.status.stop_reason = Some(outcome.stop.describe());
+        inner.status.written = outcome
+            .written
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        inner.status.pause_requested = false;
+        drop(inner);
+        self.notify();
+    }
+
+    fn set_scene(&self, scene: &Scene, mesh: &Mesh) {
+        let camera = self
+            .display
+            .camera
+            .unwrap_or_else(|| scene.camera_or_framing());
+        let counts = Counts::of(scene, mesh);
+        let (lo, hi) = scene.bounds();
+        let mesh_message = wire::mesh_message(scene, mesh);
+        let json = serde_json::json!({
+            "type": "scene",
+            "name": scene.name,
+            "surfaces": counts.surfaces,
+            "patches": counts.patches,
+            "elements": counts.elements,
+            "vertices": counts.vertices,
+            "triangles": wire::triangles(mesh).len(),
+            "bounds": [lo.to_array(), hi.to_array()],
+            "camera": {
+                "eye": camera.eye.to_array(),
+                "target": camera.target.to_array(),
+                "up": camera.up.to_array(),
+                "fov": camera.fov_degrees,
+            },
+            "ambient": self.display.ambient,
+            "exposure": self.display.exposure,
+        })
+        .to_string();
+        let vertices = mesh
+            .vertices
+            .iter()
+            .map(|v| {
+                let surface = &scene.surfaces[v.surface as usize];
+                VertexInfo {
+                    position: v.position,
+                    normal: v.normal,
+                    face: surface.face,
+                    rho: surface.rho,
+                    emission: surface.emission,
+                }
+            })
+            .collect();
+        // Only one solve runs per server: a second call keeps the first.
+        let _ = self.scene.set(SceneInfo {
+            json,
+            mesh: Bytes::from(mesh_message),
+            vertices,
+        });
+    }
+
+    fn publish(&self, radiosity: Vec<DVec3>, ambient: DVec3, update: impl FnOnce(&mut Status)) {
+        let mut inner = self.lock();
+        let seq = inner.snapshot.as_ref().map_or(1, |s| s.seq + 1);
+        inner.snapshot = Some(Arc::new(Snapshot {
+            seq,
+            radiosity,
+            ambient,
+            rgbe: OnceLock::new(),
+        }));
+        inner.status.seq = seq;
+        update(&mut inner.status);
+        drop(inner);
+        self.notify();
+    }
+
+    fn set_phase(&self, phase: Phase) {
+        let mut inner = self.lock();
+        inner.status.phase = phase;
+        if phase == Phase::Paused {
+            inner.status.pause_requested = false;
+        }
+        drop(inner);
+        self.notify();
+    }
+
+    /// Blocks the solve thread while paused; true if it should stop.
+    fn wait_while_paused(&self) -> bool {
+        let mut inner = self.lock();
+        while inner.paused && !self.stop_flag.load(Ordering::SeqCst) {
+            inner = self
+                .resume
+                .wait(inner)
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+        self.stop_flag.load(Ordering::SeqCst)
+    }
+}
+
+/// The ambient term before any shot, when every patch's unshot radiosity
+/// is its emission: [`Solver::ambient`] at the start (Cohen et al. 1988;
+/// design.md section 2), without building a solver.
+#[must_use]
+pub fn initial_ambient(scene: &Scene, mesh: &Mesh) -> DVec3 {
+    let mut area = 0.0;
+    let mut unshot = DVec3::ZERO;
+    let mut rho = DVec3::ZERO;
+    for patch in &mesh.patches {
+        let surface = &scene.surfaces[patch.surface as usize];
+        area += patch.area;
+        unshot += surface.emission * patch.area;
+        rho += surface.rho * patch.area;
+    }
+    if area <= 0.0 {
+        return DVec3::ZERO;
+    }
+    (unshot / area) / (DVec3::ONE - rho / area)
+}
+
+/// The [`Observer`] that feeds the live view from the solve thread.
+pub struct LiveObserver {
+    shared: Arc<Shared>,
+    solve_start: Instant,
+    paused_total: Duration,
+    last_publish: Option<Instant>,
+    /// Active solve time and rays at the last snapshot, for rays/s.
+    last_rays: (Duration, u64),
+    rays_per_second: f64,
+}
+
+impl LiveObserver {
+    /// An observer publishing into `shared`.
+    pub fn new(shared: Arc<Shared>) -> LiveObserver {
+        LiveObserver {
+            shared,
+            solve_start: Instant::now(),
+            paused_total: Duration::ZERO,
+            last_publish: None,
+            last_rays: (Duration::ZERO, 0),
+            rays_per_second: 0.0,
+        }
+    }
+
+    fn active_time(&self) -> Duration {
+        self.solve_start.elapsed().saturating_sub(self.paused_total)
+    }
+
+    fn publish(&mut self, solver: &Solver<'_>, phase: Phase, stop: Option<StopReason>) {
+        let stats = solver.stats();
+        let active = self.active_time();
+        let window = active.saturating_sub(self.last_rays.0);
+        // Too short a window (a pause right after a snapshot) keeps the
+        // previous rate rather than showing noise.
+        if window >= Duration::from_millis(50) {
+            self.rays_per_second =
+                stats.rays_cast.saturating_sub(self.last_rays.1) as f64 / window.as_secs_f64();
+            self.last_rays = (active, stats.rays_cast);
+        }
+        let rays_per_second = self.rays_per_second;
+        let unshot_fraction = solver.unshot_fraction();
+        self.shared
+            .publish(solver.radiosity().to_vec(), solver.ambient(), |status| {
+                status.phase = phase;
+                if phase == Phase::Paused {
+                    status.pause_requested = false;
+                }
+                status.shots = stats.shots;
+                status.subsources = stats.subsources;
+                status.rays = stats.rays_cast;
+                status.rays_per_second = rays_per_second;
+                status.unshot_fraction = unshot_fraction;
+                status.elapsed_seconds = active.as_secs_f64();
+                if let Some(stop) = stop {
+                    status.stop_reason = Some(stop.describe());
+                }
+            });
+        self.last_publish = Some(Instant::now());
+    }
+}
+
+impl Observer for LiveObserver {
+    fn started(&mut self, scene: &Scene, mesh: &Mesh) {
+        self.shared.set_scene(scene, mesh);
+        // Before the first shot only the emitters shine, and the ambient
+        // term stands for all the rest: shown while the first shot (long
+        // on a large scene) runs.
+        let radiosity = mesh
+            .vertices
+            .iter()
+            .map(|v| scene.surfaces[v.surface as usize].emission)
+            .collect();
+        self.shared
+            .publish(radiosity, initial_ambient(scene, mesh), |status| {
+                status.phase = Phase::Solving;
+            });
+        self.solve_start = Instant::now();
+    }
+
+    fn shot(&mut self, solver: &Solver<'_>) -> Flow {
+        if self.shared.stop_flag.load(Ordering::SeqCst) {
+            return Flow::Stop;
+        }
+        if self.shared.pause_flag.load(Ordering::SeqCst) {
+            self.publish(solver, Phase::Paused, None);
+            let paused_at = Instant::now();
+            let stop = self.shared.wait_while_paused();
+            self.paused_total += paused_at.elapsed();
+            if stop {
+                return Flow::Stop;
+            }
+            self.shared.set_phase(Phase::Solving);
+            return Flow::Continue;
+        }
+        if self
+            .last_publish
+            .is_none_or(|t| t.elapsed() >= SNAPSHOT_INTERVAL)
+        {
+            self.publish(solver, Phase::Solving, None);
+        }
+        Flow::Continue
+    }
+
+    fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
+        self.publish(solver, Phase::Writing, Some(stop));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::MeshSettings;
+    use crate::solver::Settings;
+
+    /// The ambient term shown before the first shot is the solver's own at
+    /// the start.
+    #[test]
+    fn initial_ambient_is_the_solvers() {
+        for name in ["cornell", "room"] {
+            let scene = crate::scene::load(name).unwrap();
+            let hint = scene.default_mesh_sizes();
+            let settings = MeshSettings {
+                patch_size: hint.patch_size,
+                element_size: hint.element_size * 4.0,
+                ..MeshSettings::default()
+            };
+            let mesh = Mesh::build(&scene, &settings).unwrap();
+            let solver = Solver::new(&scene, &mesh, Settings::wong_tsang93());
+            let expected = solver.ambient();
+            let got = initial_ambient(&scene, &mesh);
+            assert!(expected.max_element() > 0.0);
+            assert!(
+                (got - expected).length() <= 1e-12 * expected.length(),
+                "{name}: {got} vs {expected}"
+            );
+        }
+    }
+}
