@@ -1,6 +1,6 @@
 //! Adaptive shooting, beyond the paper: shooters carry their radiosity at
-//! element resolution and each receiver refines the shooter until the part
-//! it takes as one source is accurate for it.
+//! element resolution, and each transfer is refined at both ends until it
+//! is accurate.
 //!
 //! The paper's patches shoot one uniform unshot radiosity, so a receiver
 //! near a large patch whose radiosity varies across it (a wall brighter near
@@ -11,38 +11,50 @@
 //!   each element's own unshot radiosity. Book-keeping is exact: the power
 //!   shot, received, absorbed and reflected balance to round-off
 //!   ([`super::Energy`]).
-//! * **Shooters from the source hierarchy** ([`super::hierarchy`]): the
-//!   largest clusters of elements no bigger than the patch size, chosen by
-//!   unshot power as in Wallace et al. (1989) and Cohen et al. (1988).
-//! * **Per-receiver refinement** (the adaptive source subdivision of Wallace,
-//!   Elmquist & Haines 1989, section 4, with the error estimate of
-//!   hierarchical radiosity, Hanrahan, Salzman & Aupperle 1991): walking the
-//!   shooter's tree from its root, a receiver accepts a node as one source
-//!   when the irradiance it can send is negligible (below
-//!   `tolerance x` the scene's mean radiosity, bounded from the node's
-//!   bounding sphere), or when the receiver is more than [`FAR_RATIO`] of
-//!   the node's radius away and the irradiance is below [`FAR_FACTOR`] times
-//!   that; otherwise it visits the node's children. Elements are the finest
-//!   sources: the analytic factor of the paper's equation (2) on the
+//! * **What shoots** ([`super::hierarchy`]): the shooter with the most
+//!   unshot power, as in Wallace et al. (1989) and Cohen et al. (1988),
+//!   while one holds at least [`SWEEP_SHARE`] of all unshot power (the
+//!   lights, early on); after that the whole scene at once, a *sweep*, so a
+//!   scene of many shooters converges in a few passes rather than in
+//!   thousands of shots of its small pieces.
+//! * **Two-sided refinement** (Hanrahan, Salzman & Aupperle 1991; with
+//!   clusters at both ends as in Smits, Arvo & Greenberg 1994): a transfer
+//!   from a source node to a group of receivers is accepted as one *link*
+//!   when the two are far apart (beyond [`LINK_RATIO`] times their radii
+//!   added), it can send little to them (below [`LINK_FACTOR`] times the
+//!   negligible irradiance), and shadow rays between points spread over
+//!   both agree on their visibility; each receiver then takes the source's
+//!   corrected point-source irradiance ([`point_factor`]) with that shared
+//!   visibility, without rays of its own. Otherwise the larger of the two is
+//!   split.
+//! * **Per-receiver refinement** (the adaptive source subdivision of
+//!   Wallace, Elmquist & Haines 1989, section 4): a single receiver walks
+//!   the source's tree, accepting a node as one source when the irradiance
+//!   it can send is negligible, or when the receiver is beyond
+//!   [`FAR_RATIO`] of its radius and either that irradiance is below
+//!   [`FAR_FACTOR`] times negligible or four shadow rays spread over the
+//!   node agree; otherwise it visits the node's children. Elements are the
+//!   finest sources: the analytic factor of the paper's equation (2) on the
 //!   element's polygon (clipped to the receiver's front), a shadow ray from
-//!   its centre. So the near field sees element resolution and the far field
-//!   a few sources.
+//!   its centre. So the near field sees element resolution and the far
+//!   field a few sources.
+//! * **Negligible** is the tolerance times what the receiver has gathered
+//!   so far (or the scene's mean radiosity, if more): a bright source is
+//!   shot carefully everywhere, a dim one coarsely where it adds little.
 //! * **A node as a source.** Its elements' unshot power is kept in up to six
 //!   bins by the dominant axis of their normals (one for a node within one
-//!   surface): each bin is a disk-like source of its area, power,
-//!   power-weighted centre and mean normal, seen through Wallace's equation
-//!   (1), `dE = P cos(theta_s) cos(theta_r) / (pi r^2 + A)`, its visibility
-//!   a shadow ray from the centre of its element nearest that centre (a
-//!   point on a real surface, not in the air between a cluster's members).
+//!   surface): each bin is a point source of its power, power-weighted
+//!   centre, mean normal and second moment, its visibility a shadow ray from
+//!   the centre of its element nearest that centre (a point on a real
+//!   surface, not in the air between a cluster's members).
 
 use std::f64::consts::PI;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use rayon::prelude::*;
 
-use super::hierarchy::{Hierarchy, NONE, Node};
-use super::{Received, Receiver, Settings, Shot, ShotInputs, Stats};
+use super::hierarchy::{self, Hierarchy, NONE, Node, Tree};
+use super::{Receiver, Received, Settings, Shot, ShotInputs, Stats};
 use crate::accel::{self, Occluder};
 use crate::form_factor::{FormFactor, Source};
 use crate::geometry;
@@ -50,47 +62,70 @@ use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
-/// A node is far from a receiver beyond this many of its radii: a disk seen
-/// from three radii is within a few per cent of equation (1).
+/// A node is far from a receiver beyond this many of its radii: a square
+/// seen from three of its radii is within 0.3% of its exact factor as a
+/// corrected point source ([`point_factor`]).
 pub const FAR_RATIO: f64 = 3.0;
 
-/// A far node is accepted while the irradiance it can send is below this
-/// many times the negligible irradiance.
+/// A far node is accepted with one shadow ray a bin while the irradiance
+/// it can send is below this many times the negligible irradiance.
 pub const FAR_FACTOR: f64 = 30.0;
+
+/// A source node and a receiver node are far apart beyond this many times
+/// their radii added.
+pub const LINK_RATIO: f64 = 3.0;
+
+/// A link shares its visibility among its receivers only while the
+/// irradiance it can send is below this many times the negligible
+/// irradiance; brighter transfers go down to each receiver's own rays.
+pub const LINK_FACTOR: f64 = 30.0;
 
 /// An accepted node's geometry is integrated over pieces at least this
 /// many of their radii from the receiver, each a corrected point source
 /// ([`point_factor`]).
 pub const QUADRATURE_RATIO: f64 = 4.0;
 
-/// Receivers handled together by one task.
-const RECEIVERS_PER_CHUNK: usize = 64;
+/// The brightest shooter shoots alone while it holds at least this share of
+/// all unshot power; below it the whole scene shoots at once.
+pub const SWEEP_SHARE: f64 = 0.05;
+
+/// Receiver groups at least this large are refined in parallel.
+const PARALLEL_RECEIVERS: u32 = 1024;
+
+/// One ray or factor in this many is timed, for the statistics' phase
+/// times (a clock read costs a tenth of a ray).
+const TIMING_SAMPLE: u64 = 16;
 
 /// The state of adaptive shooting.
 pub(crate) struct AdaptiveShooting {
     hierarchy: Hierarchy,
+    /// The receivers' tree (vertices, then sensors).
+    receiver_tree: Tree,
     /// Unshot radiosity of each element.
     unshot: Vec<DVec3>,
     /// Unshot power (luminance) of each shooter.
     shooter_power: Vec<f64>,
     /// Irradiance (luminance, W/m^2) a source may send and still be
-    /// accepted whole: the tolerance times the scene's mean radiosity, or
-    /// times a receiver's irradiance so far where that is larger.
+    /// accepted whole, for a receiver with no more than the scene's mean
+    /// radiosity: the tolerance times that mean.
     negligible: f64,
     /// The scene's mean radiosity, estimated (luminance).
     mean_radiosity: f64,
-    /// Per-node source data of the current shot, reused.
+    /// Per-node source data of the current shot (indexed from its root).
     sources: Vec<NodeSource>,
+    /// Their bins.
+    bins: Vec<Bin>,
 }
 
-/// Up to six bins of unshot power by normal direction.
+/// A node's unshot power, in bins by normal direction.
 #[derive(Clone, Copy, Debug, Default)]
 struct NodeSource {
-    bins: [Bin; 6],
-    /// Bins in use, a bit each.
-    used: u8,
     /// Total luminance power.
     weight: f64,
+    /// First of its bins in [`AdaptiveShooting::bins`].
+    first_bin: u32,
+    /// Number of its bins.
+    bins: u8,
 }
 
 /// Unshot power of elements whose normals share a dominant axis, with the
@@ -104,20 +139,29 @@ struct Bin {
     weight: f64,
     /// Weighted sum of normals.
     normal: DVec3,
-    /// Weighted sum of element centroids, relative to the shooter's centre
-    /// (so the spread below loses no digits far from the origin).
+    /// Weighted sum of element centroids, relative to the shooting node's
+    /// centre (so the spread below loses no digits far from the origin).
     position: DVec3,
-    /// Weighted sum of squared distances from the shooter's centre, each
-    /// element's own spread included.
+    /// Weighted sum of squared distances from that centre, each element's
+    /// own spread included.
     moment: f64,
     /// The element whose centroid the shadow rays start from.
     representative: u32,
+    /// The dominant axis and sign of its normals (0..6).
+    axis: u8,
 }
 
 impl AdaptiveShooting {
-    /// Unshot radiosity `E` on every element; the hierarchy over the mesh.
-    pub(crate) fn new(scene: &Scene, mesh: &Mesh, settings: &Settings) -> AdaptiveShooting {
+    /// Unshot radiosity `E` on every element; the trees over the mesh and
+    /// the receivers.
+    pub(crate) fn new(
+        scene: &Scene,
+        mesh: &Mesh,
+        settings: &Settings,
+        receivers: &[Receiver],
+    ) -> AdaptiveShooting {
         let hierarchy = Hierarchy::build(scene, mesh, settings.mesh.patch_size);
+        let receiver_tree = hierarchy::receiver_tree(receivers, settings.mesh.patch_size);
         let unshot: Vec<DVec3> = mesh
             .elements
             .iter()
@@ -139,10 +183,12 @@ impl AdaptiveShooting {
         let mut shooting = AdaptiveShooting {
             shooter_power: vec![0.0; hierarchy.shooters.len()],
             hierarchy,
+            receiver_tree,
             unshot,
             negligible: settings.tolerance * mean_radiosity,
             mean_radiosity: mean_radiosity.max(f64::MIN_POSITIVE),
             sources: Vec::new(),
+            bins: Vec::new(),
         };
         shooting.total_shooter_power(mesh);
         shooting
@@ -185,76 +231,84 @@ impl AdaptiveShooting {
         received
     }
 
-    /// One shot of the shooter with the most unshot power; its elements'
-    /// unshot radiosity is zeroed.
-    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Shot {
-        let start = Instant::now();
-        let (scene, mesh) = (inputs.scene, inputs.mesh);
-        let shooter = self
+    /// The node that shoots next: the shooter with the most unshot power
+    /// while it holds at least [`SWEEP_SHARE`] of it all, else the root.
+    fn choose_shooting_node(&self) -> u32 {
+        let (best, power) = self
             .shooter_power
             .iter()
             .enumerate()
             .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
                 if p > best.1 { (i, p) } else { best }
-            })
-            .0;
-        let root = self.hierarchy.shooters[shooter];
+            });
+        let total: f64 = self.shooter_power.iter().sum();
+        if power >= SWEEP_SHARE * total {
+            self.hierarchy.shooters[best]
+        } else {
+            0
+        }
+    }
+
+    /// One shot of the chosen node; its elements' unshot radiosity is
+    /// zeroed.
+    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Shot {
+        let start = Instant::now();
+        let (scene, mesh) = (inputs.scene, inputs.mesh);
+        let root = self.choose_shooting_node();
         self.prepare_sources(scene, mesh, root);
         let mut power = DVec3::ZERO;
         let mut elements = 0u64;
-        for &e in self.hierarchy.elements_of(root) {
+        for &e in self.hierarchy.tree.items_of(root) {
             power += self.unshot[e as usize] * mesh.elements[e as usize].area;
             elements += 1;
         }
+        let negligible = self.receiver_negligible(inputs.irradiance);
 
         let gather_start = Instant::now();
-        let context = Gatherer {
+        let gatherer = Gatherer {
             scene,
             mesh,
             hierarchy: &self.hierarchy,
+            receiver_tree: &self.receiver_tree,
+            receivers: inputs.receivers,
+            negligible: &negligible,
             unshot: &self.unshot,
             sources: &self.sources,
+            bins: &self.bins,
             root,
-            origin: self.hierarchy.nodes[root as usize].centre,
+            origin: self.hierarchy.tree.nodes[root as usize].centre,
             occluder: inputs.occluder,
             form_factor: inputs.settings.form_factor,
-            negligible: self.negligible,
-            mean_radiosity: self.mean_radiosity,
         };
-        let gathered: Vec<(Vec<DVec3>, Counters)> = inputs
-            .receivers
-            .par_chunks(RECEIVERS_PER_CHUNK)
-            .zip(inputs.irradiance.par_chunks(RECEIVERS_PER_CHUNK))
-            .map(|(chunk, irradiance)| context.gather_chunk(chunk, irradiance))
-            .collect();
+        // Irradiance in the receiver tree's order, then put back in order.
+        let mut gathered = vec![DVec3::ZERO; inputs.receivers.len()];
+        let counters = if gathered.is_empty() {
+            Counters::default()
+        } else {
+            gatherer.refine(root, 0, &mut gathered)
+        };
+        let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
+        for (&r, e) in self.receiver_tree.items.iter().zip(gathered) {
+            irradiance[r as usize] = e;
+        }
         let gather_end = Instant::now();
 
-        let mut irradiance = Vec::with_capacity(inputs.receivers.len());
-        for (chunk, counters) in gathered {
-            irradiance.extend(chunk);
-            stats.pairs += counters.pairs;
-            stats.rays_cast += counters.rays;
-            stats.pretest_time += counters.refine;
-            stats.ray_time += counters.ray_time;
-            stats.form_factor_time += counters.form_factor_time;
+        if std::env::var("RAD_DEBUG").is_ok() {
+            let node = &self.hierarchy.tree.nodes[root as usize];
+            eprintln!("shot {} root {root} elements {elements} radius {:.2} power {:.3e} rays {} [leaf {} bins {} uniform {} linkrays {} linked receivers {}] {:.2}s", stats.shots, node.radius, luminance(power), counters.rays, counters.cat[0], counters.cat[1], counters.cat[2], counters.cat[3], counters.cat[4], (gather_end-gather_start).as_secs_f64());
         }
-        for &e in self.hierarchy.elements_of(root) {
+        stats.pairs += counters.pairs;
+        stats.rays_cast += counters.rays;
+        stats.ray_time += counters.ray_time;
+        stats.form_factor_time += counters.form_factor_time;
+        stats.pretest_time += (gather_end - gather_start)
+            .mul_f64(rayon::current_num_threads() as f64)
+            .saturating_sub(counters.ray_time + counters.form_factor_time);
+        for &e in self.hierarchy.tree.items_of(root) {
             self.unshot[e as usize] = DVec3::ZERO;
         }
         stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
-        if std::env::var("RAD_DEBUG").is_ok() {
-            let node = &self.hierarchy.nodes[root as usize];
-            eprintln!(
-                "shot {} shooter {shooter} elements {elements} radius {:.2} group {} power {:.3e} rays {} time {:.2}s",
-                stats.shots,
-                node.radius,
-                node.group,
-                luminance(power),
-                stats.rays_cast,
-                (gather_end - gather_start).as_secs_f64()
-            );
-        }
         Shot {
             irradiance,
             power,
@@ -262,29 +316,48 @@ impl AdaptiveShooting {
         }
     }
 
-    /// Fills `sources` for the nodes of the subtree at `root`, children
-    /// before parents.
+    /// The negligible irradiance of each receiver-tree node: the smallest
+    /// of its receivers', each the tolerance times what it has gathered (or
+    /// the scene's mean radiosity, if more). A receiver that has gathered
+    /// much takes a dim source's small errors in its stride.
+    fn receiver_negligible(&self, irradiance: &[DVec3]) -> Vec<f64> {
+        let nodes = &self.receiver_tree.nodes;
+        let mut out = vec![0.0; nodes.len()];
+        for n in (0..nodes.len()).rev() {
+            let node = &nodes[n];
+            out[n] = if node.is_leaf() {
+                let r = self.receiver_tree.items[node.first as usize] as usize;
+                self.negligible * (luminance(irradiance[r]) / self.mean_radiosity).max(1.0)
+            } else {
+                out[n + 1].min(out[node.second as usize])
+            };
+        }
+        out
+    }
+
+    /// Fills `sources` and `bins` for the nodes of the subtree at `root`,
+    /// children before parents.
     fn prepare_sources(&mut self, scene: &Scene, mesh: &Mesh, root: u32) {
-        let nodes = &self.hierarchy.nodes;
+        let nodes = &self.hierarchy.tree.nodes;
         let end = nodes[root as usize].end;
         let origin = nodes[root as usize].centre;
-        let count = (end - root) as usize;
         self.sources.clear();
-        self.sources.resize(count, NodeSource::default());
+        self.sources
+            .resize((end - root) as usize, NodeSource::default());
+        self.bins.clear();
+        let mut merged: Vec<Bin> = Vec::with_capacity(6);
         for n in (root..end).rev() {
             let node = &nodes[n as usize];
-            let source = if node.is_leaf() {
-                let e = self.hierarchy.elements[node.first as usize];
+            merged.clear();
+            if node.is_leaf() {
+                let e = self.hierarchy.tree.items[node.first as usize];
                 let element = &mesh.elements[e as usize];
-                let unshot = self.unshot[e as usize];
-                let power = unshot * element.area;
+                let power = self.unshot[e as usize] * element.area;
                 let weight = luminance(power);
-                let mut source = NodeSource::default();
                 if weight > 0.0 {
                     let normal = scene.surfaces[element.surface as usize].normal;
                     let offset = self.hierarchy.centroids[e as usize] - origin;
-                    let b = bin_of(normal);
-                    source.bins[b] = Bin {
+                    merged.push(Bin {
                         power,
                         weight,
                         normal: normal * weight,
@@ -292,23 +365,35 @@ impl AdaptiveShooting {
                         moment: (offset.length_squared() + self.hierarchy.spreads[e as usize])
                             * weight,
                         representative: e,
-                    };
-                    source.used = 1 << b;
-                    source.weight = weight;
+                        axis: axis_of(normal),
+                    });
                 }
-                source
             } else {
                 let a = self.sources[(n + 1 - root) as usize];
                 let b = self.sources[(node.second - root) as usize];
-                merge_sources(&a, &b, &self.hierarchy.centroids, origin)
+                let bins_of = |s: &NodeSource| {
+                    &self.bins[s.first_bin as usize..s.first_bin as usize + s.bins as usize]
+                };
+                merge_bins(
+                    bins_of(&a),
+                    bins_of(&b),
+                    &self.hierarchy.centroids,
+                    origin,
+                    &mut merged,
+                );
+            }
+            self.sources[(n - root) as usize] = NodeSource {
+                weight: merged.iter().map(|b| b.weight).sum(),
+                first_bin: self.bins.len() as u32,
+                bins: merged.len() as u8,
             };
-            self.sources[(n - root) as usize] = source;
+            self.bins.extend_from_slice(&merged);
         }
     }
 }
 
 /// The bin of a normal: the axis and sign of its largest component.
-fn bin_of(normal: DVec3) -> usize {
+fn axis_of(normal: DVec3) -> u8 {
     let a = normal.abs();
     let axis = if a.x >= a.y && a.x >= a.z {
         0
@@ -317,44 +402,44 @@ fn bin_of(normal: DVec3) -> usize {
     } else {
         2
     };
-    2 * axis + usize::from(normal[axis] < 0.0)
+    2 * axis as u8 + u8::from(normal[axis] < 0.0)
 }
 
-/// The source of a node from its children's.
-fn merge_sources(a: &NodeSource, b: &NodeSource, centroids: &[DVec3], origin: DVec3) -> NodeSource {
-    let mut out = NodeSource {
-        used: a.used | b.used,
-        weight: a.weight + b.weight,
-        ..NodeSource::default()
-    };
-    for k in 0..6 {
-        let (x, y) = (&a.bins[k], &b.bins[k]);
-        out.bins[k] = match (a.used & (1 << k) != 0, b.used & (1 << k) != 0) {
-            (false, false) => continue,
-            (true, false) => *x,
-            (false, true) => *y,
-            (true, true) => {
-                let weight = x.weight + y.weight;
-                let position = x.position + y.position;
-                let centre = origin + position / weight;
-                let nearer =
-                    |p: &Bin| centroids[p.representative as usize].distance_squared(centre);
-                Bin {
-                    power: x.power + y.power,
-                    weight,
-                    normal: x.normal + y.normal,
-                    position,
-                    moment: x.moment + y.moment,
-                    representative: if nearer(y) < nearer(x) {
-                        y.representative
-                    } else {
-                        x.representative
-                    },
-                }
-            }
-        };
+/// The bins of a node from its children's (each sorted by axis).
+fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mut Vec<Bin>) {
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() || j < b.len() {
+        let take_a = j == b.len() || (i < a.len() && a[i].axis < b[j].axis);
+        let take_b = i == a.len() || (j < b.len() && b[j].axis < a[i].axis);
+        if take_a {
+            out.push(a[i]);
+            i += 1;
+        } else if take_b {
+            out.push(b[j]);
+            j += 1;
+        } else {
+            let (x, y) = (&a[i], &b[j]);
+            let weight = x.weight + y.weight;
+            let position = x.position + y.position;
+            let centre = origin + position / weight;
+            let nearer = |p: &Bin| centroids[p.representative as usize].distance_squared(centre);
+            out.push(Bin {
+                power: x.power + y.power,
+                weight,
+                normal: x.normal + y.normal,
+                position,
+                moment: x.moment + y.moment,
+                representative: if nearer(y) < nearer(x) {
+                    y.representative
+                } else {
+                    x.representative
+                },
+                axis: x.axis,
+            });
+            i += 1;
+            j += 1;
+        }
     }
-    out
 }
 
 /// Irradiance at the receiver per unit power of `bin` seen as a point:
@@ -368,10 +453,10 @@ fn merge_sources(a: &NodeSource, b: &NodeSource, centroids: &[DVec3], origin: DV
 /// point errs by 7% and equation (1) by 12% (tested). Clamped where the
 /// expansion fails (a receiver seeing the source almost edge-on, whose factor
 /// is then small anyway).
-fn point_factor(bin: &Bin, origin: DVec3, r: &Receiver) -> f64 {
+fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
     let w = bin.weight;
     let centre = bin.position / w;
-    let d = r.point - origin - centre;
+    let d = point - origin - centre;
     let r2 = d.length_squared();
     let mean_normal = bin.normal / w;
     let length = mean_normal.length();
@@ -382,14 +467,38 @@ fn point_factor(bin: &Bin, origin: DVec3, r: &Receiver) -> f64 {
     let direction = d / distance;
     let s = mean_normal / length;
     let cos_s = s.dot(direction);
-    let cos_r = -r.normal.dot(direction);
+    let cos_r = -normal.dot(direction);
     if cos_s <= 0.0 || cos_r <= 0.0 {
         return 0.0;
     }
     let spread = (bin.moment / w - centre.length_squared()).max(0.0);
-    let bracket = 1.0 - 3.0 * cos_s * cos_s - r.normal.dot(s) * cos_s / cos_r;
+    let bracket = 1.0 - 3.0 * cos_s * cos_s - normal.dot(s) * cos_s / cos_r;
     let correction = (2.0 * spread / r2 * bracket).clamp(-0.5, 0.5);
     length * cos_s * cos_r / (PI * r2) * (1.0 + correction)
+}
+
+fn r_last(t: &Tree, r: u32) -> u32 { t.nodes[r as usize].last - t.nodes[r as usize].first }
+
+/// Counters of a part of a shot.
+#[derive(Clone, Copy, Debug, Default)]
+struct Counters {
+    cat: [u64; 5],
+    pairs: u64,
+    rays: u64,
+    factors: u64,
+    ray_time: Duration,
+    form_factor_time: Duration,
+}
+
+impl std::ops::AddAssign for Counters {
+    fn add_assign(&mut self, o: Counters) {
+        for k in 0..5 { self.cat[k] += o.cat[k]; }
+        self.pairs += o.pairs;
+        self.rays += o.rays;
+        self.factors += o.factors;
+        self.ray_time += o.ray_time;
+        self.form_factor_time += o.form_factor_time;
+    }
 }
 
 /// Buffers a task reuses from receiver to receiver.
@@ -405,86 +514,228 @@ struct Scratch {
     clipped: Vec<DVec3>,
 }
 
-/// Counters of one chunk of receivers.
-#[derive(Clone, Copy, Debug, Default)]
-struct Counters {
-    pairs: u64,
-    rays: u64,
-    refine: Duration,
-    ray_time: Duration,
-    form_factor_time: Duration,
-}
-
-/// Everything a receiver needs to gather from the shooter.
+/// Everything a shot's transfers read.
 struct Gatherer<'s> {
     scene: &'s Scene,
     mesh: &'s Mesh,
     hierarchy: &'s Hierarchy,
+    receiver_tree: &'s Tree,
+    receivers: &'s [Receiver],
+    /// Negligible irradiance per receiver-tree node.
+    negligible: &'s [f64],
     unshot: &'s [DVec3],
     sources: &'s [NodeSource],
+    bins: &'s [Bin],
+    /// The shooting node.
     root: u32,
-    /// The shooter's centre, the origin of the bins' sums.
+    /// Its centre, the origin of the bins' sums.
     origin: DVec3,
     occluder: &'s dyn Occluder,
     form_factor: FormFactor,
-    /// Negligible irradiance for a receiver with no more than the mean
-    /// radiosity.
-    negligible: f64,
-    mean_radiosity: f64,
 }
 
 impl Gatherer<'_> {
-    fn gather_chunk(&self, receivers: &[Receiver], irradiance: &[DVec3]) -> (Vec<DVec3>, Counters) {
-        let start = Instant::now();
-        let mut counters = Counters::default();
-        let mut scratch = Scratch::default();
-        let out = receivers
-            .iter()
-            .zip(irradiance)
-            .map(|(r, e)| {
-                // Errors are weighed against what the receiver has already
-                // gathered (or, before it has, the scene's mean radiosity):
-                // a bright source is shot carefully everywhere, a dim one
-                // coarsely where it adds little to what is there.
-                let negligible = self.negligible * (luminance(*e) / self.mean_radiosity).max(1.0);
-                self.gather(r, negligible, &mut scratch, &mut counters)
-            })
-            .collect();
-        // Rays and factors are timed where they are cast; the rest is the
-        // walk choosing the sources.
-        counters.refine = start
-            .elapsed()
-            .saturating_sub(counters.ray_time + counters.form_factor_time);
-        (out, counters)
+    fn source(&self, n: u32) -> &NodeSource {
+        &self.sources[(n - self.root) as usize]
     }
 
-    /// The irradiance the shooter sends to one receiver.
+    fn bins_of(&self, n: u32) -> &[Bin] {
+        let s = self.source(n);
+        &self.bins[s.first_bin as usize..s.first_bin as usize + s.bins as usize]
+    }
+
+    fn source_node(&self, n: u32) -> &Node {
+        &self.hierarchy.tree.nodes[n as usize]
+    }
+
+    /// The transfer from source node `s` to receiver node `r`, added to
+    /// `out` (the irradiance of `r`'s receivers, in tree order).
+    fn refine(&self, s: u32, r: u32, out: &mut [DVec3]) -> Counters {
+        let mut counters = Counters::default();
+        let mut scratch = Scratch::default();
+        self.refine_into(s, r, out, &mut scratch, &mut counters);
+        counters
+    }
+
+    fn refine_into(
+        &self,
+        s: u32,
+        r: u32,
+        out: &mut [DVec3],
+        scratch: &mut Scratch,
+        counters: &mut Counters,
+    ) {
+        let source = self.source(s);
+        if source.weight <= 0.0 {
+            return;
+        }
+        let sn = self.source_node(s);
+        let rn = &self.receiver_tree.nodes[r as usize];
+        if sn.group != NONE && sn.group == rn.group {
+            return;
+        }
+        if rn.is_leaf() {
+            let receiver = &self.receivers[self.receiver_tree.items[rn.first as usize] as usize];
+            out[0] += self.gather(s, receiver, self.negligible[r as usize], scratch, counters);
+            return;
+        }
+        if !self.may_reach(sn, rn) {
+            return;
+        }
+        // A transfer too bright to share visibility goes to each receiver,
+        // which refines the source for itself; a dim one is linked where
+        // far and uniformly visible, else the larger end is split.
+        let distance = sn.centre.distance(rn.centre);
+        let clearance = distance - sn.radius - rn.radius;
+        let dim = clearance > 0.0
+            && source.weight <= LINK_FACTOR * self.negligible[r as usize] * PI * clearance * clearance;
+        if dim && !sn.is_leaf() && distance >= LINK_RATIO * (sn.radius + rn.radius) {
+            if let Some(visible) = self.shared_visibility(s, r, counters) {
+                if visible {
+                    self.link(s, r, out, counters);
+                }
+                return;
+            }
+        }
+        if !dim || sn.is_leaf() || rn.radius >= sn.radius {
+            let second = rn.second;
+            let split = (self.receiver_tree.nodes[second as usize].first - rn.first) as usize;
+            let (a, b) = out.split_at_mut(split);
+            if rn.last - rn.first >= PARALLEL_RECEIVERS {
+                let (ca, cb) = rayon::join(
+                    || self.refine(s, r + 1, a),
+                    || self.refine(s, second, b),
+                );
+                *counters += ca;
+                *counters += cb;
+            } else {
+                self.refine_into(s, r + 1, a, scratch, counters);
+                self.refine_into(s, second, b, scratch, counters);
+            }
+        } else {
+            self.refine_into(s + 1, r, out, scratch, counters);
+            self.refine_into(sn.second, r, out, scratch, counters);
+        }
+    }
+
+    /// False when no point of source node `sn` can light a receiver of
+    /// `rn`: within one surface, one is behind the other's plane.
+    fn may_reach(&self, sn: &Node, rn: &Node) -> bool {
+        if rn.group != NONE {
+            let first = &self.receivers[self.receiver_tree.items[rn.first as usize] as usize];
+            if first.normal.dot(sn.centre - rn.centre) < -(sn.radius + rn.radius) {
+                return false;
+            }
+        }
+        if sn.group != NONE {
+            let surface = self.plane_of(sn);
+            if surface.normal.dot(rn.centre) - surface.offset < -rn.radius {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The surface of a node within one surface id.
+    fn plane_of(&self, node: &Node) -> &crate::scene::Surface {
+        let e = self.hierarchy.tree.items[node.first as usize];
+        &self.scene.surfaces[self.mesh.elements[e as usize].surface as usize]
+    }
+
+    /// Whether every receiver of `r` sees all of source `s` or none of it,
+    /// judged by shadow rays between up to four points spread over each;
+    /// `None` when they disagree.
+    fn shared_visibility(&self, s: u32, r: u32, counters: &mut Counters) -> Option<bool> {
+        let sources = self.samples(&self.hierarchy.tree, s);
+        let receivers = self.samples(self.receiver_tree, r);
+        let (ns, nr) = (sources.1, receivers.1);
+        let mut seen = None;
+        for i in 0..ns.max(nr) {
+            let Some(e) = self.representative(sources.0[i % ns]) else {
+                continue;
+            };
+            let receiver = &self.receivers[self.receiver_tree.items
+                [self.receiver_tree.nodes[receivers.0[i % nr] as usize].first as usize]
+                as usize];
+            counters.pairs += 1;
+            counters.cat[3] += 1;
+            let visible = self.visible_from(e, receiver, counters);
+            match seen {
+                None => seen = Some(visible),
+                Some(v) if v != visible => return None,
+                Some(_) => {}
+            }
+        }
+        seen
+    }
+
+    /// Up to four nodes spread over node `n`: its grandchildren, or children
+    /// where the tree ends, or itself.
+    fn samples(&self, tree: &Tree, n: u32) -> ([u32; 4], usize) {
+        let mut out = [n; 4];
+        let node = &tree.nodes[n as usize];
+        if node.is_leaf() {
+            return (out, 1);
+        }
+        let mut count = 0;
+        for child in [n + 1, node.second] {
+            let c = &tree.nodes[child as usize];
+            if c.is_leaf() {
+                out[count] = child;
+                count += 1;
+            } else {
+                out[count] = child + 1;
+                out[count + 1] = c.second;
+                count += 2;
+            }
+        }
+        (out, count)
+    }
+
+    /// The representative element of a source node's brightest bin.
+    fn representative(&self, n: u32) -> Option<u32> {
+        self.bins_of(n)
+            .iter()
+            .max_by(|a, b| a.weight.total_cmp(&b.weight))
+            .map(|b| b.representative)
+    }
+
+    /// A link: every receiver of `r` takes source `s`'s corrected point
+    /// sources, visible.
+    fn link(&self, s: u32, r: u32, out: &mut [DVec3], counters: &mut Counters) {
+        let bins = self.bins_of(s);
+        for (i, &index) in self.receiver_tree.items_of(r).iter().enumerate() {
+            let receiver = &self.receivers[index as usize];
+            for bin in bins {
+                out[i] += bin.power * point_factor(bin, self.origin, receiver.point, receiver.normal);
+            }
+        }
+        counters.pairs += 1;
+        counters.cat[4] += (r_last(self.receiver_tree, r)) as u64;
+    }
+
+    /// The irradiance source node `s` sends to one receiver.
     fn gather(
         &self,
+        s: u32,
         r: &Receiver,
         negligible: f64,
         scratch: &mut Scratch,
         counters: &mut Counters,
     ) -> DVec3 {
-        let Scratch {
-            stack,
-            pieces,
-            polygon,
-            clipped,
-        } = scratch;
-        let nodes = &self.hierarchy.nodes;
         let mut sum = DVec3::ZERO;
+        let mut stack = std::mem::take(&mut scratch.stack);
         stack.clear();
-        stack.push(self.root);
+        stack.push(s);
         while let Some(n) = stack.pop() {
-            let node = &nodes[n as usize];
-            let source = &self.sources[(n - self.root) as usize];
+            let node = self.source_node(n);
+            let source = self.source(n);
             if source.weight <= 0.0 || !self.faces(node, r) {
                 continue;
             }
             if node.is_leaf() {
-                let e = self.hierarchy.elements[node.first as usize];
-                sum += self.element_irradiance(e, r, polygon, clipped, counters);
+                let e = self.hierarchy.tree.items[node.first as usize];
+                sum += self.element_irradiance(e, r, scratch, counters);
                 continue;
             }
             let distance = node.centre.distance(r.point);
@@ -493,27 +744,24 @@ impl Gatherer<'_> {
                 // nearest point of its bounding sphere would be negligible.
                 let clearance = distance - node.radius;
                 if clearance > 0.0 && source.weight <= negligible * PI * clearance * clearance {
-                    sum += self.bins_irradiance(n, source, r, pieces, polygon, counters);
+                    sum += self.bins_irradiance(n, r, scratch, counters);
                     continue;
                 }
             } else {
                 // Far: the corrected point sources are accurate; what is
                 // left to judge is occlusion.
-                let estimate: f64 = (0..6)
-                    .filter(|k| source.used & (1 << k) != 0)
-                    .map(|k| {
-                        let bin = &source.bins[k];
-                        bin.weight * point_factor(bin, self.origin, r)
-                    })
+                let estimate: f64 = self
+                    .bins_of(n)
+                    .iter()
+                    .map(|b| b.weight * point_factor(b, self.origin, r.point, r.normal))
                     .sum();
                 if estimate <= FAR_FACTOR * negligible {
-                    sum += self.bins_irradiance(n, source, r, pieces, polygon, counters);
+                    sum += self.bins_irradiance(n, r, scratch, counters);
                     continue;
                 }
                 if let Some(visible) = self.uniform_visibility(n, r, counters) {
                     if visible {
-                        let geometry = self.node_geometry(n, r, pieces, polygon, counters);
-                        sum += geometry.iter().sum::<DVec3>();
+                        sum += self.node_geometry(n, r, scratch, counters).iter().sum::<DVec3>();
                     }
                     continue;
                 }
@@ -521,6 +769,7 @@ impl Gatherer<'_> {
             stack.push(node.second);
             stack.push(n + 1);
         }
+        scratch.stack = stack;
         sum
     }
 
@@ -538,8 +787,7 @@ impl Gatherer<'_> {
         if node.group == r.group {
             return false;
         }
-        let e = self.hierarchy.elements[node.first as usize];
-        let surface = &self.scene.surfaces[self.mesh.elements[e as usize].surface as usize];
+        let surface = self.plane_of(node);
         surface.normal.dot(r.point) - surface.offset > 0.0
     }
 
@@ -548,21 +796,20 @@ impl Gatherer<'_> {
     fn bins_irradiance(
         &self,
         n: u32,
-        source: &NodeSource,
         r: &Receiver,
-        pieces: &mut Vec<u32>,
-        polygon: &mut Vec<DVec3>,
+        scratch: &mut Scratch,
         counters: &mut Counters,
     ) -> DVec3 {
-        let geometry = self.node_geometry(n, r, pieces, polygon, counters);
+        let geometry = self.node_geometry(n, r, scratch, counters);
         let mut sum = DVec3::ZERO;
-        for (k, bin) in source.bins.iter().enumerate() {
-            if source.used & (1 << k) == 0 || geometry[k] == DVec3::ZERO {
+        for (bin, g) in self.bins_of(n).iter().zip(geometry) {
+            if g == DVec3::ZERO {
                 continue;
             }
             counters.pairs += 1;
+            counters.cat[1] += 1;
             if self.visible_from(bin.representative, r, counters) {
-                sum += geometry[k];
+                sum += g;
             }
         }
         sum
@@ -576,33 +823,15 @@ impl Gatherer<'_> {
     /// shadow, so penumbrae are resolved down to elements while open view
     /// costs four rays.
     fn uniform_visibility(&self, n: u32, r: &Receiver, counters: &mut Counters) -> Option<bool> {
-        let nodes = &self.hierarchy.nodes;
-        let node = &nodes[n as usize];
-        let mut samples = [NONE; 4];
-        let mut count = 0;
-        for child in [n + 1, node.second] {
-            let c = &nodes[child as usize];
-            if c.is_leaf() {
-                samples[count] = child;
-                count += 1;
-            } else {
-                samples[count] = child + 1;
-                samples[count + 1] = c.second;
-                count += 2;
-            }
-        }
+        let (samples, count) = self.samples(&self.hierarchy.tree, n);
         let mut seen = None;
         for &piece in &samples[..count] {
-            let source = &self.sources[(piece - self.root) as usize];
-            let Some(bin) = (0..6)
-                .filter(|k| source.used & (1 << k) != 0)
-                .map(|k| &source.bins[k])
-                .max_by(|a, b| a.weight.total_cmp(&b.weight))
-            else {
+            let Some(e) = self.representative(piece) else {
                 continue;
             };
             counters.pairs += 1;
-            let visible = self.visible_from(bin.representative, r, counters);
+            counters.cat[2] += 1;
+            let visible = self.visible_from(e, r, counters);
             match seen {
                 None => seen = Some(visible),
                 Some(v) if v != visible => return None,
@@ -624,17 +853,19 @@ impl Gatherer<'_> {
         &self,
         n: u32,
         r: &Receiver,
-        pieces: &mut Vec<u32>,
-        polygon: &mut Vec<DVec3>,
+        scratch: &mut Scratch,
         counters: &mut Counters,
-    ) -> [DVec3; 6] {
-        let nodes = &self.hierarchy.nodes;
-        let t0 = Instant::now();
-        let mut geometry = [DVec3::ZERO; 6];
+    ) -> Vec<DVec3> {
+        let timed = counters.factors % TIMING_SAMPLE == 0;
+        let t0 = timed.then(Instant::now);
+        let axes: Vec<u8> = self.bins_of(n).iter().map(|b| b.axis).collect();
+        let mut geometry = vec![DVec3::ZERO; axes.len()];
+        let slot = |axis: u8| axes.iter().position(|&a| a == axis);
+        let mut pieces = std::mem::take(&mut scratch.pieces);
         pieces.clear();
         pieces.push(n);
         while let Some(piece) = pieces.pop() {
-            let node = &nodes[piece as usize];
+            let node = self.source_node(piece);
             let near =
                 r.point.distance_squared(node.centre) < (QUADRATURE_RATIO * node.radius).powi(2);
             if near && !node.is_leaf() {
@@ -642,23 +873,22 @@ impl Gatherer<'_> {
                 pieces.push(piece + 1);
                 continue;
             }
-            let sub = &self.sources[(piece - self.root) as usize];
-            if near {
-                // An element close by: its exact factor.
-                let e = self.hierarchy.elements[node.first as usize];
-                let k = sub.used.trailing_zeros() as usize;
-                if k < 6 {
-                    geometry[k] += self.element_factor(e, r, polygon) * self.unshot[e as usize];
-                }
-                continue;
-            }
-            for (k, bin) in sub.bins.iter().enumerate() {
-                if sub.used & (1 << k) != 0 {
-                    geometry[k] += bin.power * point_factor(bin, self.origin, r);
-                }
+            for bin in self.bins_of(piece) {
+                let Some(k) = slot(bin.axis) else { continue };
+                geometry[k] += if near {
+                    // An element close by: its exact factor.
+                    let e = bin.representative;
+                    self.element_factor(e, r, &mut scratch.polygon) * self.unshot[e as usize]
+                } else {
+                    bin.power * point_factor(bin, self.origin, r.point, r.normal)
+                };
             }
         }
-        counters.form_factor_time += t0.elapsed();
+        scratch.pieces = pieces;
+        counters.factors += 1;
+        if let Some(t0) = t0 {
+            counters.form_factor_time += t0.elapsed() * TIMING_SAMPLE as u32;
+        }
         geometry
     }
 
@@ -669,12 +899,12 @@ impl Gatherer<'_> {
         &self,
         e: u32,
         r: &Receiver,
-        polygon: &mut Vec<DVec3>,
-        clipped: &mut Vec<DVec3>,
+        scratch: &mut Scratch,
         counters: &mut Counters,
     ) -> DVec3 {
         let element = &self.mesh.elements[e as usize];
         let surface = &self.scene.surfaces[element.surface as usize];
+        let polygon = &mut scratch.polygon;
         polygon.clear();
         polygon.extend(
             element
@@ -692,32 +922,21 @@ impl Gatherer<'_> {
         if !any_front {
             return DVec3::ZERO;
         }
-        let centroid = self.hierarchy.centroids[e as usize];
         let origin = if all_front {
-            centroid
+            self.hierarchy.centroids[e as usize]
         } else {
-            geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, clipped);
-            if geometry::area(clipped) <= 0.0 {
+            geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
+            if geometry::area(&scratch.clipped) <= 0.0 {
                 return DVec3::ZERO;
             }
-            geometry::centroid(clipped)
+            geometry::centroid(&scratch.clipped)
         };
         counters.pairs += 1;
+        counters.cat[0] += 1;
         if !self.visible(origin, r, surface.group, counters) {
             return DVec3::ZERO;
         }
-        let t0 = Instant::now();
-        let factor = self.form_factor.evaluate(
-            r.point,
-            r.normal,
-            &Source {
-                polygon,
-                centroid,
-                normal: surface.normal,
-                area: element.area,
-            },
-        );
-        counters.form_factor_time += t0.elapsed();
+        let factor = self.element_factor(e, r, &mut scratch.polygon);
         self.unshot[e as usize] * factor
     }
 
@@ -753,11 +972,75 @@ impl Gatherer<'_> {
     }
 
     fn visible(&self, origin: DVec3, r: &Receiver, group: u32, counters: &mut Counters) -> bool {
-        let t0 = Instant::now();
+        let timed = counters.rays % TIMING_SAMPLE == 0;
+        let t0 = timed.then(Instant::now);
         let (from, to) = accel::shorten(origin, r.point);
         let blocked = self.occluder.occluded(from, to, [group, r.group]);
         counters.rays += 1;
-        counters.ray_time += t0.elapsed();
+        if let Some(t0) = t0 {
+            counters.ray_time += t0.elapsed() * TIMING_SAMPLE as u32;
+        }
         !blocked
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The corrected point source against the exact factor of a small
+    /// square (the analytic formula), from three to twelve of its radii in
+    /// random directions and receiver orientations: within 0.5% where the
+    /// plain point formula errs by several per cent.
+    #[test]
+    fn corrected_point_source_matches_the_exact_factor() {
+        let half = 0.5;
+        let square = [
+            DVec3::new(-half, -half, 0.0),
+            DVec3::new(half, -half, 0.0),
+            DVec3::new(half, half, 0.0),
+            DVec3::new(-half, half, 0.0),
+        ];
+        let area = 4.0 * half * half;
+        let bin = Bin {
+            power: DVec3::splat(area),
+            weight: area,
+            normal: DVec3::Z * area,
+            position: DVec3::ZERO,
+            moment: hierarchy::spread(&square, DVec3::ZERO) * area,
+            representative: 0,
+            axis: 4,
+        };
+        let radius = half * 2f64.sqrt();
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut random = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut worst, mut worst_plain): (f64, f64) = (0.0, 0.0);
+        let mut tested = 0;
+        while tested < 300 {
+            let direction =
+                DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
+            let distance = radius * (3.0 + 9.0 * random());
+            let point = direction * distance;
+            let normal = (-direction
+                + DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5))
+            .normalize();
+            let exact = crate::form_factor::analytic(point, normal, &square);
+            if exact < 1e-3 * area / (PI * distance * distance) {
+                continue;
+            }
+            let corrected = area * point_factor(&bin, DVec3::ZERO, point, normal);
+            let d = point.normalize();
+            let plain = area * d.z * (-normal.dot(d)).max(0.0) / (PI * distance * distance);
+            worst = worst.max((corrected / exact - 1.0).abs());
+            worst_plain = worst_plain.max((plain / exact - 1.0).abs());
+            tested += 1;
+        }
+        assert!(worst < 5e-3, "corrected point source errs by {worst}");
+        assert!(worst_plain > 3e-2, "plain point source errs by {worst_plain}");
     }
 }

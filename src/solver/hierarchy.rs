@@ -1,23 +1,26 @@
-//! The source hierarchy of adaptive shooting: a binary tree over the mesh's
-//! elements whose nodes are the pieces a receiver may take as one source.
+//! The hierarchies of adaptive shooting: binary trees over the mesh's
+//! elements (the sources) and over its receivers (vertices and sensors),
+//! whose nodes are the pieces a transfer may treat as one.
 //!
 //! Wallace, Elmquist & Haines (1989, section 4) subdivided a source per
-//! receiver until its form factor was accurate; here the subdivision is
-//! precomputed as a tree and each receiver takes the coarsest cut of it that
-//! is accurate for it ([`super::adaptive`]). Below the level of a surface
-//! the tree splits one surface's elements (planar nodes, one surface id);
-//! above it, it groups whole surfaces, or pieces of large ones, that are
-//! near each other (clusters, as in the clustering radiosity of Smits, Arvo
-//! & Greenberg 1994 and Sillion 1995), so a chair of a thousand triangles can
-//! shoot as one. The *shooters* are the largest nodes no bigger than the
-//! patch size: shots to convergence then depend on the scene's extent, not
-//! on how finely it was tessellated.
+//! receiver until its form factor was accurate; hierarchical radiosity
+//! (Hanrahan, Salzman & Aupperle 1991) subdivides both ends of a transfer
+//! until it is; here both subdivisions are precomputed as trees and each
+//! transfer takes the coarsest accurate pair of nodes ([`super::adaptive`]).
+//! Below the level of a surface a tree splits one surface's items (planar
+//! nodes, one surface id); above it, it groups whole surfaces, or pieces of
+//! large ones, that are near each other (clusters, as in the clustering
+//! radiosity of Smits, Arvo & Greenberg 1994 and Sillion 1995), so a chair
+//! of a thousand triangles can shoot, or be lit, as one. The *shooters* are
+//! the largest source nodes no bigger than the patch size: shots to
+//! convergence then depend on the scene's extent, not on how finely it was
+//! tessellated.
 //!
 //! Nodes are stored depth-first: a node's subtree is the contiguous range
-//! `index..end`, its first child is `index + 1`, its elements are the
-//! contiguous range `first..last` of [`Hierarchy::elements`]. Splits are at
-//! the median along the longest axis of the element (or piece) centroids,
-//! so the tree is balanced and its depth is `O(log n)`.
+//! `index..end`, its first child is `index + 1`, its items are the
+//! contiguous range `first..last` of [`Tree::items`]. Splits are at the
+//! median along the longest axis of the item (or piece) centres, so a tree
+//! is balanced and its depth is `O(log n)`.
 
 use glam::DVec3;
 
@@ -25,47 +28,140 @@ use crate::geometry;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
+use super::Receiver;
+
 /// No such node.
 pub const NONE: u32 = u32::MAX;
 
-/// A node: a set of elements that may act as one source.
+/// A node: a set of items that may act as one.
 #[derive(Clone, Copy, Debug)]
 pub struct Node {
-    /// First of its elements in [`Hierarchy::elements`].
+    /// First of its items in [`Tree::items`].
     pub first: u32,
-    /// One past its last element.
+    /// One past its last item.
     pub last: u32,
     /// One past the last node of its subtree (its children are `index + 1`
     /// and `second`).
     pub end: u32,
-    /// Its second child ([`NONE`] for a leaf, a single element).
+    /// Its second child ([`NONE`] for a leaf, a single item).
     pub second: u32,
-    /// Total area of its elements.
+    /// Total weight (area) of its items.
     pub area: f64,
-    /// Area-weighted centroid of its elements.
+    /// Weighted centre of its items.
     pub centre: DVec3,
-    /// Radius of a sphere about `centre` holding all its elements.
+    /// Radius of a sphere about `centre` holding all its items.
     pub radius: f64,
-    /// The surface id all its elements share, or [`NONE`] for a cluster of
+    /// The surface id all its items share, or [`NONE`] for a cluster of
     /// several.
     pub group: u32,
 }
 
 impl Node {
-    /// True for a single element.
+    /// True for a single item.
     #[must_use]
     pub fn is_leaf(&self) -> bool {
         self.second == NONE
     }
 }
 
-/// The tree, its shooters and the per-element data shooting needs.
+/// What a tree is built over: a thing with a place, an extent, a weight and
+/// a surface id.
+#[derive(Clone, Copy, Debug)]
+pub struct Item {
+    /// Its centre.
+    pub centre: DVec3,
+    /// Radius of a sphere about `centre` holding it.
+    pub radius: f64,
+    /// Its weight in centres (area).
+    pub area: f64,
+    /// Its surface id.
+    pub group: u32,
+}
+
+/// A tree of nodes over items.
+#[derive(Clone, Debug, Default)]
+pub struct Tree {
+    /// Nodes, depth-first; node 0 is the root.
+    pub nodes: Vec<Node>,
+    /// Item indices in tree order.
+    pub items: Vec<u32>,
+}
+
+impl Tree {
+    /// Builds the tree over `items`: each surface id's items cut into
+    /// pieces at most `piece_size` across (or single items), clusters of
+    /// pieces above them.
+    #[must_use]
+    pub fn build(items: &[Item], piece_size: f64) -> Tree {
+        let mut builder = Builder {
+            items,
+            piece_size,
+            order: (0..items.len() as u32).collect(),
+            nodes: Vec::with_capacity(2 * items.len()),
+        };
+        builder
+            .order
+            .sort_by_key(|&i| (items[i as usize].group, i));
+        let mut pieces = Vec::new();
+        let mut start = 0;
+        while start < builder.order.len() {
+            let group = items[builder.order[start] as usize].group;
+            let mut end = start + 1;
+            while end < builder.order.len() && items[builder.order[end] as usize].group == group {
+                end += 1;
+            }
+            builder.cut_into_pieces(start, end, &mut pieces);
+            start = end;
+        }
+        if !pieces.is_empty() {
+            // The cluster levels reorder the pieces, so the items are laid
+            // out again in the order the tree visits them.
+            let mut order = Vec::with_capacity(builder.order.len());
+            builder.cluster(&mut pieces, &mut order);
+            builder.order = order;
+        }
+        Tree {
+            nodes: builder.nodes,
+            items: builder.order,
+        }
+    }
+
+    /// The items of node `n`.
+    #[must_use]
+    pub fn items_of(&self, n: u32) -> &[u32] {
+        let node = &self.nodes[n as usize];
+        &self.items[node.first as usize..node.last as usize]
+    }
+
+    /// The largest nodes at most `size` across (by their bounding sphere),
+    /// or leaves, that together hold every item, in depth-first order.
+    #[must_use]
+    pub fn cut(&self, size: f64) -> Vec<u32> {
+        let mut out = Vec::new();
+        let mut stack = if self.nodes.is_empty() {
+            Vec::new()
+        } else {
+            vec![0u32]
+        };
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if 2.0 * node.radius <= size || node.is_leaf() {
+                out.push(n);
+            } else {
+                stack.push(node.second);
+                stack.push(n + 1);
+            }
+        }
+        out
+    }
+}
+
+/// The element tree with its shooters and the per-element data shooting
+/// needs.
 #[derive(Clone, Debug, Default)]
 pub struct Hierarchy {
-    /// Nodes, depth-first.
-    pub nodes: Vec<Node>,
-    /// Element indices in tree order.
-    pub elements: Vec<u32>,
+    /// The tree over the mesh's elements.
+    pub tree: Tree,
     /// The roots of the shooters' subtrees.
     pub shooters: Vec<u32>,
     /// The shooter each element belongs to.
@@ -77,8 +173,72 @@ pub struct Hierarchy {
     pub spreads: Vec<f64>,
 }
 
-/// A run of elements of one surface id no larger than the shooter size (or a
-/// single element): the pieces clusters are made of.
+impl Hierarchy {
+    /// Builds the tree over `mesh`'s elements, with shooters no larger than
+    /// `shooter_size` metres across (a single element may be larger).
+    #[must_use]
+    pub fn build(scene: &Scene, mesh: &Mesh, shooter_size: f64) -> Hierarchy {
+        let mut centroids = Vec::with_capacity(mesh.elements.len());
+        let mut spreads = Vec::with_capacity(mesh.elements.len());
+        let mut items = Vec::with_capacity(mesh.elements.len());
+        let mut corners = Vec::with_capacity(4);
+        for e in &mesh.elements {
+            corners.clear();
+            corners.extend(
+                e.vertices()
+                    .iter()
+                    .map(|&v| mesh.vertices[v as usize].position),
+            );
+            let centre = geometry::centroid(&corners);
+            let radius = corners
+                .iter()
+                .map(|c| c.distance(centre))
+                .fold(0.0, f64::max);
+            centroids.push(centre);
+            spreads.push(spread(&corners, centre));
+            items.push(Item {
+                centre,
+                radius,
+                area: e.area,
+                group: scene.surfaces[e.surface as usize].group,
+            });
+        }
+        let tree = Tree::build(&items, shooter_size);
+        let shooters = tree.cut(shooter_size);
+        let mut shooter_of = vec![NONE; mesh.elements.len()];
+        for (s, &n) in shooters.iter().enumerate() {
+            for &e in tree.items_of(n) {
+                shooter_of[e as usize] = s as u32;
+            }
+        }
+        Hierarchy {
+            tree,
+            shooters,
+            shooter_of,
+            centroids,
+            spreads,
+        }
+    }
+}
+
+/// The tree over receivers (points of no extent, weighted alike), cut into
+/// pieces `piece_size` across within each surface id.
+#[must_use]
+pub fn receiver_tree(receivers: &[Receiver], piece_size: f64) -> Tree {
+    let items: Vec<Item> = receivers
+        .iter()
+        .map(|r| Item {
+            centre: r.point,
+            radius: 0.0,
+            area: 1.0,
+            group: r.group,
+        })
+        .collect();
+    Tree::build(&items, piece_size)
+}
+
+/// A run of items of one surface id no larger than the piece size (or a
+/// single item): what clusters are made of.
 #[derive(Clone, Copy, Debug)]
 struct Piece {
     first: u32,
@@ -86,184 +246,42 @@ struct Piece {
     centre: DVec3,
 }
 
-impl Hierarchy {
-    /// Builds the tree over `mesh`'s elements, with shooters no larger than
-    /// `shooter_size` metres across (a single element may be larger).
-    #[must_use]
-    pub fn build(scene: &Scene, mesh: &Mesh, shooter_size: f64) -> Hierarchy {
-        let centroids: Vec<DVec3> = mesh
-            .elements
-            .iter()
-            .map(|e| {
-                let corners: Vec<DVec3> = e
-                    .vertices()
-                    .iter()
-                    .map(|&v| mesh.vertices[v as usize].position)
-                    .collect();
-                geometry::centroid(&corners)
-            })
-            .collect();
-        let mut builder = Builder {
-            scene,
-            mesh,
-            centroids: &centroids,
-            shooter_size,
-            elements: (0..mesh.elements.len() as u32).collect(),
-            nodes: Vec::with_capacity(2 * mesh.elements.len()),
-        };
-        // Elements grouped by surface id, in order of id then index.
-        builder.elements.sort_by_key(|&e| {
-            let element = &mesh.elements[e as usize];
-            (scene.surfaces[element.surface as usize].group, e)
-        });
-        let mut pieces = Vec::new();
-        let mut start = 0;
-        while start < builder.elements.len() {
-            let group = builder.group_of(builder.elements[start]);
-            let mut end = start + 1;
-            while end < builder.elements.len() && builder.group_of(builder.elements[end]) == group {
-                end += 1;
-            }
-            builder.cut_into_pieces(start, end, &mut pieces);
-            start = end;
-        }
-        if !pieces.is_empty() {
-            // The pieces now own contiguous runs of `elements`; the cluster
-            // levels reorder the pieces, so lay the elements out again in
-            // the order the tree visits them.
-            let mut order = Vec::with_capacity(builder.elements.len());
-            builder.cluster(&mut pieces, &mut order);
-            builder.elements = order;
-        }
-        let spreads = mesh
-            .elements
-            .iter()
-            .zip(&centroids)
-            .map(|(e, c)| {
-                let corners: Vec<DVec3> = e
-                    .vertices()
-                    .iter()
-                    .map(|&v| mesh.vertices[v as usize].position)
-                    .collect();
-                spread(&corners, *c)
-            })
-            .collect();
-        let mut hierarchy = Hierarchy {
-            nodes: builder.nodes,
-            elements: builder.elements,
-            shooters: Vec::new(),
-            shooter_of: vec![NONE; mesh.elements.len()],
-            centroids,
-            spreads,
-        };
-        hierarchy.choose_shooters(shooter_size);
-        hierarchy
-    }
-
-    /// The shooters are the largest nodes at most `size` across (by their
-    /// bounding sphere), or leaves.
-    fn choose_shooters(&mut self, size: f64) {
-        let mut stack = if self.nodes.is_empty() {
-            Vec::new()
-        } else {
-            vec![0u32]
-        };
-        while let Some(n) = stack.pop() {
-            let node = self.nodes[n as usize];
-            if 2.0 * node.radius <= size || node.is_leaf() {
-                let shooter = self.shooters.len() as u32;
-                self.shooters.push(n);
-                for &e in &self.elements[node.first as usize..node.last as usize] {
-                    self.shooter_of[e as usize] = shooter;
-                }
-            } else {
-                stack.push(node.second);
-                stack.push(n + 1);
-            }
-        }
-    }
-
-    /// The elements of node `n`.
-    #[must_use]
-    pub fn elements_of(&self, n: u32) -> &[u32] {
-        let node = &self.nodes[n as usize];
-        &self.elements[node.first as usize..node.last as usize]
-    }
-}
-
 struct Builder<'a> {
-    scene: &'a Scene,
-    mesh: &'a Mesh,
-    centroids: &'a [DVec3],
-    shooter_size: f64,
-    elements: Vec<u32>,
+    items: &'a [Item],
+    piece_size: f64,
+    order: Vec<u32>,
     nodes: Vec<Node>,
 }
 
 impl Builder<'_> {
-    fn group_of(&self, element: u32) -> u32 {
-        let e = &self.mesh.elements[element as usize];
-        self.scene.surfaces[e.surface as usize].group
-    }
-
-    fn area_of(&self, element: u32) -> f64 {
-        self.mesh.elements[element as usize].area
-    }
-
-    /// Area-weighted centroid of `elements[start..end]`.
-    fn centre(&self, start: usize, end: usize) -> DVec3 {
+    /// Weighted centre and enclosing radius of `order[start..end]`.
+    fn sphere(&self, start: usize, end: usize) -> (DVec3, f64) {
         let (mut sum, mut area) = (DVec3::ZERO, 0.0);
-        for &e in &self.elements[start..end] {
-            let a = self.area_of(e);
-            sum += self.centroids[e as usize] * a;
-            area += a;
+        for &i in &self.order[start..end] {
+            let item = &self.items[i as usize];
+            sum += item.centre * item.area;
+            area += item.area;
         }
-        if area > 0.0 {
+        let centre = if area > 0.0 {
             sum / area
         } else {
-            self.centroids[self.elements[start] as usize]
-        }
+            self.items[self.order[start] as usize].centre
+        };
+        let radius = self.order[start..end]
+            .iter()
+            .map(|&i| {
+                let item = &self.items[i as usize];
+                item.centre.distance(centre) + item.radius
+            })
+            .fold(0.0, f64::max);
+        (centre, radius)
     }
 
-    /// Radius about `centre` of a sphere holding the corners of
-    /// `elements[start..end]`.
-    fn radius(&self, start: usize, end: usize, centre: DVec3) -> f64 {
-        let mut r2: f64 = 0.0;
-        for &e in &self.elements[start..end] {
-            for &v in self.mesh.elements[e as usize].vertices() {
-                r2 = r2.max(
-                    self.mesh.vertices[v as usize]
-                        .position
-                        .distance_squared(centre),
-                );
-            }
-        }
-        r2.sqrt()
-    }
-
-    /// Sorts `elements[start..end]` about their median along the longest
-    /// axis of their centroids' box and returns the split point.
-    fn split_elements(&mut self, start: usize, end: usize) -> usize {
-        let centroids = self.centroids;
-        let axis = longest_axis(
-            self.elements[start..end]
-                .iter()
-                .map(|&e| centroids[e as usize]),
-        );
-        let mid = start + (end - start) / 2;
-        self.elements[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
-            centroids[a as usize][axis]
-                .total_cmp(&centroids[b as usize][axis])
-                .then(a.cmp(&b))
-        });
-        mid
-    }
-
-    /// Cuts one surface id's elements into pieces no larger than the
-    /// shooter size.
+    /// Cuts one surface id's items into pieces no larger than the piece
+    /// size.
     fn cut_into_pieces(&mut self, start: usize, end: usize, pieces: &mut Vec<Piece>) {
-        let centre = self.centre(start, end);
-        if end - start == 1 || 2.0 * self.radius(start, end, centre) <= self.shooter_size {
+        let (centre, radius) = self.sphere(start, end);
+        if end - start == 1 || 2.0 * radius <= self.piece_size {
             pieces.push(Piece {
                 first: start as u32,
                 last: end as u32,
@@ -271,40 +289,23 @@ impl Builder<'_> {
             });
             return;
         }
-        let mid = self.split_elements(start, end);
-        self.cut_into_pieces(start, mid, pieces);
-        self.cut_into_pieces(mid, end, pieces);
+        let items = self.items;
+        let mid = split_at_median(&mut self.order[start..end], |i| items[i as usize].centre);
+        self.cut_into_pieces(start, start + mid, pieces);
+        self.cut_into_pieces(start + mid, end, pieces);
     }
 
     /// Emits the cluster levels over `pieces` (and below them each piece's
-    /// planar subtree), appending the elements in visiting order to `order`.
+    /// planar subtree), appending the items in visiting order to `order`.
     fn cluster(&mut self, pieces: &mut [Piece], order: &mut Vec<u32>) -> u32 {
         if let [piece] = pieces {
-            let piece = *piece;
-            let run: Vec<u32> = self.elements[piece.first as usize..piece.last as usize].to_vec();
             let base = order.len();
-            order.extend_from_slice(&run);
+            order.extend_from_slice(&self.order[piece.first as usize..piece.last as usize]);
             let end = order.len();
             return self.planar(order, base, end);
         }
-        let index = self.nodes.len() as u32;
-        self.nodes.push(Node {
-            first: order.len() as u32,
-            last: 0,
-            end: 0,
-            second: NONE,
-            area: 0.0,
-            centre: DVec3::ZERO,
-            radius: 0.0,
-            group: NONE,
-        });
-        let axis = longest_axis(pieces.iter().map(|p| p.centre));
-        let mid = pieces.len() / 2;
-        pieces.select_nth_unstable_by(mid, |a, b| {
-            a.centre[axis]
-                .total_cmp(&b.centre[axis])
-                .then(a.first.cmp(&b.first))
-        });
+        let index = self.push_inner(order.len());
+        let mid = split_at_median(pieces, |p| p.centre);
         let (left, right) = pieces.split_at_mut(mid);
         let first = self.cluster(left, order);
         let second = self.cluster(right, order);
@@ -316,31 +317,33 @@ impl Builder<'_> {
     fn planar(&mut self, order: &mut [u32], start: usize, end: usize) -> u32 {
         let index = self.nodes.len() as u32;
         if end - start == 1 {
-            let e = order[start];
-            let centre = self.centroids[e as usize];
-            let mut r2: f64 = 0.0;
-            for &v in self.mesh.elements[e as usize].vertices() {
-                r2 = r2.max(
-                    self.mesh.vertices[v as usize]
-                        .position
-                        .distance_squared(centre),
-                );
-            }
+            let item = &self.items[order[start] as usize];
             self.nodes.push(Node {
                 first: start as u32,
                 last: end as u32,
                 end: index + 1,
                 second: NONE,
-                area: self.area_of(e),
-                centre,
-                radius: r2.sqrt(),
-                group: self.group_of(e),
+                area: item.area,
+                centre: item.centre,
+                radius: item.radius,
+                group: item.group,
             });
             return index;
         }
+        self.push_inner(start);
+        let items = self.items;
+        let mid = start + split_at_median(&mut order[start..end], |i| items[i as usize].centre);
+        let first = self.planar(order, start, mid);
+        let second = self.planar(order, mid, end);
+        self.finish_inner(index, first, second, end as u32);
+        index
+    }
+
+    fn push_inner(&mut self, first: usize) -> u32 {
+        let index = self.nodes.len() as u32;
         self.nodes.push(Node {
-            first: start as u32,
-            last: end as u32,
+            first: first as u32,
+            last: 0,
             end: 0,
             second: NONE,
             area: 0.0,
@@ -348,22 +351,11 @@ impl Builder<'_> {
             radius: 0.0,
             group: NONE,
         });
-        let centroids = self.centroids;
-        let axis = longest_axis(order[start..end].iter().map(|&e| centroids[e as usize]));
-        let mid = start + (end - start) / 2;
-        order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
-            centroids[a as usize][axis]
-                .total_cmp(&centroids[b as usize][axis])
-                .then(a.cmp(&b))
-        });
-        let first = self.planar(order, start, mid);
-        let second = self.planar(order, mid, end);
-        self.finish_inner(index, first, second, end as u32);
         index
     }
 
-    /// Fills in an inner node from its two children: area-weighted centre,
-    /// a bounding sphere holding theirs, the shared surface id if any.
+    /// Fills in an inner node from its two children: weighted centre, a
+    /// bounding sphere holding theirs, the shared surface id if any.
     fn finish_inner(&mut self, index: u32, first: u32, second: u32, last: u32) {
         let (a, b) = (self.nodes[first as usize], self.nodes[second as usize]);
         let area = a.area + b.area;
@@ -386,6 +378,29 @@ impl Builder<'_> {
     }
 }
 
+/// Reorders `values` about their median along the longest axis of their
+/// centres' box (ties by position in the slice's order of values' keys) and
+/// returns the split point, at least 1.
+fn split_at_median<T: Copy>(values: &mut [T], centre: impl Fn(T) -> DVec3) -> usize {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for &v in values.iter() {
+        lo = lo.min(centre(v));
+        hi = hi.max(centre(v));
+    }
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = values.len() / 2;
+    values.select_nth_unstable_by(mid, |&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]));
+    mid.max(1)
+}
+
 /// Mean squared distance from `centre` of the points of a convex polygon:
 /// over its fan of triangles, each contributing its own polar moment (area
 /// times the sum of its squared sides over 36) and, by the parallel-axis
@@ -404,20 +419,78 @@ pub fn spread(polygon: &[DVec3], centre: DVec3) -> f64 {
     if area > 0.0 { moment / area } else { 0.0 }
 }
 
-/// The axis along which points spread most.
-fn longest_axis(points: impl Iterator<Item = DVec3>) -> usize {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in points {
-        lo = lo.min(p);
-        hi = hi.max(p);
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Items on two surfaces: every node's sphere holds its items, its
+    /// items are a contiguous run of the tree's order, and the cut covers
+    /// every item once with pieces no larger than asked.
+    #[test]
+    fn nodes_hold_their_items_and_a_cut_covers_them_once() {
+        let mut items = Vec::new();
+        for i in 0..40 {
+            for j in 0..25 {
+                items.push(Item {
+                    centre: DVec3::new(i as f64 * 0.1, 0.0, j as f64 * 0.1),
+                    radius: 0.07,
+                    area: 0.01 + 0.001 * ((i * 7 + j) % 5) as f64,
+                    group: 0,
+                });
+                items.push(Item {
+                    centre: DVec3::new(i as f64 * 0.1, j as f64 * 0.1, 0.0),
+                    radius: 0.07,
+                    area: 0.01,
+                    group: 1,
+                });
+            }
+        }
+        let tree = Tree::build(&items, 0.8);
+        let mut seen = vec![0; items.len()];
+        for &i in &tree.items {
+            seen[i as usize] += 1;
+        }
+        assert!(seen.iter().all(|&s| s == 1));
+        for (n, node) in tree.nodes.iter().enumerate() {
+            for &i in tree.items_of(n as u32) {
+                let item = &items[i as usize];
+                assert!(item.centre.distance(node.centre) + item.radius <= node.radius + 1e-12);
+                if node.group != NONE {
+                    assert_eq!(item.group, node.group);
+                }
+            }
+            if !node.is_leaf() {
+                let (a, b) = (&tree.nodes[n + 1], &tree.nodes[node.second as usize]);
+                assert_eq!((a.first, a.last, b.first, b.last), (node.first, b.first, a.last, node.last));
+                assert_eq!(b.end, node.end);
+            }
+        }
+        let cut = tree.cut(0.8);
+        let mut covered = vec![0; items.len()];
+        for &n in &cut {
+            assert!(2.0 * tree.nodes[n as usize].radius <= 0.8 || tree.nodes[n as usize].is_leaf());
+            for &i in tree.items_of(n) {
+                covered[i as usize] += 1;
+            }
+        }
+        assert!(covered.iter().all(|&c| c == 1));
     }
-    let extent = hi - lo;
-    if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
+
+    #[test]
+    fn spread_of_a_square_and_a_triangle() {
+        // A square of side a: (a^2 + a^2) / 12 about its centre.
+        let square = [
+            DVec3::ZERO,
+            DVec3::X * 2.0,
+            DVec3::new(2.0, 2.0, 0.0),
+            DVec3::Y * 2.0,
+        ];
+        assert!((spread(&square, DVec3::new(1.0, 1.0, 0.0)) - 8.0 / 12.0).abs() < 1e-12);
+        // About another point, plus the squared offset (parallel axes).
+        assert!((spread(&square, DVec3::new(1.0, 1.0, 3.0)) - (8.0 / 12.0 + 9.0)).abs() < 1e-12);
+        // A right triangle with legs 3 and 4: (9 + 16 + 25) / 36.
+        let tri = [DVec3::ZERO, DVec3::X * 3.0, DVec3::Y * 4.0];
+        let centroid = DVec3::new(1.0, 4.0 / 3.0, 0.0);
+        assert!((spread(&tri, centroid) - 50.0 / 36.0).abs() < 1e-12);
     }
 }

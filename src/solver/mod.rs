@@ -457,7 +457,7 @@ impl<'a> Solver<'a> {
                 Method::Patches(patches::PatchShooting::new(scene, mesh, &settings))
             }
             Shooting::Adaptive => Method::Adaptive(Box::new(adaptive::AdaptiveShooting::new(
-                scene, mesh, &settings,
+                scene, mesh, &settings, &receivers,
             ))),
         };
         let mut solver = Solver {
