@@ -283,6 +283,20 @@ impl<'a> Solver<'a> {
     /// Starts a solve: `B_v = E`, `dB_p = E` of their surfaces.
     #[must_use]
     pub fn new(scene: &'a Scene, mesh: &'a Mesh, settings: Settings) -> Solver<'a> {
+        let occluder = settings.accel.build(&scene.surfaces);
+        Solver::with_occluder(scene, mesh, settings, occluder)
+    }
+
+    /// Like [`Solver::new`], answering visibility with `occluder` instead of
+    /// building `settings.accel` (which then only names it): for instruments
+    /// such as a wrapper recording the shadow segments a solve casts.
+    #[must_use]
+    pub fn with_occluder(
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: Settings,
+        occluder: Box<dyn Occluder + 'a>,
+    ) -> Solver<'a> {
         let radiosity: Vec<DVec3> = mesh
             .vertices
             .iter()
@@ -320,7 +334,7 @@ impl<'a> Solver<'a> {
                     .map(|_| ItemBuffer::new(settings.hemicube_resolution))
                     .collect(),
             },
-            occluder: settings.accel.build(&scene.surfaces),
+            occluder,
             settings,
             irradiance: vec![DVec3::ZERO; radiosity.len()],
             radiosity,

@@ -13,6 +13,8 @@ fn context(dir: &Path) -> Context {
         out: dir.to_path_buf(),
         quick: true,
         command: "cargo test --test experiments".into(),
+        scenes: None,
+        embree_python: None,
     }
 }
 

@@ -315,7 +315,7 @@ impl<'a> Bsp<'a> {
     /// tested with [`segment_crosses`](super::segment_crosses) (for benchmarks; brute force tests
     /// surfaces in input order up to the first blocker).
     #[must_use]
-    pub fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32) {
+    pub fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
         self.walk(from, to, skip)
     }
 
@@ -624,10 +624,11 @@ impl<'a> Bsp<'a> {
     }
 
     /// The front-to-back walk of Figure 3.2.
-    fn walk(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32) {
+    fn walk(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
         if self.nodes.is_empty() {
-            return (false, 0);
+            return (false, 0, 0);
         }
+        let mut visited = 0u32;
         let round_off = QUERY_ROUND_OFF * from.abs().max_element().max(to.abs().max_element());
         // Nodes whose surfaces and far side are still to do; a node is only
         // pushed above its ancestors, so the depth bounds the stack.
@@ -639,6 +640,7 @@ impl<'a> Bsp<'a> {
         let mut current = 0u32;
         loop {
             if current != NONE {
+                visited += 1;
                 let node = &self.nodes[current as usize];
                 let d0 = node.normal.dot(from) - node.offset;
                 let d1 = node.normal.dot(to) - node.offset;
@@ -652,7 +654,7 @@ impl<'a> Bsp<'a> {
                 continue;
             }
             if top == 0 {
-                return (false, tests);
+                return (false, tests, visited);
             }
             top -= 1;
             let index = pending[top];
@@ -668,7 +670,7 @@ impl<'a> Bsp<'a> {
                 }
                 tests += 1;
                 if self.prepared.crosses(id, from, to) {
-                    return (true, tests);
+                    return (true, tests, visited);
                 }
                 if split && remembered < TESTED_MEMORY {
                     tested_split[remembered] = id;

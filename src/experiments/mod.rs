@@ -11,9 +11,11 @@
 //! | `formula-timing` | section 4 | cost of one evaluation of each formula |
 //! | `fig5-1` | Figure 5.1 | the room after 9, 48 and 72 subsources, both presets |
 //! | `fig5-2` | Figure 5.2 | solve times at 9, 48 and 72 subsources |
+//! | `rays` | section 3 | BSP, BVH, brute force and Embree on real scenes' shadow segments |
 
 pub mod form_factors;
 pub mod plot;
+pub mod rays;
 pub mod report;
 pub mod solves;
 
@@ -32,6 +34,12 @@ pub struct Context {
     pub quick: bool,
     /// The command line that ran the experiments, for the record.
     pub command: String,
+    /// The folder holding the shared real scenes (`rays`); `None` looks
+    /// for `../shared/scenes`.
+    pub scenes: Option<PathBuf>,
+    /// A Python interpreter with the `embreex` package, to time Embree
+    /// beside our accelerators (`rays`); `None` skips Embree.
+    pub embree_python: Option<PathBuf>,
 }
 
 impl Context {
@@ -62,6 +70,9 @@ pub enum Error {
         /// What the operating system said.
         source: std::io::Error,
     },
+    /// An experiment's input is missing or its results fail a check.
+    #[error("{0}")]
+    Experiment(String),
     /// The name is not an experiment.
     #[error("no experiment '{0}' (experiments: {names}, all)", names = names().join(", "))]
     Unknown(String),
@@ -109,6 +120,11 @@ pub const EXPERIMENTS: &[Experiment] = &[
         name: "fig5-2",
         title: "Figure 5.2: solve times",
         run: solves::fig5_2,
+    },
+    Experiment {
+        name: "rays",
+        title: "Section 3 at scale: shadow-ray accelerators on real scenes",
+        run: rays::rays,
     },
 ];
 
