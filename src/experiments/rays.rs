@@ -337,9 +337,10 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
     Ok(report)
 }
 
-/// Runs a solve with a recording BVH and returns the segments of `shots`
-/// in receiver order.
-fn record(scene: &Scene, mesh: &Mesh, shots: &[u64]) -> Vec<Segment> {
+/// Runs a solve (the `wong-tsang93` preset, visibility by a recording BVH)
+/// and returns the segments cast during `shots` (1-based), in receiver
+/// order.
+pub fn record(scene: &Scene, mesh: &Mesh, shots: &[u64]) -> Vec<Segment> {
     let log = Mutex::new(Vec::new());
     let recording = AtomicBool::new(shots.contains(&1));
     let last = shots.iter().copied().max().unwrap_or(0);
@@ -371,9 +372,9 @@ fn record(scene: &Scene, mesh: &Mesh, shots: &[u64]) -> Vec<Segment> {
     segments
 }
 
-/// About `budget` segments: blocks of [`BLOCK`] consecutive ones, evenly
+/// About `budget` segments: blocks of 256 consecutive ones, evenly
 /// spaced.
-fn sample(segments: &[Segment], budget: usize) -> Vec<Segment> {
+pub fn sample(segments: &[Segment], budget: usize) -> Vec<Segment> {
     if segments.len() <= budget {
         return segments.to_vec();
     }
