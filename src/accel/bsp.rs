@@ -141,9 +141,6 @@ const SPLIT_FLAG: u32 = 1 << 31;
 /// No child.
 const NONE: u32 = u32::MAX;
 
-/// debug
-pub static DEBUG: [std::sync::atomic::AtomicU64; 5] = [const { std::sync::atomic::AtomicU64::new(0) }; 5];
-
 /// How many split surfaces a query remembers having tested.
 const TESTED_MEMORY: usize = 16;
 
@@ -327,7 +324,7 @@ struct Node {
     tolerance: f64,
     /// `[front, back]`, or [`NONE`].
     children: [u32; 2],
-    /// Range of `Bsp::entries` (and `Bsp::fragments`) lying on the plane.
+    /// Range of `Bsp::entries` lying on the plane (or in the bucket).
     first: u32,
     end: u32,
 }
@@ -336,13 +333,6 @@ impl Node {
     fn is_leaf(&self) -> bool {
         self.normal == DVec3::ZERO
     }
-}
-
-/// A fragment's corners: a range of `Bsp::fragment_corners`.
-#[derive(Clone, Copy, Debug)]
-struct FragmentRange {
-    first: u32,
-    end: u32,
 }
 
 /// A fragment during construction.
@@ -398,9 +388,6 @@ pub struct Bsp<'a> {
     /// Surface id of each stored fragment, with [`SPLIT_FLAG`] when the
     /// surface has several fragments; node ranges index it.
     entries: Vec<u32>,
-    /// Corners of each entry's fragment (parallel to `entries`).
-    fragments: Vec<FragmentRange>,
-    fragment_corners: Vec<DVec3>,
     /// How far an accepted crossing point can be from each surface.
     reach: Vec<f64>,
     coplanar: f64,
@@ -441,8 +428,6 @@ impl<'a> Bsp<'a> {
             prepared: PreparedSurfaces::new(surfaces),
             nodes: Vec::new(),
             entries: Vec::new(),
-            fragments: Vec::new(),
-            fragment_corners: Vec::new(),
             reach: surfaces.iter().map(crossing_reach).collect(),
             coplanar: settings.coplanar_tolerance * scale,
             round_off: ROUND_OFF * scale,
@@ -458,27 +443,10 @@ impl<'a> Bsp<'a> {
             })
             .collect();
         let cell = Cell::around(surfaces);
-        if std::env::var("BSP_DEBUG").is_ok() {
-            let mut r = bsp.reach.clone();
-            r.sort_by(f64::total_cmp);
-            let n = r.len();
-            eprintln!("reach: coplanar {:e} med {:e} p99 {:e} p999 {:e} max {:e}", bsp.coplanar, r[n/2], r[n*99/100], r[n*999/1000], r[n-1]);
-        }
         let allowance = ((settings.max_growth - 1.0) * surfaces.len() as f64).min(1e15) as usize;
         let mut scratch = Scratch::default();
         bsp.build(pieces, cell, 1, allowance, &mut scratch);
         bsp.flag_split_surfaces();
-        if std::env::var("BSP_DEBUG").is_ok() {
-            let mut hist = std::collections::BTreeMap::new();
-            for n in &bsp.nodes {
-                let leafish = n.children == [NONE; 2];
-                let kind = if n.is_leaf() { "bucket" } else if leafish { "planeleaf" } else { "inner" };
-                let c = (n.end - n.first) as usize;
-                let bucket = if c == 0 { 0 } else { c.next_power_of_two() };
-                *hist.entry((kind, bucket)).or_insert(0usize) += 1;
-            }
-            eprintln!("{hist:?}");
-        }
         bsp.stats.nodes = bsp.nodes.len();
         bsp.stats.fragments = bsp.entries.len();
         bsp
@@ -496,16 +464,13 @@ impl<'a> Bsp<'a> {
         self.settings
     }
 
-    /// Bytes of the tree's own arrays (nodes, entries, fragments and their
-    /// corners, reaches), without the prepared surfaces every accelerator
-    /// shares.
+    /// Bytes of the tree's own arrays (nodes, fragment entries, reaches),
+    /// without the prepared surfaces every accelerator shares.
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
         self.nodes.capacity() * size_of::<Node>()
             + self.entries.capacity() * size_of::<u32>()
-            + self.fragments.capacity() * size_of::<FragmentRange>()
-            + self.fragment_corners.capacity() * size_of::<DVec3>()
             + self.reach.capacity() * size_of::<f64>()
     }
 
@@ -522,8 +487,9 @@ impl<'a> Bsp<'a> {
     /// every fragment on its node's plane and on the correct side of every
     /// ancestor's plane (within the coplanar tolerance); every fragment on
     /// its surface's plane and inside its polygon; each surface's fragments
-    /// adding up to its area (1e-9 relative, both computed about the
-    /// polygon's first corner to keep their digits); node tolerances
+    /// adding up to its area (1e-9 relative plus the corners' round-off, both
+    /// computed about the polygon's first corner to keep their digits);
+    /// node tolerances
     /// covering the surfaces below them; statistics matching the tree.
     pub fn validate(&self) -> Result<(), String> {
         let nodes = &self.nodes;
@@ -563,9 +529,7 @@ impl<'a> Bsp<'a> {
                 return Err(format!("node {i}: normal is not a unit vector"));
             }
         }
-        if expected_first as usize != self.entries.len()
-            || self.fragments.len() != self.entries.len()
-        {
+        if expected_first as usize != self.entries.len() {
             return Err("node ranges do not cover the fragment list exactly".into());
         }
         let max_depth = depth.iter().copied().max().unwrap_or(0);
@@ -602,7 +566,7 @@ impl<'a> Bsp<'a> {
                 let Some(surface) = self.surfaces.get(id) else {
                     return Err(format!("node {i}: surface id {id} out of range"));
                 };
-                let polygon = self.fragment(k as usize);
+                let polygon = &self.replay(id as u32, i, &parent);
                 if polygon.len() < 3 {
                     return Err(format!(
                         "node {i}: fragment of surface {id} has fewer than 3 corners"
@@ -617,10 +581,18 @@ impl<'a> Bsp<'a> {
                         "a fragment of surface {id} leaves the surface's plane"
                     ));
                 }
+                // Containment about the polygon's first corner, with the
+                // normal computed there: far from the origin, a tiny
+                // polygon's own normal (Newell's sum about the origin) can
+                // have lost its digits.
+                let origin = surface.polygon[0];
+                let local: Vec<DVec3> = surface.polygon.iter().map(|p| *p - origin).collect();
+                let local_normal = geometry::normal(&local).unwrap_or(surface.normal);
                 let inside = 1e-9 * surface.area.sqrt() + self.round_off;
-                if !polygon.iter().all(|p| {
-                    geometry::convex_contains(&surface.polygon, surface.normal, *p, inside)
-                }) {
+                if !polygon
+                    .iter()
+                    .all(|p| geometry::convex_contains(&local, local_normal, *p - origin, inside))
+                {
                     return Err(format!(
                         "a fragment of surface {id} leaves the surface's polygon"
                     ));
@@ -668,7 +640,11 @@ impl<'a> Bsp<'a> {
                 return Err(format!("surface {id} has no fragment"));
             }
             let expected = local_area(&surface.polygon);
-            if (area[id] - expected).abs() > 1e-9 * expected {
+            // Split corners are rounded to the coordinates' precision, which
+            // far from the origin is coarse next to a tiny polygon.
+            let corner_round_off = 16.0 * f64::EPSILON * self.round_off / ROUND_OFF;
+            let perimeter = 4.0 * geometry::diameter(&surface.polygon);
+            if (area[id] - expected).abs() > 1e-9 * expected + corner_round_off * perimeter {
                 return Err(format!(
                     "surface {id}: fragments cover {} m^2 of {expected} m^2",
                     area[id]
@@ -685,9 +661,29 @@ impl<'a> Bsp<'a> {
         Ok(())
     }
 
-    fn fragment(&self, k: usize) -> &[DVec3] {
-        let r = self.fragments[k];
-        &self.fragment_corners[r.first as usize..r.end as usize]
+    /// The fragment of surface `id` stored at node `at`, rebuilt by
+    /// replaying the build's classifications and splits down the path from
+    /// the root (the same arithmetic in the same order gives the same
+    /// corners), so the tree need not keep fragment geometry.
+    fn replay(&self, id: u32, at: usize, parent: &[u32]) -> Vec<DVec3> {
+        let surface = &self.surfaces[id as usize];
+        let mut path = Vec::new();
+        let mut node = at;
+        while parent[node] != NONE {
+            path.push((parent[node] as usize, node as u32));
+            node = parent[node] as usize;
+        }
+        let mut polygon = surface.polygon.clone();
+        for &(ancestor, child) in path.iter().rev() {
+            let n = &self.nodes[ancestor];
+            // A surface always lies on its own plane (see `side`).
+            let own = n.normal == surface.normal && n.offset == surface.offset;
+            if !own && classify(&polygon, n.normal, n.offset, self.coplanar) == Side::Both {
+                let (front, back) = split(&polygon, n.normal, n.offset);
+                polygon = if child == n.children[0] { front } else { back };
+            }
+        }
+        polygon
     }
 
     /// Builds the subtree over `pieces` in `cell` at `depth` (root = 1),
@@ -721,10 +717,6 @@ impl<'a> Bsp<'a> {
             let common = self.common_plane(&pieces);
             self.choose_plane(&pieces, &cell, common, allowance, scratch)
         };
-        if depth >= self.settings.max_depth && std::env::var("BSP_DEBUG").is_ok() {
-            eprintln!("max depth: {} pieces, common {:?}, cell area {:e} faces {}", pieces.len(), self.common_plane(&pieces).map(|p| p.normal), cell.area(), cell.faces.len());
-            for p in pieces.iter().take(3) { eprintln!("   {} {:?}", p.surface, p.polygon); }
-        }
         let Some(plane) = chosen else {
             return self.leaf(&pieces, tolerance);
         };
@@ -742,10 +734,6 @@ impl<'a> Bsp<'a> {
             // smaller than the coplanar tolerance): cutting divides
             // nothing.
             return self.leaf(&pieces, tolerance);
-        }
-        if depth > 58 && std::env::var("BSP_DEBUG").is_ok() {
-            let c = |x: Side| sides.iter().filter(|&&s| s == x).count();
-            eprintln!("depth {depth}: n {n} plane {:?} {} own {:?}: on {} f {} b {} both {}; cell area {:e}", plane.normal, plane.offset, plane.own, c(Side::On), c(Side::Front), c(Side::Back), c(Side::Both), cell.area());
         }
         let mut front = Vec::new();
         let mut back = Vec::new();
@@ -863,12 +851,6 @@ impl<'a> Bsp<'a> {
     }
 
     fn store(&mut self, piece: &Piece) {
-        let first = self.fragment_corners.len() as u32;
-        self.fragment_corners.extend_from_slice(&piece.polygon);
-        self.fragments.push(FragmentRange {
-            first,
-            end: self.fragment_corners.len() as u32,
-        });
         self.entries.push(piece.surface);
     }
 
@@ -1038,10 +1020,11 @@ impl<'a> Bsp<'a> {
                 high_count.resize(bins + 1, 0usize);
                 for i in 0..sample {
                     let polygon = &sampled(i).polygon;
-                    let (low, high) = polygon.iter().fold(
-                        (f64::INFINITY, f64::NEG_INFINITY),
-                        |(a, b), p| (a.min(p[axis]), b.max(p[axis])),
-                    );
+                    let (low, high) = polygon
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                            (a.min(p[axis]), b.max(p[axis]))
+                        });
                     let low_bin = ((low + self.coplanar - lo[axis]) / width).floor();
                     let high_bin = ((high - self.coplanar - lo[axis]) / width).ceil();
                     low_count[low_bin.clamp(0.0, bins as f64) as usize] += 1;
@@ -1114,27 +1097,9 @@ impl<'a> Bsp<'a> {
         }
     }
 
-    /// Tests the fragments `first..end`; true at the first blocker.
+    /// Tests the node's fragments; true at the first blocker.
     #[inline]
     fn test_entries(
-        &self,
-        node: &Node,
-        from: DVec3,
-        to: DVec3,
-        skip: [u32; 2],
-        tested: &mut Tested,
-        tests: &mut u32,
-    ) -> bool {
-        let before = *tests;
-        let r = self.test_entries_inner(node, from, to, skip, tested, tests);
-        let k = if node.is_leaf() { 0 } else { 1 };
-        DEBUG[k].fetch_add((*tests - before) as u64, std::sync::atomic::Ordering::Relaxed);
-        DEBUG[k + 2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        DEBUG[4].fetch_add(u64::from(r), std::sync::atomic::Ordering::Relaxed);
-        r
-    }
-    #[inline]
-    fn test_entries_inner(
         &self,
         node: &Node,
         from: DVec3,
@@ -1198,6 +1163,17 @@ impl<'a> Bsp<'a> {
                 let d0 = node.normal.dot(from) - node.offset;
                 let dd = node.normal.dot(to) - node.offset - d0;
                 let tolerance = node.tolerance + round_off;
+                // The common cases first, without a division: the part of
+                // the segment in this region stays on one side.
+                let (da, db) = (d0 + t0 * dd, d0 + t1 * dd);
+                if da.min(db) > tolerance {
+                    current = node.children[0];
+                    continue;
+                }
+                if da.max(db) < -tolerance {
+                    current = node.children[1];
+                    continue;
+                }
                 // Parameters whose point is on (or within the tolerance of)
                 // each side: `d0 + t dd >= -tolerance` and `<= tolerance`.
                 let (front, back) = if dd > 0.0 {
@@ -1374,9 +1350,21 @@ impl Cell {
                 back += geometry::area(face);
                 continue;
             }
-            clip_keep(face, normal, offset, &mut scratch.polygon, &mut scratch.points);
+            clip_keep(
+                face,
+                normal,
+                offset,
+                &mut scratch.polygon,
+                &mut scratch.points,
+            );
             let f = geometry::area(&scratch.polygon);
-            clip_keep(face, -normal, -offset, &mut scratch.polygon, &mut scratch.points);
+            clip_keep(
+                face,
+                -normal,
+                -offset,
+                &mut scratch.polygon,
+                &mut scratch.points,
+            );
             let b = geometry::area(&scratch.polygon);
             front += f;
             back += b;
@@ -1397,9 +1385,21 @@ impl Cell {
             } else if hi <= 0.0 && lo < 0.0 {
                 back.push(face.clone());
             } else if lo < 0.0 && hi > 0.0 {
-                clip_keep(face, normal, offset, &mut scratch.polygon, &mut scratch.points);
+                clip_keep(
+                    face,
+                    normal,
+                    offset,
+                    &mut scratch.polygon,
+                    &mut scratch.points,
+                );
                 front.push(scratch.polygon.clone());
-                clip_keep(face, -normal, -offset, &mut scratch.polygon, &mut scratch.points);
+                clip_keep(
+                    face,
+                    -normal,
+                    -offset,
+                    &mut scratch.polygon,
+                    &mut scratch.points,
+                );
                 back.push(scratch.polygon.clone());
             }
             // A face lying in the plane is replaced by the cap.
@@ -1434,7 +1434,12 @@ fn in_plane_bounds(pieces: &[Piece], normal: DVec3) -> Option<Vec<DVec3>> {
         return None;
     }
     let at = |x: f64, y: f64| normal * along + u * x + v * y;
-    Some(vec![at(lo.x, lo.y), at(hi.x, lo.y), at(hi.x, hi.y), at(lo.x, hi.y)])
+    Some(vec![
+        at(lo.x, lo.y),
+        at(hi.x, lo.y),
+        at(hi.x, hi.y),
+        at(lo.x, hi.y),
+    ])
 }
 
 /// Areas of the parts of a convex polygon in front of and behind a plane.
@@ -1444,9 +1449,21 @@ fn polygon_split_areas(
     offset: f64,
     scratch: &mut Scratch,
 ) -> (f64, f64) {
-    clip_keep(polygon, normal, offset, &mut scratch.polygon, &mut scratch.points);
+    clip_keep(
+        polygon,
+        normal,
+        offset,
+        &mut scratch.polygon,
+        &mut scratch.points,
+    );
     let f = geometry::area(&scratch.polygon);
-    clip_keep(polygon, -normal, -offset, &mut scratch.polygon, &mut scratch.points);
+    clip_keep(
+        polygon,
+        -normal,
+        -offset,
+        &mut scratch.polygon,
+        &mut scratch.points,
+    );
     (f, geometry::area(&scratch.polygon))
 }
 
@@ -1499,7 +1516,9 @@ fn convex_polygon(points: &[DVec3], normal: DVec3, flat: &mut Vec<(f64, DVec2)>)
     let v = normal.cross(u);
     let centre = points.iter().copied().sum::<DVec3>() / points.len() as f64;
     order_around(points, centre, u, v, flat);
-    flat.iter().map(|(_, q)| centre + u * q.x + v * q.y).collect()
+    flat.iter()
+        .map(|(_, q)| centre + u * q.x + v * q.y)
+        .collect()
 }
 
 /// Area of the convex hull of points lying in a plane.
@@ -1700,7 +1719,7 @@ mod tests {
         // Segments that stay on one side never test the square.
         assert_eq!(
             bsp.occluded_counting(DVec3::ZERO, DVec3::new(0.0, 0.0, 0.5), NONE_SKIPPED),
-            (false, 0)
+            (false, 0, 1)
         );
     }
 
@@ -1735,7 +1754,7 @@ mod tests {
             );
         }
         // The split wall is tested once even though both pieces are visited.
-        let (blocked, tests) = bsp.occluded_counting(
+        let (blocked, tests, _) = bsp.occluded_counting(
             DVec3::new(-1.0, 3.0, 0.5),
             DVec3::new(1.0, 3.0, -0.5),
             NONE_SKIPPED,
@@ -1753,7 +1772,7 @@ mod tests {
         };
         let bsp = Bsp::with_settings(&surfaces, settings);
         bsp.validate().unwrap();
-        assert_eq!(bsp.stats().buckets, 1);
+        assert_eq!(bsp.stats().leaves, 1);
         assert_eq!(bsp.stats().depth, 2);
         let brute = BruteForce::new(&surfaces);
         for i in 0..10 {
@@ -1768,20 +1787,145 @@ mod tests {
 
     #[test]
     fn settings_are_sanitized() {
+        let default = BspSettings::sah();
         let s = BspSettings {
+            cost: PlaneCost::SplitsAndBalance {
+                split_weight: f64::NAN,
+            },
             candidates: 3,
-            split_weight: f64::NAN,
+            traversal_cost: -1.0,
+            leaf_size: 0,
+            max_growth: 0.5,
             coplanar_tolerance: -1.0,
             max_depth: 1000,
+            ..default
         }
         .sanitized();
-        assert_eq!(s.split_weight, BspSettings::balanced().split_weight);
-        assert_eq!(
-            s.coplanar_tolerance,
-            BspSettings::balanced().coplanar_tolerance
-        );
+        assert_eq!(s.cost, PlaneCost::SplitsAndBalance { split_weight: 8.0 });
+        assert_eq!(s.traversal_cost, default.traversal_cost);
+        assert_eq!(s.leaf_size, 1);
+        assert_eq!(s.max_growth, default.max_growth);
+        assert_eq!(s.coplanar_tolerance, default.coplanar_tolerance);
         assert_eq!(s.max_depth, MAX_DEPTH);
         assert_eq!(s.candidates, 3);
+    }
+
+    #[test]
+    fn cells_split_into_parts_whose_areas_add_up() {
+        let square = square_at_z(0.0, 1.0);
+        // The box around it: [-1.2, 1.2] x [-1.2, 1.2] x [-0.28, 0.28] (a
+        // tenth of the diagonal added on every side).
+        let cell = Cell::around(std::slice::from_ref(&square));
+        let mut scratch = Scratch::default();
+        let area = cell.area();
+        let (lo, hi) = cell.bounds();
+        let d = hi - lo;
+        assert!((area - 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)).abs() < 1e-12);
+        // Halved across x: each half has the cap plus half the rest.
+        let (f, b, cap) = cell.split_areas(DVec3::X, 0.0, &mut scratch);
+        assert!((cap - d.y * d.z).abs() < 1e-12, "{cap}");
+        assert!((f - (0.5 * area + cap)).abs() < 1e-12 && (b - f).abs() < 1e-12);
+        // An oblique plane: the parts add up to the whole plus two caps,
+        // and the cells `split` makes have those areas.
+        let normal = DVec3::new(1.0, 2.0, 3.0).normalize();
+        let (f, b, cap) = cell.split_areas(normal, 0.1, &mut scratch);
+        assert!(cap > 0.0 && (f + b - area - 2.0 * cap).abs() < 1e-12);
+        let (front, back) = cell.split(normal, 0.1, &mut scratch);
+        assert!((front.area() - f).abs() < 1e-12 && (back.area() - b).abs() < 1e-12);
+        // A plane missing the cell leaves it whole on one side.
+        let (f, b, cap) = cell.split_areas(DVec3::Z, -5.0, &mut scratch);
+        assert_eq!((b, cap), (0.0, 0.0));
+        assert!((f - area).abs() < 1e-12);
+        // The box-only estimate agrees on an axis-aligned cut.
+        let (bf, bb) = box_split_areas(lo, hi, 0, 0.0);
+        let (f, b, _) = cell.split_areas(DVec3::X, 0.0, &mut scratch);
+        assert!((bf - f).abs() < 1e-12 && (bb - b).abs() < 1e-12);
+    }
+
+    #[test]
+    fn coplanar_fragments_are_divided_by_axis_planes() {
+        // A 16 x 16 grid of unit squares in one plane: auto-partition can
+        // only store them on one node, the default divides them so a
+        // segment through one square tests a few, not all.
+        let surfaces: Vec<Surface> = (0..256)
+            .map(|k| {
+                let (x, y) = (f64::from(k % 16), f64::from(k / 16));
+                quad([
+                    [x, y, 0.0],
+                    [x + 1.0, y, 0.0],
+                    [x + 1.0, y + 1.0, 0.0],
+                    [x, y + 1.0, 0.0],
+                ])
+            })
+            .collect();
+        let from = DVec3::new(7.3, 7.6, 1.0);
+        let to = DVec3::new(7.4, 7.5, -1.0);
+        let paper = Bsp::with_settings(&surfaces, BspSettings::auto_partition());
+        paper.validate().unwrap();
+        assert_eq!(paper.stats().nodes, 1);
+        let (blocked, tests, _) = paper.occluded_counting(from, to, NONE_SKIPPED);
+        assert!(blocked && tests >= 1);
+        let bsp = Bsp::new(&surfaces);
+        bsp.validate().unwrap();
+        assert!(bsp.stats().nodes > 16, "{:?}", bsp.stats());
+        let (blocked, tests, _) = bsp.occluded_counting(from, to, NONE_SKIPPED);
+        assert!(blocked && tests <= 4, "{tests}");
+        // Missing the grid's plane, nothing is tested.
+        let (blocked, tests, _) = bsp.occluded_counting(
+            DVec3::new(3.0, 3.0, 1.0),
+            DVec3::new(9.0, 2.0, 0.5),
+            NONE_SKIPPED,
+        );
+        assert_eq!((blocked, tests), (false, 0));
+    }
+
+    #[test]
+    fn the_walk_only_visits_regions_the_segment_passes_through() {
+        // Two stacks of 32 parallel squares far apart along x: a segment in
+        // the first stack, crossing the planes of the second (which extend
+        // across all space) but not the second stack itself, tests none of
+        // the second stack's squares.
+        let mut surfaces = Vec::new();
+        for i in 0..32 {
+            let z = f64::from(i);
+            surfaces.push(quad([
+                [0.0, 0.0, z],
+                [1.0, 0.0, z],
+                [1.0, 1.0, z],
+                [0.0, 1.0, z],
+            ]));
+            let z = z + 0.5;
+            surfaces.push(quad([
+                [100.0, 0.0, z],
+                [101.0, 0.0, z],
+                [101.0, 1.0, z],
+                [100.0, 1.0, z],
+            ]));
+        }
+        let bsp = Bsp::new(&surfaces);
+        bsp.validate().unwrap();
+        // From z = 3.2 to 9.9 inside the first stack: blocked by z = 4.
+        let (from, to) = (DVec3::new(0.5, 0.5, 3.2), DVec3::new(0.6, 0.4, 9.9));
+        let (blocked, tests, visited) = bsp.occluded_counting(from, to, NONE_SKIPPED);
+        assert!(blocked);
+        assert!(tests <= 4, "{tests} tests");
+        assert!(
+            visited <= 2 * bsp.stats().depth as u32,
+            "{visited} nodes visited"
+        );
+        // Through the first stack from below, skipping nothing: the first
+        // square blocks.
+        let brute = BruteForce::new(&surfaces);
+        for (from, to) in [
+            (DVec3::new(0.5, 0.5, -1.0), DVec3::new(0.5, 0.5, 40.0)),
+            (DVec3::new(0.5, 0.5, 31.5), DVec3::new(100.5, 0.5, 31.7)),
+            (DVec3::new(-5.0, 0.5, 10.2), DVec3::new(105.0, 0.5, 10.7)),
+        ] {
+            assert_eq!(
+                bsp.occluded(from, to, NONE_SKIPPED),
+                brute.occluded(from, to, NONE_SKIPPED)
+            );
+        }
     }
 
     #[test]

@@ -33,10 +33,10 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::{Context, Error, Report, median, table};
+use crate::accel::Occluder;
 use crate::accel::brute::BruteForce;
 use crate::accel::bsp::Bsp;
 use crate::accel::bvh::Bvh;
-use crate::accel::Occluder;
 use crate::app;
 use crate::mesh::{Mesh, MeshSettings};
 use crate::scene::{self, Scene};
@@ -70,7 +70,10 @@ struct Recorder<'a> {
 impl Occluder for Recorder<'_> {
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool {
         if self.recording.load(Ordering::Relaxed) {
-            let mut log = self.log.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let mut log = self
+                .log
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
             log.push(Segment { from, to, skip });
         }
         self.inner.occluded(from, to, skip)
@@ -121,7 +124,11 @@ fn segment_budget(quick: bool) -> usize {
 /// Segments checked against (and timed with) brute force per scene: it
 /// costs a test of every surface.
 fn brute_budget(quick: bool, surfaces: usize) -> usize {
-    let full = if quick { 200 } else { 400_000_000 / surfaces.max(1) };
+    let full = if quick {
+        200
+    } else {
+        400_000_000 / surfaces.max(1)
+    };
     full.clamp(50, 20_000)
 }
 
@@ -182,7 +189,10 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
     let mut report = Report::default();
     let repetitions = context.repetitions();
     report.setting("repetitions (interleaved; medians)", repetitions);
-    report.setting("recorded shots", format!("{:?}", recorded_shots(context.quick)));
+    report.setting(
+        "recorded shots",
+        format!("{:?}", recorded_shots(context.quick)),
+    );
     report.setting(
         "threads",
         "one per accelerator while timing (the recording solve uses every core)",
@@ -226,7 +236,10 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
             mesh.vertices.len().to_string(),
             recorded.len().to_string(),
             segments.len().to_string(),
-            format!("{:.1}%", 100.0 * outcome.blocked as f64 / segments.len().max(1) as f64),
+            format!(
+                "{:.1}%",
+                100.0 * outcome.blocked as f64 / segments.len().max(1) as f64
+            ),
             outcome.brute_checked.to_string(),
             match outcome.embree_agreement {
                 Some(a) => format!("{:.3}%", 100.0 * a),
@@ -247,8 +260,18 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
             embree.map_or("-".to_string(), |e| format!("{:.2}", e / bvh)),
         ]);
         for (name, timing, stats, per_ray) in [
-            ("bsp", &outcome.bsp, &outcome.bsp_stats, &outcome.bsp_per_ray),
-            ("bvh", &outcome.bvh, &outcome.bvh_stats, &outcome.bvh_per_ray),
+            (
+                "bsp",
+                &outcome.bsp,
+                &outcome.bsp_stats,
+                &outcome.bsp_per_ray,
+            ),
+            (
+                "bvh",
+                &outcome.bvh,
+                &outcome.bvh_stats,
+                &outcome.bvh_per_ray,
+            ),
         ] {
             let stat = |key: &str| {
                 stats
@@ -311,7 +334,15 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
          BVH reaches half of Embree's throughput).",
     );
     report.body.push_str(&table(
-        &["scene", "bsp ns", "bvh ns", "embree ns", "brute ns", "bsp/bvh", "embree/bvh"],
+        &[
+            "scene",
+            "bsp ns",
+            "bvh ns",
+            "embree ns",
+            "brute ns",
+            "bsp/bvh",
+            "embree/bvh",
+        ],
         &time_rows,
     ));
     report.paragraph(
@@ -361,13 +392,11 @@ pub fn record(scene: &Scene, mesh: &Mesh, shots: &[u64]) -> Vec<Segment> {
             Flow::Continue
         });
     }
-    let mut segments = log.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let key = |s: &Segment| {
-        [
-            s.to.x, s.to.y, s.to.z, s.from.x, s.from.y, s.from.z,
-        ]
-        .map(f64::to_bits)
-    };
+    let mut segments = log
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let key =
+        |s: &Segment| [s.to.x, s.to.y, s.to.z, s.from.x, s.from.y, s.from.z].map(f64::to_bits);
     segments.sort_unstable_by_key(key);
     segments
 }
@@ -383,7 +412,9 @@ pub fn sample(segments: &[Segment], budget: usize) -> Vec<Segment> {
     (0..blocks)
         .flat_map(|b| {
             let start = b * stride;
-            segments[start..(start + BLOCK).min(segments.len())].iter().copied()
+            segments[start..(start + BLOCK).min(segments.len())]
+                .iter()
+                .copied()
         })
         .take(budget)
         .collect()
@@ -447,12 +478,18 @@ fn measure(
     for _ in 0..repetitions.min(3) {
         let start = Instant::now();
         let bsp = Bsp::new(surfaces);
-        outcome.bsp.build_seconds.push(start.elapsed().as_secs_f64());
+        outcome
+            .bsp
+            .build_seconds
+            .push(start.elapsed().as_secs_f64());
         outcome.bsp_stats = bsp.build_statistics();
         drop(bsp);
         let start = Instant::now();
         let bvh = Bvh::new(surfaces);
-        outcome.bvh.build_seconds.push(start.elapsed().as_secs_f64());
+        outcome
+            .bvh
+            .build_seconds
+            .push(start.elapsed().as_secs_f64());
         outcome.bvh_stats = bvh.build_statistics();
     }
     let bsp = Bsp::new(surfaces);
@@ -517,7 +554,10 @@ fn measure(
                 }
                 2 => {
                     let s = time_queries(&brute, &brute_sample, &mut blocked);
-                    outcome.brute.ns_per_ray.push(1e9 * s / brute_sample.len().max(1) as f64);
+                    outcome
+                        .brute
+                        .ns_per_ray
+                        .push(1e9 * s / brute_sample.len().max(1) as f64);
                 }
                 _ => {
                     if let Some(run) = &embree {
@@ -557,10 +597,8 @@ impl EmbreeRun {
         segments: &[Segment],
         answers: &[bool],
     ) -> Result<EmbreeRun, Error> {
-        let dir = std::env::temp_dir().join(format!(
-            "radiosity-rays-{}-{name}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("radiosity-rays-{}-{name}", std::process::id()));
         let output = |source| Error::Output {
             path: std::env::temp_dir(),
             source,
@@ -584,9 +622,7 @@ impl EmbreeRun {
             .arg(self.dir.join("embree_rays.py"))
             .arg(self.dir.join("rays.bin"))
             .output()
-            .map_err(|e| {
-                Error::Experiment(format!("cannot run {}: {e}", self.python.display()))
-            })?;
+            .map_err(|e| Error::Experiment(format!("cannot run {}: {e}", self.python.display())))?;
         let text = String::from_utf8_lossy(&out.stdout);
         if !out.status.success() {
             return Err(Error::Experiment(format!(
