@@ -45,24 +45,36 @@
 //! in units of one surface test, where `n_F` and `n_B` count the fragments
 //! on each side (a fragment the plane splits counts on both: the cost of
 //! splitting) and `n_P` those lying on the plane, which the walk tests only
-//! when the segment crosses the cap. A node becomes a leaf when it holds at
-//! most [`BspSettings::leaf_size`] fragments or when no candidate costs less
-//! than testing all its fragments (`n`). At large nodes the counts are
-//! estimated from an evenly spaced sample of [`BspSettings::cost_sample`]
-//! fragments. The older score `split_weight * splits + |n_F - n_B|`
-//! (Fuchs, Abram & Grant 1983) remains as [`PlaneCost::SplitsAndBalance`]
-//! for comparison; it never stops early.
+//! when the segment crosses the cap. Many fragments on one plane (a floor
+//! of a thousand triangles) would all be tested by every segment crossing
+//! the cap anywhere, so beyond [`BspSettings::leaf_size`] of them they go to
+//! the child of smaller area instead and are divided there (as kd-trees
+//! place planar primitives; Wald & Havran 2006), costed `min(S(F), S(B))
+//! n_P`. A node whose fragments all lie in one plane is scored in two
+//! dimensions: a segment meets that plane once, so a part is tested with
+//! the probability of the share of the fragments' extent in the plane it
+//! covers. A node becomes a leaf when it holds at most
+//! [`BspSettings::leaf_size`] fragments or when no candidate costs less than
+//! testing all its fragments (`n`); a leaf whose fragments share a plane is
+//! a plane node without children (tested only when reached), else a
+//! bucket. At large nodes the counts are estimated from an evenly spaced
+//! sample of [`BspSettings::cost_sample`] fragments. The older score
+//! `split_weight * splits + |n_F - n_B|` (Fuchs, Abram & Grant 1983) remains
+//! as [`PlaneCost::SplitsAndBalance`] for comparison; it never stops early.
 //!
 //! Candidates: [`BspSettings::candidates`] surface planes, the planes of an
-//! evenly spaced sample of the node's fragments, and
-//! [`BspSettings::axis_candidates`] axis-aligned planes per axis, evenly
-//! spaced across the fragments' bounding box. Surface planes alone separate
-//! flat architecture well but not curved, finely tessellated objects: the
-//! planes of a convex shell's facets each have the whole shell behind them,
-//! so an auto-partition peels one facet per level (Sponza's columns and
-//! arches, the conference room's chairs). Measured on the real scenes
-//! (`radiosity experiment rays`, EXPERIMENTS.md), the axis-aligned candidates
-//! are what brings the default tree within reach of the BVH there; the
+//! evenly spaced sample of the node's fragments, and the boundaries of
+//! [`BspSettings::axis_candidates`] equal slabs per axis across the
+//! fragments' bounding box, all scored at once by binning and the best one
+//! then scored exactly. Surface planes alone separate flat architecture well
+//! but not curved, finely tessellated objects: the planes of a convex
+//! shell's facets each have the whole shell behind them, so an
+//! auto-partition peels one facet per level (Sponza's columns and arches,
+//! the conference room's chairs), nor can they divide the triangles of one
+//! floor. Measured on the recorded shadow segments of Sponza (`radiosity
+//! experiment rays`, EXPERIMENTS.md), surface planes only test several
+//! times as many surfaces per ray as with the axis-aligned candidates,
+//! which are what brings the default tree within 3x of the BVH there; the
 //! `auto-partition` preset keeps the paper's surface planes only.
 //!
 //! Splitting is bounded: a subtree may create at most its share of
@@ -168,8 +180,9 @@ pub struct BspSettings {
     /// Surface planes tried per node, those of an evenly spaced sample of
     /// the node's fragments; `0` tries every fragment's plane.
     pub candidates: usize,
-    /// Axis-aligned planes tried per axis and node, evenly spaced across the
-    /// fragments' bounding box; `0` keeps to surface planes (a pure
+    /// Axis-aligned planes tried per axis and node: the boundaries of this
+    /// many equal slabs across the fragments' bounding box (its faces
+    /// included), scored by binning; `0` keeps to surface planes (a pure
     /// auto-partition, as the paper).
     pub axis_candidates: usize,
     /// Cost of visiting a node, in surface tests
@@ -193,18 +206,23 @@ pub struct BspSettings {
 }
 
 impl BspSettings {
-    /// The default: the surface area heuristic over 16 surface planes and 4
-    /// axis-aligned planes per axis, leaves of up to 2 fragments, fragments
-    /// at most twice the surfaces.
+    /// The default: the surface area heuristic over 16 surface planes and
+    /// the 17 boundaries of 16 slabs per axis, leaves of up to 2 fragments,
+    /// fragments at most three times the surfaces. Measured on the recorded
+    /// shadow segments of Sponza and the conference room (`radiosity
+    /// experiment rays`): 4 slabs per axis test about 1.3 times as many
+    /// surfaces per ray as 16, 32 about as many as 16 for a slower build; a
+    /// budget of 2 tests 2.5 times as many as 3 on Sponza, 4 saves a fifth
+    /// of the tests for a third more nodes and build time.
     #[must_use]
     pub fn sah() -> BspSettings {
         BspSettings {
             cost: PlaneCost::SurfaceArea,
             candidates: 16,
-            axis_candidates: 4,
+            axis_candidates: 16,
             traversal_cost: 1.0,
             leaf_size: 2,
-            max_growth: 2.0,
+            max_growth: 3.0,
             cost_sample: 512,
             coplanar_tolerance: 1e-9,
             max_depth: MAX_DEPTH,

@@ -771,23 +771,34 @@ fn wide_any_hit(
                 hits += 1;
             }
         }
-        for &k in order[..hits].iter().rev() {
-            if node.count[k] == 0 {
-                prefetch(nodes, node.link[k]);
-                stack[top] = node.link[k];
-                top += 1;
-            }
-        }
+        // Leaf children first (their tests may end the walk), then the
+        // nearest interior child is walked next without a trip through the
+        // stack, the others pushed farthest first.
+        let mut next = EMPTY_SLOT;
         for &k in &order[..hits] {
-            let count = node.count[k] as usize;
+            let count = node.count[k];
             if count > 0 {
                 let first = node.link[k];
-                for p in first..first + count as u32 {
+                for p in first..first + count {
                     if blocks(p) {
                         return (true, tested);
                     }
                 }
+            } else if next == EMPTY_SLOT {
+                next = node.link[k];
             }
+        }
+        if next != EMPTY_SLOT {
+            for &k in order[..hits].iter().rev() {
+                let link = node.link[k];
+                if node.count[k] == 0 && link != next {
+                    prefetch(nodes, link);
+                    stack[top] = link;
+                    top += 1;
+                }
+            }
+            at = next;
+            continue;
         }
         if top == 0 {
             return (false, tested);

@@ -35,11 +35,11 @@ use glam::DVec3;
 use super::{Context, Error, Report, median, table};
 use crate::accel::Occluder;
 use crate::accel::brute::BruteForce;
-use crate::accel::bsp::Bsp;
+use crate::accel::bsp::{Bsp, BspSettings};
 use crate::accel::bvh::Bvh;
 use crate::app;
 use crate::mesh::{Mesh, MeshSettings};
-use crate::scene::{self, Scene};
+use crate::scene::{self, Scene, Surface};
 use crate::solver::{Flow, Settings, Solver};
 
 /// The Embree benchmark script, written next to its data when it is run.
@@ -179,6 +179,65 @@ struct Timing {
     ns_per_ray: Vec<f64>,
 }
 
+impl Timing {
+    fn build(&self) -> f64 {
+        median(&mut self.build_seconds.clone())
+    }
+
+    fn per_ray(&self) -> f64 {
+        median(&mut self.ns_per_ray.clone())
+    }
+}
+
+/// Our accelerators, in the tables' order: the default BSP, the BSP on
+/// surface planes only (the paper's auto-partition), the BVH.
+const OURS: [&str; 3] = ["bsp", "bsp, surface planes only", "bvh"];
+
+/// One of [`OURS`], built.
+enum Built<'a> {
+    Bsp(Bsp<'a>),
+    Bvh(Bvh<'a>),
+}
+
+impl<'a> Built<'a> {
+    fn new(k: usize, surfaces: &'a [Surface]) -> Built<'a> {
+        match k {
+            0 => Built::Bsp(Bsp::with_settings(surfaces, BspSettings::sah())),
+            1 => Built::Bsp(Bsp::with_settings(surfaces, BspSettings::auto_partition())),
+            _ => Built::Bvh(Bvh::new(surfaces)),
+        }
+    }
+
+    fn occluder(&self) -> &dyn Occluder {
+        match self {
+            Built::Bsp(b) => b,
+            Built::Bvh(b) => b,
+        }
+    }
+
+    /// `(blocked, surfaces tested, nodes or child boxes visited)`.
+    fn counting(&self, s: &Segment) -> (bool, u32, u32) {
+        match self {
+            Built::Bsp(b) => b.occluded_counting(s.from, s.to, s.skip),
+            Built::Bvh(b) => b.occluded_counting(s.from, s.to, s.skip),
+        }
+    }
+}
+
+/// What [`measure`] found on one scene.
+struct Outcome {
+    /// Per accelerator of [`OURS`].
+    ours: Vec<Timing>,
+    stats: Vec<Vec<(&'static str, usize)>>,
+    /// Mean surfaces tested and nodes visited per ray.
+    per_ray: Vec<[f64; 2]>,
+    brute: Timing,
+    embree: Option<Timing>,
+    blocked: usize,
+    brute_checked: usize,
+    embree_agreement: Option<f64>,
+}
+
 /// The experiment on the given scenes.
 pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error> {
     let folder = if scenes.iter().any(|s| s.shared) {
@@ -194,8 +253,14 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         format!("{:?}", recorded_shots(context.quick)),
     );
     report.setting(
-        "threads",
-        "one per accelerator while timing (the recording solve uses every core)",
+        "clock",
+        if thread_cpu_seconds().is_some() {
+            "the timing thread's CPU time (CLOCK_THREAD_CPUTIME_ID), so time the thread waits \
+             for a core on a shared machine does not count; Embree likewise (Python's \
+             time.thread_time)"
+        } else {
+            "wall time"
+        },
     );
     if let Some(folder) = &folder {
         report.setting("scenes", folder.display());
@@ -226,14 +291,13 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
             },
         )
         .map_err(|e| Error::App(app::Error::Mesh(e)))?;
-        let shots = recorded_shots(context.quick);
-        let recorded = record(&scene, &mesh, shots);
+        let recorded = record(&scene, &mesh, recorded_shots(context.quick));
         let segments = sample(&recorded, segment_budget(context.quick));
+        drop(mesh);
         let outcome = measure(context, spec.name, &scene, &segments)?;
         segment_rows.push(vec![
             spec.name.to_string(),
             scene.surfaces.len().to_string(),
-            mesh.vertices.len().to_string(),
             recorded.len().to_string(),
             segments.len().to_string(),
             format!(
@@ -241,84 +305,61 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
                 100.0 * outcome.blocked as f64 / segments.len().max(1) as f64
             ),
             outcome.brute_checked.to_string(),
-            match outcome.embree_agreement {
-                Some(a) => format!("{:.3}%", 100.0 * a),
-                None => "-".into(),
-            },
+            outcome
+                .embree_agreement
+                .map_or("-".into(), |a| format!("{:.2}%", 100.0 * a)),
         ]);
-        let ns = |t: &Timing| median(&mut t.ns_per_ray.clone());
-        let (bsp, bvh) = (ns(&outcome.bsp), ns(&outcome.bvh));
-        let embree = outcome.embree.as_ref().map(ns);
-        let cell = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0}"));
+        let ns: Vec<f64> = outcome.ours.iter().map(Timing::per_ray).collect();
+        let embree = outcome.embree.as_ref().map(Timing::per_ray);
+        let (bsp, auto, bvh) = (ns[0], ns[1], ns[2]);
         time_rows.push(vec![
             spec.name.to_string(),
             format!("{bsp:.0}"),
+            format!("{auto:.0}"),
             format!("{bvh:.0}"),
-            cell(embree),
-            format!("{:.0}", ns(&outcome.brute)),
+            embree.map_or("-".into(), |e| format!("{e:.0}")),
+            format!("{:.0}", outcome.brute.per_ray()),
             format!("{:.2}", bsp / bvh),
-            embree.map_or("-".to_string(), |e| format!("{:.2}", e / bvh)),
+            embree.map_or("-".into(), |e| format!("{:.2}", e / bvh)),
         ]);
-        for (name, timing, stats, per_ray) in [
-            (
-                "bsp",
-                &outcome.bsp,
-                &outcome.bsp_stats,
-                &outcome.bsp_per_ray,
-            ),
-            (
-                "bvh",
-                &outcome.bvh,
-                &outcome.bvh_stats,
-                &outcome.bvh_per_ray,
-            ),
-        ] {
-            let stat = |key: &str| {
-                stats
-                    .iter()
-                    .find(|(k, _)| *k == key)
-                    .map_or("-".to_string(), |(_, v)| v.to_string())
-            };
+        for (k, name) in OURS.iter().enumerate() {
+            let stats = &outcome.stats[k];
+            let stat = |key: &str| stats.iter().find(|(k, _)| *k == key).map(|(_, v)| *v);
+            let text = |v: Option<usize>| v.map_or("-".to_string(), |v| v.to_string());
             build_rows.push(vec![
                 spec.name.to_string(),
-                name.to_string(),
-                format!("{:.3}", median(&mut timing.build_seconds.clone())),
-                stat("nodes"),
-                stat("depth"),
-                stat("fragments"),
-                stats
-                    .iter()
-                    .find(|(k, _)| *k == "bytes")
-                    .map_or("-".to_string(), |(_, v)| format!("{:.1}", *v as f64 / 1e6)),
-                format!("{:.1}", per_ray[0]),
-                format!("{:.1}", per_ray[1]),
+                (*name).to_string(),
+                format!("{:.2}", outcome.ours[k].build()),
+                text(stat("nodes")),
+                text(stat("depth")),
+                text(stat("fragments")),
+                stat("bytes").map_or("-".into(), |b| format!("{:.1}", b as f64 / 1e6)),
+                format!("{:.1}", outcome.per_ray[k][0]),
+                format!("{:.1}", outcome.per_ray[k][1]),
             ]);
         }
         if let Some(e) = &outcome.embree {
-            build_rows.push(vec![
+            let mut row = vec![
                 spec.name.to_string(),
                 "embree".into(),
-                format!("{:.3}", median(&mut e.build_seconds.clone())),
-                "-".into(),
-                "-".into(),
-                "-".into(),
-                "-".into(),
-                "-".into(),
-                "-".into(),
-            ]);
+                format!("{:.2}", e.build()),
+            ];
+            row.extend(std::iter::repeat_n("-".to_string(), 6));
+            build_rows.push(row);
         }
     }
     report.paragraph(
-        "Segments: those the solver cast in the recorded shots, then a deterministic sample \
-         of blocks of 256 consecutive ones (in receiver order). Blocked: the share every \
-         accelerator found blocked; brute force checked the answers on an evenly spaced \
-         sample; Embree's agreement is with our answers.",
+        "Segments: those the solver cast in the recorded shots (after its hemicube \
+         pre-test), then a deterministic sample of blocks of 256 consecutive ones in receiver \
+         order. Blocked: the share every accelerator found blocked (they agree on every \
+         segment, and brute force on an evenly spaced sample of them, or the experiment \
+         fails). Embree's agreement is with our answers: it works in f32 and does not skip the \
+         source's and receiver's surfaces.",
     );
     report.body.push_str(&table(
         &[
             "scene",
             "surfaces",
-            "vertices",
             "segments recorded",
             "segments timed",
             "blocked",
@@ -328,15 +369,16 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         &segment_rows,
     ));
     report.paragraph(
-        "Time per shadow ray, one thread (nanoseconds, median of the interleaved repetitions; \
-         brute force on its sample). bsp/bvh is the BSP's time over the BVH's (target: at \
-         most 3); embree/bvh is Embree's time over the BVH's (target: at least 0.5, i.e. the \
-         BVH reaches half of Embree's throughput).",
+        "Time per shadow ray on one thread, nanoseconds (median of the interleaved \
+         repetitions; brute force on its sample). bsp/bvh: the default BSP's time over the \
+         BVH's (target: at most 3). embree/bvh: Embree's time over the BVH's, i.e. the BVH's \
+         share of Embree's throughput (target: at least 0.5).",
     );
     report.body.push_str(&table(
         &[
             "scene",
             "bsp ns",
+            "bsp, surface planes only, ns",
             "bvh ns",
             "embree ns",
             "brute ns",
@@ -346,10 +388,11 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         &time_rows,
     ));
     report.paragraph(
-        "Builds (median seconds, one thread for ours; Embree's own build uses its thread \
-         pool) and sizes: bytes are the accelerator's own arrays (the prepared surfaces they \
-         share with brute force excluded). Per ray: surfaces tested with the exact segment \
-         test and tree nodes visited, means over the timed segments.",
+        "Builds (median seconds on one thread; Embree's build uses its own thread pool) and \
+         sizes: MB are the accelerator's own arrays (the prepared surfaces every accelerator \
+         has are not counted). Per ray: surfaces tested with the exact segment test, and BSP \
+         nodes visited or BVH child boxes tested (four per node of its four-wide tree), means \
+         over the timed segments.",
     );
     report.body.push_str(&table(
         &[
@@ -361,7 +404,7 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
             "fragments",
             "MB",
             "tests/ray",
-            "nodes/ray",
+            "nodes or boxes/ray",
         ],
         &build_rows,
     ));
@@ -420,33 +463,50 @@ pub fn sample(segments: &[Segment], budget: usize) -> Vec<Segment> {
         .collect()
 }
 
-/// What [`measure`] found on one scene.
-struct Outcome {
-    bsp: Timing,
-    bvh: Timing,
-    brute: Timing,
-    embree: Option<Timing>,
-    bsp_stats: Vec<(&'static str, usize)>,
-    bvh_stats: Vec<(&'static str, usize)>,
-    /// Mean surfaces tested and nodes visited per ray.
-    bsp_per_ray: [f64; 2],
-    bvh_per_ray: [f64; 2],
-    blocked: usize,
-    brute_checked: usize,
-    embree_agreement: Option<f64>,
+/// Seconds of CPU time the calling thread has used
+/// (`CLOCK_THREAD_CPUTIME_ID`), where the system has that clock.
+fn thread_cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut t = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `clock_gettime` only writes the `timespec` it is given,
+        // which lives on this stack frame.
+        let status = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &raw mut t) };
+        (status == 0).then_some(t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    None
 }
 
-/// Seconds for one thread to answer every segment; the answers' count of
-/// blocked ones goes to `blocked`.
-fn time_queries(occluder: &dyn Occluder, segments: &[Segment], blocked: &mut usize) -> f64 {
-    let start = Instant::now();
-    let mut count = 0;
+/// A clock for timings: the thread's CPU time where available, else wall
+/// time.
+struct Clock(Option<f64>, Instant);
+
+impl Clock {
+    fn start() -> Clock {
+        Clock(thread_cpu_seconds(), Instant::now())
+    }
+
+    fn seconds(&self) -> f64 {
+        match (self.0, thread_cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => self.1.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+/// Seconds for one thread to answer every segment.
+fn time_queries(occluder: &dyn Occluder, segments: &[Segment]) -> f64 {
+    let clock = Clock::start();
+    let mut count = 0usize;
     for s in segments {
         count += usize::from(occluder.occluded(std::hint::black_box(s.from), s.to, s.skip));
     }
-    let seconds = start.elapsed().as_secs_f64();
-    *blocked = count;
-    seconds
+    std::hint::black_box(count);
+    clock.seconds()
 }
 
 fn measure(
@@ -462,64 +522,57 @@ fn measure(
         .map(|i| segments[i * segments.len() / brute_count.max(1)])
         .collect();
     let mut outcome = Outcome {
-        bsp: Timing::default(),
-        bvh: Timing::default(),
+        ours: vec![Timing::default(); OURS.len()],
+        stats: vec![Vec::new(); OURS.len()],
+        per_ray: vec![[0.0; 2]; OURS.len()],
         brute: Timing::default(),
         embree: None,
-        bsp_stats: Vec::new(),
-        bvh_stats: Vec::new(),
-        bsp_per_ray: [0.0; 2],
-        bvh_per_ray: [0.0; 2],
         blocked: 0,
         brute_checked: 0,
         embree_agreement: None,
     };
-    // Builds, interleaved.
+    // Builds, interleaved; the last one of each is kept.
+    let mut built: Vec<Option<Built>> = (0..OURS.len()).map(|_| None).collect();
     for _ in 0..repetitions.min(3) {
-        let start = Instant::now();
-        let bsp = Bsp::new(surfaces);
-        outcome
-            .bsp
-            .build_seconds
-            .push(start.elapsed().as_secs_f64());
-        outcome.bsp_stats = bsp.build_statistics();
-        drop(bsp);
-        let start = Instant::now();
-        let bvh = Bvh::new(surfaces);
-        outcome
-            .bvh
-            .build_seconds
-            .push(start.elapsed().as_secs_f64());
-        outcome.bvh_stats = bvh.build_statistics();
+        for (k, slot) in built.iter_mut().enumerate() {
+            *slot = None;
+            let clock = Clock::start();
+            let b = Built::new(k, surfaces);
+            outcome.ours[k].build_seconds.push(clock.seconds());
+            outcome.stats[k] = b.occluder().build_statistics();
+            *slot = Some(b);
+        }
     }
-    let bsp = Bsp::new(surfaces);
-    let bvh = Bvh::new(surfaces);
+    let built: Vec<Built> = built.into_iter().flatten().collect();
     let brute = BruteForce::new(surfaces);
 
     // Answers: identical everywhere, brute force on its sample.
-    let answers: Vec<bool> = segments
-        .iter()
-        .map(|s| bvh.occluded(s.from, s.to, s.skip))
-        .collect();
-    let (mut bsp_tests, mut bsp_nodes, mut bvh_tests, mut bvh_nodes) = (0u64, 0u64, 0u64, 0u64);
-    for (s, &expected) in segments.iter().zip(&answers) {
-        let (b, tests, nodes) = bsp.occluded_counting(s.from, s.to, s.skip);
-        bsp_tests += u64::from(tests);
-        bsp_nodes += u64::from(nodes);
-        let (v, tests, nodes) = bvh.occluded_counting(s.from, s.to, s.skip);
-        bvh_tests += u64::from(tests);
-        bvh_nodes += u64::from(nodes);
-        if b != expected || v != expected {
-            return Err(Error::Experiment(format!(
-                "{name}: the BSP says {b} and the BVH {v} for the segment {:?} -> {:?} \
-                 skipping {:?}",
-                s.from, s.to, s.skip
-            )));
+    let mut answers = Vec::with_capacity(segments.len());
+    let mut totals = vec![[0u64; 2]; OURS.len()];
+    for s in segments {
+        let mut first = None;
+        for (k, b) in built.iter().enumerate() {
+            let (blocked, tests, nodes) = b.counting(s);
+            totals[k][0] += u64::from(tests);
+            totals[k][1] += u64::from(nodes);
+            match first {
+                None => first = Some(blocked),
+                Some(f) if f != blocked => {
+                    return Err(Error::Experiment(format!(
+                        "{name}: {} says {blocked} and {} says {f} for the segment {:?} -> {:?} \
+                         skipping {:?}",
+                        OURS[k], OURS[0], s.from, s.to, s.skip
+                    )));
+                }
+                Some(_) => {}
+            }
         }
+        answers.push(first.unwrap_or(false));
     }
-    for s in &brute_sample {
+    for (k, s) in brute_sample.iter().enumerate() {
         let expected = brute.occluded(s.from, s.to, s.skip);
-        if bvh.occluded(s.from, s.to, s.skip) != expected {
+        let index = k * segments.len() / brute_count.max(1);
+        if answers[index] != expected {
             return Err(Error::Experiment(format!(
                 "{name}: brute force says {expected} for the segment {:?} -> {:?} skipping \
                  {:?}, the accelerators do not",
@@ -530,8 +583,10 @@ fn measure(
     outcome.brute_checked = brute_sample.len();
     outcome.blocked = answers.iter().filter(|&&a| a).count();
     let n = segments.len().max(1) as f64;
-    outcome.bsp_per_ray = [bsp_tests as f64 / n, bsp_nodes as f64 / n];
-    outcome.bvh_per_ray = [bvh_tests as f64 / n, bvh_nodes as f64 / n];
+    outcome.per_ray = totals
+        .iter()
+        .map(|t| [t[0] as f64 / n, t[1] as f64 / n])
+        .collect();
 
     let embree = match &context.embree_python {
         Some(python) => Some(EmbreeRun::prepare(python, name, scene, segments, &answers)?),
@@ -540,33 +595,24 @@ fn measure(
     // Timings, interleaved: each round runs every accelerator once, the
     // starting one rotating.
     let mut embree_timing = Timing::default();
+    let contestants = OURS.len() + 2;
     for round in 0..repetitions {
-        for k in 0..4 {
-            let mut blocked = 0;
-            match (round + k) % 4 {
-                0 => {
-                    let s = time_queries(&bsp, segments, &mut blocked);
-                    outcome.bsp.ns_per_ray.push(1e9 * s / n);
-                }
-                1 => {
-                    let s = time_queries(&bvh, segments, &mut blocked);
-                    outcome.bvh.ns_per_ray.push(1e9 * s / n);
-                }
-                2 => {
-                    let s = time_queries(&brute, &brute_sample, &mut blocked);
-                    outcome
-                        .brute
-                        .ns_per_ray
-                        .push(1e9 * s / brute_sample.len().max(1) as f64);
-                }
-                _ => {
-                    if let Some(run) = &embree {
-                        let result = run.run()?;
-                        embree_timing.ns_per_ray.push(result.ns_per_ray);
-                        embree_timing.build_seconds.push(result.build_seconds);
-                        outcome.embree_agreement = Some(result.agreement);
-                    }
-                }
+        for i in 0..contestants {
+            let k = (round + i) % contestants;
+            if k < OURS.len() {
+                let seconds = time_queries(built[k].occluder(), segments);
+                outcome.ours[k].ns_per_ray.push(1e9 * seconds / n);
+            } else if k == OURS.len() {
+                let seconds = time_queries(&brute, &brute_sample);
+                outcome
+                    .brute
+                    .ns_per_ray
+                    .push(1e9 * seconds / brute_sample.len().max(1) as f64);
+            } else if let Some(run) = &embree {
+                let result = run.run()?;
+                embree_timing.ns_per_ray.push(result.ns_per_ray);
+                embree_timing.build_seconds.push(result.build_seconds);
+                outcome.embree_agreement = Some(result.agreement);
             }
         }
     }
