@@ -12,7 +12,9 @@
 //! sample does not depend on the thread count, and a deterministic sample of
 //! blocks of consecutive segments is timed: one thread answers the whole
 //! list with each accelerator in turn, repetitions interleaved, and the
-//! median per ray is reported. Every accelerator must give the same answer
+//! median per ray is reported. Times are the timing thread's CPU time where
+//! the system has that clock, so a shared machine's other jobs (waiting for
+//! a core) do not count; they still share the caches. Every accelerator must give the same answer
 //! on every segment (the brute-force oracle on an evenly spaced sample): the
 //! experiment fails otherwise.
 //!
