@@ -42,8 +42,9 @@ enum Command {
 
 #[derive(Parser, Debug)]
 struct ExperimentArgs {
-    /// Experiments to run, or `all`: fig2-1, fig4-2, fig4-3,
-    /// formula-timing, fig5-1, fig5-2, rays.
+    /// Experiments to run, or `all` (the paper's): fig2-1, fig4-2, fig4-3,
+    /// formula-timing, fig5-1, fig5-2; and rays (the shared real scenes,
+    /// run by name only).
     #[arg(required = true, value_name = "NAME")]
     names: Vec<String>,
 
