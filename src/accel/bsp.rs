@@ -208,12 +208,14 @@ pub struct BspSettings {
 impl BspSettings {
     /// The default: the surface area heuristic over 16 surface planes and
     /// the 17 boundaries of 16 slabs per axis, leaves of up to 2 fragments,
-    /// fragments at most three times the surfaces. Measured on the recorded
-    /// shadow segments of Sponza and the conference room (`radiosity
-    /// experiment rays`): 4 slabs per axis test about 1.3 times as many
-    /// surfaces per ray as 16, 32 about as many as 16 for a slower build; a
-    /// budget of 2 tests 2.5 times as many as 3 on Sponza, 4 saves a fifth
-    /// of the tests for a third more nodes and build time.
+    /// fragments at most three times the surfaces. Measured on 100,000 of
+    /// the recorded shadow segments of Sponza and the conference room (as
+    /// `radiosity experiment rays` records them): with 4, 8, 16 and 32 slabs
+    /// per axis Sponza's tree tests 12.6, 13.0, 11.9 and 9.0 surfaces per
+    /// ray, the conference room's 10.5 with 16 and 12.3 with 32 (and is
+    /// slower), all for about the same build time; a budget of 2 tests 2.6
+    /// times as many surfaces as 3 on Sponza, 4 a fifth fewer for 30% more
+    /// nodes.
     #[must_use]
     pub fn sah() -> BspSettings {
         BspSettings {
