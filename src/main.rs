@@ -68,8 +68,9 @@ struct ServeArgs {
 
 #[derive(Parser, Debug)]
 struct ExperimentArgs {
-    /// Experiments to run, or `all`: fig2-1, fig4-2, fig4-3,
-    /// formula-timing, fig5-1, fig5-2.
+    /// Experiments to run, or `all` (the paper's): fig2-1, fig4-2, fig4-3,
+    /// formula-timing, fig5-1, fig5-2; and rays (the shared real scenes,
+    /// run by name only).
     #[arg(required = true, value_name = "NAME")]
     names: Vec<String>,
 
@@ -85,6 +86,16 @@ struct ExperimentArgs {
     /// Worker threads (default: every core).
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
+
+    /// Folder holding the shared real scenes, for `rays` (default:
+    /// ../shared/scenes).
+    #[arg(long, value_name = "DIR")]
+    scenes: Option<PathBuf>,
+
+    /// A Python interpreter with the embreex package: `rays` then times
+    /// Embree too (tools/embree_rays.py).
+    #[arg(long, value_name = "PYTHON")]
+    embree_python: Option<PathBuf>,
 }
 
 #[derive(Parser, Debug)]
@@ -360,6 +371,8 @@ fn experiment(args: &ExperimentArgs) -> Result<()> {
             .map(|(i, a)| if i == 0 { "radiosity".to_string() } else { a })
             .collect::<Vec<_>>()
             .join(" "),
+        scenes: args.scenes.clone(),
+        embree_python: args.embree_python.clone(),
     };
     let written = pool(args.threads)?
         .install(|| experiments::run(&args.names, &context, |name| eprintln!("running {name}")))?;

@@ -14,8 +14,8 @@ use radiosity::scene::Surface;
 mod common;
 
 use common::soup::{
-    Rng, bounds, builtin, grid_rectangle, numbered, random_point, random_skip, shared_edge_group,
-    surface,
+    Rng, bounds, builtin, grid_rectangle, numbered, random_point, random_skip, real_file_soup,
+    shared_edge_group, surface,
 };
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
@@ -36,7 +36,8 @@ fn assert_agrees(
         "{what}: from {from:?} to {to:?} skipping {skip:?}"
     );
     assert_eq!(bvh.occluded(from, to, skip), expected, "{what}");
-    assert!(visited as usize <= bvh.stats().nodes, "{what}");
+    // Boxes tested: four per node of the four-wide tree, each at most once.
+    assert!(visited as usize <= 4 * bvh.stats().wide_nodes, "{what}");
     let stats = bvh.stats();
     assert!(
         tested as usize <= stats.leaves * stats.max_leaf_size,
@@ -184,7 +185,17 @@ fn builtin_trees_are_valid_and_shallow() {
             .iter()
             .map(|(k, _)| *k)
             .collect();
-        assert_eq!(names, ["nodes", "leaves", "depth", "max_leaf_size"]);
+        assert_eq!(
+            names,
+            [
+                "nodes",
+                "leaves",
+                "depth",
+                "max_leaf_size",
+                "wide_nodes",
+                "bytes"
+            ]
+        );
     }
 }
 
@@ -362,6 +373,59 @@ fn random_soups_agree_with_brute_force() {
     for seed in 0..10u64 {
         let surfaces = soup(seed, 40 + 25 * seed as usize);
         check_scene(&format!("soup {seed}"), &surfaces, 1000 + seed, 2_500);
+    }
+}
+
+/// The real files' mess in miniature (tessellated floor and column, tiny
+/// triangles, needles, faces back to back), near the origin and 10 km from
+/// it, with random segments and with segments from one surface's point to
+/// another's, shortened and skipping both, as the solver casts them.
+#[test]
+fn real_file_shaped_soup_agrees_with_brute_force() {
+    for (k, offset) in [DVec3::ZERO, DVec3::new(1.0e4, 30.0, -7.0e3)]
+        .into_iter()
+        .enumerate()
+    {
+        let mut rng = Rng(60 + k as u64);
+        let surfaces = real_file_soup(&mut rng, offset);
+        check_scene(
+            &format!("real-file soup {k}"),
+            &surfaces,
+            70 + k as u64,
+            3_000,
+        );
+        let brute = BruteForce::new(&surfaces);
+        for (preset, settings) in all_settings() {
+            let bvh = Bvh::with_settings(&surfaces, settings);
+            let mut blocked = 0;
+            for _ in 0..3_000 {
+                let (i, j) = (rng.below(surfaces.len()), rng.below(surfaces.len()));
+                let on = |rng: &mut Rng, s: &Surface| {
+                    let p = &s.polygon;
+                    let (a, b) = (rng.unit(), rng.unit());
+                    let (a, b) = if a + b > 1.0 {
+                        (1.0 - a, 1.0 - b)
+                    } else {
+                        (a, b)
+                    };
+                    p[0] + (p[1] - p[0]) * a + (p[2] - p[0]) * b
+                };
+                let (from, to) = shorten(on(&mut rng, &surfaces[i]), on(&mut rng, &surfaces[j]));
+                let what = format!("real-file soup {k}, {preset}");
+                blocked += usize::from(assert_agrees(
+                    &bvh,
+                    &brute,
+                    from,
+                    to,
+                    [i as u32, j as u32],
+                    &what,
+                ));
+            }
+            assert!(
+                blocked > 100 && blocked < 2_900,
+                "{preset}: {blocked} blocked"
+            );
+        }
     }
 }
 
@@ -557,7 +621,9 @@ fn empty_scene() {
                 ("nodes", 0),
                 ("leaves", 0),
                 ("depth", 0),
-                ("max_leaf_size", 0)
+                ("max_leaf_size", 0),
+                ("wide_nodes", 0),
+                ("bytes", 0)
             ]
         );
     }

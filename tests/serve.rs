@@ -469,7 +469,10 @@ fn serves_no_path_from_the_disk() {
     // (Vertex queries answer 503 while the scene is loading: wait for it.)
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
     while served.get("/api/vertex/0").status == 503 {
-        assert!(std::time::Instant::now() < deadline, "the scene never loaded");
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the scene never loaded"
+        );
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     assert_eq!(served.get("/api/stop").status, 405);

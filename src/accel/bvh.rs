@@ -6,12 +6,15 @@
 //! down with the surface area heuristic (Goldsmith & Salmon 1987; MacDonald
 //! & Booth 1990) evaluated on a fixed number of centroid bins per axis
 //! (Wald 2007, "On fast construction of SAH-based bounding volume
-//! hierarchies"). A shadow segment walks it depth first, nearer child first,
-//! and stops at the first blocker (an any-hit query).
+//! hierarchies"), then collapsed into a four-wide tree (Dammertz et al.
+//! 2008; Wald et al. 2008) whose four child boxes are tested at once. A
+//! shadow segment walks it depth first, nearer children first, and stops at
+//! the first blocker (an any-hit query).
 //!
 //! The file is in sections, one concern each: settings; the flattened
-//! layout; the build; the traversal; `validate`; the conservative box of a
-//! surface; and [`Bvh`], which ties the tree to the scene. The tree itself
+//! layout; the build; the traversal (the segment prepared for it); the
+//! wide layout and its walk; `validate`; the conservative box of a surface;
+//! and [`Bvh`], which ties the tree to the scene. The tree itself
 //! knows primitive indices, never geometry: the build takes boxes, the
 //! traversal takes a closure deciding whether primitive `i` blocks.
 //!
@@ -43,13 +46,19 @@
 //!
 //! # Layout
 //!
-//! Nodes live in one `Vec` in depth-first order: an interior node's left
-//! child is the next node, its right child is stored by index. A node is 32
-//! bytes (two per cache line): an `f32` box, a link (right child or first
+//! The binary tree's nodes live in one `Vec` in depth-first order: an
+//! interior node's left child is the next node, its right child is stored
+//! by index. A node is 32 bytes: an `f32` box, a link (right child or first
 //! primitive) and a word that is either the leaf's primitive count or the
 //! interior node's split axis. Leaves' primitives are ranges of one
-//! `Vec<u32>` of surface ids. Queries use a fixed stack of [`MAX_DEPTH`]
-//! entries: no allocation, no interior mutability, any number of threads.
+//! `Vec<u32>` of surface ids. The four-wide nodes the queries walk are 128
+//! bytes (two cache lines), the four boxes coordinate by coordinate; the
+//! walk prefetches a node when it pushes it, since on scenes of a hundred
+//! thousand triangles it waits on memory more than it computes. The
+//! surfaces' prepared planes and edges are stored in leaf order, so a
+//! leaf's tests read adjacent memory; the skip rule compares surface ids,
+//! in one closure. Queries use a fixed stack: no allocation, no interior
+//! mutability, any number of threads.
 
 use glam::{DVec3, Vec3A};
 
@@ -177,6 +186,8 @@ pub struct BvhStats {
     pub depth: usize,
     /// Surfaces in the largest leaf.
     pub max_leaf_size: usize,
+    /// Nodes of the four-wide tree the queries walk.
+    pub wide_nodes: usize,
 }
 
 // -------------------------------------------------------------------- layout
@@ -553,17 +564,12 @@ fn partition(slice: &mut [u32], left: impl Fn(&u32) -> bool) -> usize {
 /// A segment `origin + t * direction`, `t` in `[0, 1]`, prepared for `f32`
 /// slab tests, its origin pushed out by the round-off margin: lower planes
 /// are met from `origin + margin`, upper planes from `origin - margin`,
-/// which widens every box by the margin at no cost per node. The three axes
-/// go through one SIMD register (`Vec3A`), about 1.4 times as fast on the
-/// room as scalar slabs; that, not memory, is why the boxes are `f32`
-/// (scalar `f64` boxes measured the same as scalar `f32` ones).
+/// which widens every box by the margin at no cost per node. The boxes are
+/// `f32` so four of them fit one SIMD register per coordinate.
 struct SegmentQuery {
     origin_for_min: Vec3A,
     origin_for_max: Vec3A,
     inverse_direction: Vec3A,
-    /// Whether the segment runs towards lower coordinates, per axis: the
-    /// right (upper) child is then the nearer.
-    negative: [bool; 3],
 }
 
 impl SegmentQuery {
@@ -576,67 +582,229 @@ impl SegmentQuery {
             origin_for_min: origin + margin,
             origin_for_max: origin - margin,
             inverse_direction: direction.recip(),
-            negative: [direction.x < 0.0, direction.y < 0.0, direction.z < 0.0],
         }
-    }
-
-    /// Whether the segment (within the margin) meets the node's box. A zero
-    /// direction component gives infinite parameters, which the comparisons
-    /// handle. A NaN (the origin exactly on a widened face while parallel
-    /// to it) may go either way: it only arises when the unwidened box is
-    /// missed, and then a hit merely costs a test.
-    #[inline]
-    fn overlaps(&self, node: &Node) -> bool {
-        let t0 = (Vec3A::from_array(node.min) - self.origin_for_min) * self.inverse_direction;
-        let t1 = (Vec3A::from_array(node.max) - self.origin_for_max) * self.inverse_direction;
-        let enter = t0.min(t1).max_element();
-        let exit = t0.max(t1).min_element();
-        enter.max(0.0) <= exit.min(1.0)
     }
 }
 
-impl Tree {
-    /// Walks the tree depth first, nearer child first, calling `blocks` on
-    /// the primitives of every leaf whose box the segment meets; stops at
-    /// the first that returns true. Returns the answer and the number of
-    /// nodes whose box was tested.
-    fn any_hit(&self, query: &SegmentQuery, mut blocks: impl FnMut(u32) -> bool) -> (bool, u32) {
-        if self.nodes.is_empty() {
-            return (false, 0);
+// ---------------------------------------------------------------- wide layout
+
+/// Children per node of the traversed tree.
+const WIDTH: usize = 4;
+
+/// No child in a slot.
+const EMPTY_SLOT: u32 = u32::MAX;
+
+/// A node of the four-wide tree the queries walk: the boxes of up to four
+/// children side by side, one array per coordinate (structure of arrays),
+/// so one pass of four-lane arithmetic tests them all (Dammertz et al.
+/// 2008, "Shallow bounding volume hierarchies"; Wald et al. 2008, "Getting
+/// rid of packets"). 128 bytes: two cache lines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+struct WideNode {
+    /// Lower corners: `min[axis][child]`.
+    min: [[f32; WIDTH]; 3],
+    /// Upper corners.
+    max: [[f32; WIDTH]; 3],
+    /// Interior child: its node index. Leaf child: its first primitive.
+    /// [`EMPTY_SLOT`] for no child.
+    link: [u32; WIDTH],
+    /// Primitives of a leaf child; 0 for an interior child or no child.
+    count: [u32; WIDTH],
+}
+
+impl WideNode {
+    const UNUSED: WideNode = WideNode {
+        min: [[f32::INFINITY; WIDTH]; 3],
+        max: [[f32::NEG_INFINITY; WIDTH]; 3],
+        link: [EMPTY_SLOT; WIDTH],
+        count: [0; WIDTH],
+    };
+}
+
+/// The binary tree collapsed into a four-wide one: each wide node takes the
+/// place of a binary node and holds up to four of its descendants, found by
+/// opening the child of largest surface area until there are four (the
+/// usual collapse of a binary SAH tree; the boxes are the binary nodes'
+/// own, so every box still contains what is below it).
+fn collapse(tree: &Tree) -> Vec<WideNode> {
+    if tree.nodes.is_empty() {
+        return Vec::new();
+    }
+    let mut wide = Vec::with_capacity(tree.nodes.len() / 2 + 1);
+    collapse_node(tree, 0, &mut wide);
+    wide
+}
+
+fn half_area_of(node: &Node) -> f32 {
+    let d = [0, 1, 2].map(|i| node.max[i] - node.min[i]);
+    let area = d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+    if area.is_nan() { f32::INFINITY } else { area }
+}
+
+/// Collapses the subtree of binary node `at` into wide nodes; returns the
+/// index of its wide node.
+fn collapse_node(tree: &Tree, at: u32, wide: &mut Vec<WideNode>) -> u32 {
+    let index = wide.len() as u32;
+    wide.push(WideNode::UNUSED);
+    let node = &tree.nodes[at as usize];
+    let mut children: Vec<u32> = if node.is_leaf() {
+        vec![at]
+    } else {
+        vec![at + 1, node.link]
+    };
+    while children.len() < WIDTH {
+        let open = children
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !tree.nodes[**c as usize].is_leaf())
+            .max_by(|a, b| {
+                half_area_of(&tree.nodes[*a.1 as usize])
+                    .total_cmp(&half_area_of(&tree.nodes[*b.1 as usize]))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = open else { break };
+        let c = children[i];
+        let right = tree.nodes[c as usize].link;
+        children[i] = c + 1;
+        children.insert(i + 1, right);
+    }
+    let mut out = WideNode::UNUSED;
+    for (slot, &c) in children.iter().enumerate() {
+        let child = tree.nodes[c as usize];
+        for axis in 0..3 {
+            out.min[axis][slot] = child.min[axis];
+            out.max[axis][slot] = child.max[axis];
         }
-        // Far children still to visit; one per interior ancestor at most.
-        let mut stack = [0u32; MAX_DEPTH];
-        let mut top = 0;
-        let mut at = 0u32;
-        let mut visited = 0u32;
-        loop {
-            let node = &self.nodes[at as usize];
-            visited += 1;
-            if query.overlaps(node) {
-                if !node.is_leaf() {
-                    let left = at + 1;
-                    let (near, far) = if query.negative[node.axis()] {
-                        (node.link, left)
-                    } else {
-                        (left, node.link)
-                    };
-                    stack[top] = far;
-                    top += 1;
-                    at = near;
-                    continue;
+        if child.is_leaf() {
+            out.link[slot] = child.link;
+            out.count[slot] = child.kind;
+        } else {
+            out.link[slot] = collapse_node(tree, c, wide);
+        }
+    }
+    wide[index as usize] = out;
+    index
+}
+
+/// Asks the processor to start loading a node about to be visited (the
+/// walk is bound by memory latency on large scenes); a no-op elsewhere.
+#[inline]
+fn prefetch(nodes: &[WideNode], index: u32) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(node) = nodes.get(index as usize) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = std::ptr::from_ref(node).cast::<i8>();
+        // SAFETY: prefetching is a hint: it never faults, and `p` and
+        // `p + 64` lie within the node (128 bytes).
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(p.add(64));
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (nodes, index);
+}
+
+/// Walks the wide tree: every child box the segment meets is entered,
+/// nearer first; the primitives of a leaf child are offered to `blocks` at
+/// once, by position in the leaf order. Returns the answer and the number
+/// of child boxes tested.
+fn wide_any_hit(
+    nodes: &[WideNode],
+    query: &SegmentQuery,
+    mut blocks: impl FnMut(u32) -> bool,
+) -> (bool, u32) {
+    if nodes.is_empty() {
+        return (false, 0);
+    }
+    // Each node pushes at most WIDTH - 1 entries above its ancestors'.
+    let mut stack = [0u32; (WIDTH - 1) * MAX_DEPTH + 1];
+    let mut top = 0;
+    let mut at = 0u32;
+    let mut tested = 0u32;
+    let o_min = query.origin_for_min.to_array();
+    let o_max = query.origin_for_max.to_array();
+    let inv = query.inverse_direction.to_array();
+    // Per axis, which face the segment meets first: the lower one unless
+    // it runs towards lower coordinates (`1 / -0` counts as running down,
+    // as its infinite parameter does). Lower faces are met from the origin
+    // moved up by the margin and upper faces from it moved down, so
+    // choosing the face once per segment keeps the widening.
+    let negative = inv.map(f32::is_sign_negative);
+    let o_near = [0, 1, 2].map(|a| if negative[a] { o_max[a] } else { o_min[a] });
+    let o_far = [0, 1, 2].map(|a| if negative[a] { o_min[a] } else { o_max[a] });
+    loop {
+        let node = &nodes[at as usize];
+        tested += WIDTH as u32;
+        // Unused slots have an empty box (lower corner +inf, upper -inf),
+        // which enters at +inf: never hit. A NaN parameter (the origin
+        // exactly on a widened face while parallel to it) fails the
+        // comparisons and so leaves that axis unconstrained: a hit costs a
+        // test, never an answer.
+        let mut enter = [0.0f32; WIDTH];
+        let mut exit = [1.0f32; WIDTH];
+        for axis in 0..3 {
+            let (near, far) = if negative[axis] {
+                (&node.max[axis], &node.min[axis])
+            } else {
+                (&node.min[axis], &node.max[axis])
+            };
+            for k in 0..WIDTH {
+                let t_near = (near[k] - o_near[axis]) * inv[axis];
+                let t_far = (far[k] - o_far[axis]) * inv[axis];
+                enter[k] = if t_near > enter[k] { t_near } else { enter[k] };
+                exit[k] = if t_far < exit[k] { t_far } else { exit[k] };
+            }
+        }
+        // Hit children, nearest first (insertion sort of at most four).
+        let mut order = [0usize; WIDTH];
+        let mut hits = 0;
+        for k in 0..WIDTH {
+            if enter[k] <= exit[k] {
+                let mut i = hits;
+                while i > 0 && enter[order[i - 1]] > enter[k] {
+                    order[i] = order[i - 1];
+                    i -= 1;
                 }
-                for &p in &self.primitives[node.primitives()] {
+                order[i] = k;
+                hits += 1;
+            }
+        }
+        // Leaf children first (their tests may end the walk), then the
+        // nearest interior child is walked next without a trip through the
+        // stack, the others pushed farthest first.
+        let mut next = EMPTY_SLOT;
+        for &k in &order[..hits] {
+            let count = node.count[k];
+            if count > 0 {
+                let first = node.link[k];
+                for p in first..first + count {
                     if blocks(p) {
-                        return (true, visited);
+                        return (true, tested);
                     }
                 }
+            } else if next == EMPTY_SLOT {
+                next = node.link[k];
             }
-            if top == 0 {
-                return (false, visited);
-            }
-            top -= 1;
-            at = stack[top];
         }
+        if next != EMPTY_SLOT {
+            for &k in order[..hits].iter().rev() {
+                let link = node.link[k];
+                if node.count[k] == 0 && link != next {
+                    prefetch(nodes, link);
+                    stack[top] = link;
+                    top += 1;
+                }
+            }
+            at = next;
+            continue;
+        }
+        if top == 0 {
+            return (false, tested);
+        }
+        top -= 1;
+        at = stack[top];
     }
 }
 
@@ -740,6 +908,7 @@ impl Tree {
             leaves,
             depth: max_depth,
             max_leaf_size: largest,
+            wide_nodes: stats.wide_nodes,
         };
         if actual != *stats {
             return Err(format!("statistics {stats:?}, tree {actual:?}"));
@@ -789,9 +958,13 @@ fn crossing_box(surface: &Surface) -> Aabb {
 /// A BVH over a scene's surfaces answering shadow-segment queries.
 pub struct Bvh<'a> {
     surfaces: &'a [Surface],
-    /// The surfaces laid out for the segment test.
+    /// The surfaces laid out for the segment test, in leaf order (the
+    /// order of `tree.primitives`), so a leaf's tests read adjacent memory.
     prepared: PreparedSurfaces,
+    /// The binary tree as built (kept for `validate`).
     tree: Tree,
+    /// The same tree collapsed four-wide, which queries walk.
+    wide: Vec<WideNode>,
     /// Largest finite coordinate of any surface box: the scale of the
     /// boxes' round-off.
     scale: f64,
@@ -826,10 +999,18 @@ impl<'a> Bvh<'a> {
             .map(f64::abs)
             .filter(|c| c.is_finite())
             .fold(0.0, f64::max);
-        let (tree, stats) = Tree::build(&boxes, settings);
+        let (tree, mut stats) = Tree::build(&boxes, settings);
+        let wide = collapse(&tree);
+        stats.wide_nodes = wide.len();
+        let in_leaf_order: Vec<Surface> = tree
+            .primitives
+            .iter()
+            .map(|&id| surfaces[id as usize].clone())
+            .collect();
         Bvh {
             surfaces,
-            prepared: PreparedSurfaces::new(surfaces),
+            prepared: PreparedSurfaces::new(&in_leaf_order),
+            wide,
             tree,
             scale,
             settings,
@@ -843,6 +1024,17 @@ impl<'a> Bvh<'a> {
         self.stats
     }
 
+    /// Bytes of the hierarchy's own arrays (binary and four-wide nodes,
+    /// primitive ids), without the prepared surfaces every accelerator
+    /// has.
+    #[must_use]
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.tree.nodes.capacity() * size_of::<Node>()
+            + self.tree.primitives.capacity() * size_of::<u32>()
+            + self.wide.capacity() * size_of::<WideNode>()
+    }
+
     /// The settings the tree was built with (after sanitising).
     #[must_use]
     pub fn settings(&self) -> BvhSettings {
@@ -850,18 +1042,19 @@ impl<'a> Bvh<'a> {
     }
 
     /// Like [`Occluder::occluded`], also returning how many surfaces were
-    /// tested with [`segment_crosses`](super::segment_crosses) and how many nodes' boxes were tested
-    /// (for benchmarks).
+    /// tested with [`segment_crosses`](super::segment_crosses) and how many
+    /// child boxes of the four-wide tree were tested (for benchmarks).
     #[must_use]
     pub fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
         let magnitude = from.abs().max_element().max(to.abs().max_element());
         let mut tested = 0u32;
-        let mut blocks = |id: u32| {
-            if self.prepared.skips(id, skip) {
+        // `position` is in leaf order; the skip rule is on surface ids.
+        let mut blocks = |position: u32| {
+            if self.prepared.skips(position, skip) {
                 return false;
             }
             tested += 1;
-            self.prepared.crosses(id, from, to)
+            self.prepared.crosses(position, from, to)
         };
         // NaN or huge coordinates: the f32 walk could not be trusted.
         let reference = magnitude.max(self.scale);
@@ -871,7 +1064,7 @@ impl<'a> Bvh<'a> {
             return (blocked, tested, 0);
         }
         let query = SegmentQuery::new(from, to, QUERY_MARGIN * reference);
-        let (blocked, visited) = self.tree.any_hit(&query, blocks);
+        let (blocked, visited) = wide_any_hit(&self.wide, &query, blocks);
         (blocked, tested, visited)
     }
 
@@ -880,7 +1073,9 @@ impl<'a> Bvh<'a> {
     /// [`MAX_DEPTH`]); every surface in exactly one leaf, leaves at most
     /// [`BvhSettings::max_leaf_size`]; every node's box containing its
     /// children's boxes and its surfaces' conservative boxes, and those
-    /// containing the surfaces' corners; statistics matching the tree.
+    /// containing the surfaces' corners; statistics matching the tree; the
+    /// four-wide tree the queries walk reaching every wide node once and
+    /// every surface once, each child box containing everything below it.
     pub fn validate(&self) -> Result<(), String> {
         let boxes: Vec<Aabb> = self.surfaces.iter().map(crossing_box).collect();
         for (id, (surface, b)) in self.surfaces.iter().zip(&boxes).enumerate() {
@@ -892,7 +1087,81 @@ impl<'a> Bvh<'a> {
                 return Err(format!("surface {id}'s box does not contain its corners"));
             }
         }
-        self.tree.validate(&boxes, &self.settings, &self.stats)
+        self.tree.validate(&boxes, &self.settings, &self.stats)?;
+        self.validate_wide(&boxes)
+    }
+
+    fn validate_wide(&self, boxes: &[Aabb]) -> Result<(), String> {
+        let wide = &self.wide;
+        if wide.len() != self.stats.wide_nodes || wide.is_empty() != boxes.is_empty() {
+            return Err(format!(
+                "{} wide nodes for {} surfaces, statistics say {}",
+                wide.len(),
+                boxes.len(),
+                self.stats.wide_nodes
+            ));
+        }
+        let mut reached = vec![false; wide.len()];
+        let mut seen = vec![false; boxes.len()];
+        let mut todo = if wide.is_empty() {
+            vec![]
+        } else {
+            vec![0usize]
+        };
+        let within = |outer: &WideNode, k: usize, min: [f32; 3], max: [f32; 3]| {
+            (0..3).all(|a| outer.min[a][k] <= min[a] && outer.max[a][k] >= max[a])
+        };
+        while let Some(i) = todo.pop() {
+            if std::mem::replace(&mut reached[i], true) {
+                return Err(format!("wide node {i} is reached twice"));
+            }
+            let node = &wide[i];
+            for k in 0..WIDTH {
+                let link = node.link[k];
+                if link == EMPTY_SLOT {
+                    continue;
+                }
+                if node.count[k] == 0 {
+                    let c = link as usize;
+                    let Some(child) = wide.get(c) else {
+                        return Err(format!("wide node {i}: child {c} out of range"));
+                    };
+                    for j in 0..WIDTH {
+                        let (min, max) = (
+                            [0, 1, 2].map(|a| child.min[a][j]),
+                            [0, 1, 2].map(|a| child.max[a][j]),
+                        );
+                        if child.link[j] != EMPTY_SLOT && !within(node, k, min, max) {
+                            return Err(format!("wide node {i}: box {k} does not contain {c}'s"));
+                        }
+                    }
+                    todo.push(c);
+                    continue;
+                }
+                let range = link as usize..link as usize + node.count[k] as usize;
+                let Some(primitives) = self.tree.primitives.get(range) else {
+                    return Err(format!("wide node {i}: leaf {k} out of range"));
+                };
+                for &p in primitives {
+                    if std::mem::replace(&mut seen[p as usize], true) {
+                        return Err(format!("surface {p} is in two wide leaves"));
+                    }
+                    let n = Node::new(boxes[p as usize], 0, 1);
+                    if !within(node, k, n.min, n.max) {
+                        return Err(format!(
+                            "wide node {i}: box {k} does not contain surface {p}"
+                        ));
+                    }
+                }
+            }
+        }
+        if let Some(i) = reached.iter().position(|r| !r) {
+            return Err(format!("wide node {i} is not reached"));
+        }
+        if let Some(p) = seen.iter().position(|s| !s) {
+            return Err(format!("surface {p} is in no wide leaf"));
+        }
+        Ok(())
     }
 }
 
@@ -908,6 +1177,8 @@ impl Occluder for Bvh<'_> {
             ("leaves", s.leaves),
             ("depth", s.depth),
             ("max_leaf_size", s.max_leaf_size),
+            ("wide_nodes", s.wide_nodes),
+            ("bytes", self.memory_bytes()),
         ]
     }
 }
@@ -957,29 +1228,31 @@ mod tests {
                 nodes: 1,
                 leaves: 1,
                 depth: 1,
-                max_leaf_size: 1
+                max_leaf_size: 1,
+                wide_nodes: 1,
             }
         );
+        // One wide node: its four child boxes (one used) are tested.
         let up = DVec3::new(0.0, 0.0, 2.0);
         assert_eq!(
             bvh.occluded_counting(DVec3::ZERO, up, NONE_SKIPPED),
-            (true, 1, 1)
+            (true, 1, 4)
         );
         assert_eq!(
             bvh.occluded_counting(DVec3::ZERO, up, [0, u32::MAX]),
-            (false, 0, 1)
+            (false, 0, 4)
         );
         // A segment short of the box tests no surface.
         let short = DVec3::new(0.0, 0.0, 0.5);
         assert_eq!(
             bvh.occluded_counting(DVec3::ZERO, short, NONE_SKIPPED),
-            (false, 0, 1)
+            (false, 0, 4)
         );
         // Nor does one passing beside it.
         let beside = DVec3::new(3.0, 0.0, 0.0);
         assert_eq!(
             bvh.occluded_counting(beside, beside + up, NONE_SKIPPED),
-            (false, 0, 1)
+            (false, 0, 4)
         );
     }
 

@@ -11,9 +11,11 @@
 //! | `formula-timing` | section 4 | cost of one evaluation of each formula |
 //! | `fig5-1` | Figure 5.1 | the room after 9, 48 and 72 subsources, both presets |
 //! | `fig5-2` | Figure 5.2 | solve times at 9, 48 and 72 subsources |
+//! | `rays` | section 3 | BSP, BVH, brute force and Embree on real scenes' shadow segments (by name only, not in `all`) |
 
 pub mod form_factors;
 pub mod plot;
+pub mod rays;
 pub mod report;
 pub mod solves;
 
@@ -32,6 +34,12 @@ pub struct Context {
     pub quick: bool,
     /// The command line that ran the experiments, for the record.
     pub command: String,
+    /// The folder holding the shared real scenes (`rays`); `None` looks
+    /// for `../shared/scenes`.
+    pub scenes: Option<PathBuf>,
+    /// A Python interpreter with the `embreex` package, to time Embree
+    /// beside our accelerators (`rays`); `None` skips Embree.
+    pub embree_python: Option<PathBuf>,
 }
 
 impl Context {
@@ -62,6 +70,9 @@ pub enum Error {
         /// What the operating system said.
         source: std::io::Error,
     },
+    /// An experiment's input is missing or its results fail a check.
+    #[error("{0}")]
+    Experiment(String),
     /// The name is not an experiment.
     #[error("no experiment '{0}' (experiments: {names}, all)", names = names().join(", "))]
     Unknown(String),
@@ -76,6 +87,9 @@ pub struct Experiment {
     /// Runs it, writing pictures into the context's folder, and returns the
     /// report.
     pub run: fn(&Context) -> Result<Report, Error>,
+    /// Whether `all` runs it: the paper's experiments. `rays` needs the
+    /// shared real scenes and minutes, so it runs only by name.
+    pub in_all: bool,
 }
 
 /// Every experiment, in the paper's order.
@@ -84,31 +98,43 @@ pub const EXPERIMENTS: &[Experiment] = &[
         name: "fig2-1",
         title: "Figure 2.1: time to shoot one subsource",
         run: solves::fig2_1,
+        in_all: true,
     },
     Experiment {
         name: "fig4-2",
         title: "Figures 4.2 and 4.6: errors of the disk formulas",
         run: form_factors::fig4_2,
+        in_all: true,
     },
     Experiment {
         name: "fig4-3",
         title: "Figures 4.3 and 4.5: the form factor above a unit square",
         run: form_factors::fig4_3,
+        in_all: true,
     },
     Experiment {
         name: "formula-timing",
         title: "Section 4: cost of one form-factor evaluation",
         run: form_factors::formula_timing,
+        in_all: true,
     },
     Experiment {
         name: "fig5-1",
         title: "Figure 5.1: the room after 9, 48 and 72 subsources",
         run: solves::fig5_1,
+        in_all: true,
     },
     Experiment {
         name: "fig5-2",
         title: "Figure 5.2: solve times",
         run: solves::fig5_2,
+        in_all: true,
+    },
+    Experiment {
+        name: "rays",
+        title: "Section 3 at scale: shadow-ray accelerators on real scenes",
+        run: rays::rays,
+        in_all: false,
     },
 ];
 
@@ -118,15 +144,16 @@ pub fn names() -> Vec<&'static str> {
     EXPERIMENTS.iter().map(|e| e.name).collect()
 }
 
-/// Runs the named experiments (`all` for every one), writing `NAME.md` for
-/// each and the pictures into `context.out`. Returns the files written.
+/// Runs the named experiments (`all` for the paper's, those marked
+/// [`Experiment::in_all`]), writing `NAME.md` for each and the pictures into
+/// `context.out`. Returns the files written.
 pub fn run(
     names: &[String],
     context: &Context,
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<PathBuf>, Error> {
     let selected: Vec<&Experiment> = if names.iter().any(|n| n == "all") {
-        EXPERIMENTS.iter().collect()
+        EXPERIMENTS.iter().filter(|e| e.in_all).collect()
     } else {
         names
             .iter()

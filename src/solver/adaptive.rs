@@ -54,7 +54,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 
 use super::hierarchy::{self, Hierarchy, NONE, Node, Tree};
-use super::{Receiver, Received, Settings, Shot, ShotInputs, Stats};
+use super::{Received, Receiver, Settings, Shot, ShotInputs, Stats};
 use crate::accel::{self, Occluder};
 use crate::form_factor::{FormFactor, Source};
 use crate::geometry;
@@ -234,13 +234,13 @@ impl AdaptiveShooting {
     /// The node that shoots next: the shooter with the most unshot power
     /// while it holds at least [`SWEEP_SHARE`] of it all, else the root.
     fn choose_shooting_node(&self) -> u32 {
-        let (best, power) = self
-            .shooter_power
-            .iter()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
-                if p > best.1 { (i, p) } else { best }
-            });
+        let (best, power) =
+            self.shooter_power
+                .iter()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
+                    if p > best.1 { (i, p) } else { best }
+                });
         let total: f64 = self.shooter_power.iter().sum();
         if power >= SWEEP_SHARE * total {
             self.hierarchy.shooters[best]
@@ -295,7 +295,19 @@ impl AdaptiveShooting {
 
         if std::env::var("RAD_DEBUG").is_ok() {
             let node = &self.hierarchy.tree.nodes[root as usize];
-            eprintln!("shot {} root {root} elements {elements} radius {:.2} power {:.3e} rays {} [leaf {} bins {} uniform {} linkrays {} linked receivers {}] {:.2}s", stats.shots, node.radius, luminance(power), counters.rays, counters.cat[0], counters.cat[1], counters.cat[2], counters.cat[3], counters.cat[4], (gather_end-gather_start).as_secs_f64());
+            eprintln!(
+                "shot {} root {root} elements {elements} radius {:.2} power {:.3e} rays {} [leaf {} bins {} uniform {} linkrays {} linked receivers {}] {:.2}s",
+                stats.shots,
+                node.radius,
+                luminance(power),
+                counters.rays,
+                counters.cat[0],
+                counters.cat[1],
+                counters.cat[2],
+                counters.cat[3],
+                counters.cat[4],
+                (gather_end - gather_start).as_secs_f64()
+            );
         }
         stats.pairs += counters.pairs;
         stats.rays_cast += counters.rays;
@@ -477,7 +489,9 @@ fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
     length * cos_s * cos_r / (PI * r2) * (1.0 + correction)
 }
 
-fn r_last(t: &Tree, r: u32) -> u32 { t.nodes[r as usize].last - t.nodes[r as usize].first }
+fn r_last(t: &Tree, r: u32) -> u32 {
+    t.nodes[r as usize].last - t.nodes[r as usize].first
+}
 
 /// Counters of a part of a shot.
 #[derive(Clone, Copy, Debug, Default)]
@@ -492,7 +506,9 @@ struct Counters {
 
 impl std::ops::AddAssign for Counters {
     fn add_assign(&mut self, o: Counters) {
-        for k in 0..5 { self.cat[k] += o.cat[k]; }
+        for k in 0..5 {
+            self.cat[k] += o.cat[k];
+        }
         self.pairs += o.pairs;
         self.rays += o.rays;
         self.factors += o.factors;
@@ -588,24 +604,25 @@ impl Gatherer<'_> {
         let distance = sn.centre.distance(rn.centre);
         let clearance = distance - sn.radius - rn.radius;
         let dim = clearance > 0.0
-            && source.weight <= LINK_FACTOR * self.negligible[r as usize] * PI * clearance * clearance;
-        if dim && !sn.is_leaf() && distance >= LINK_RATIO * (sn.radius + rn.radius) {
-            if let Some(visible) = self.shared_visibility(s, r, counters) {
-                if visible {
-                    self.link(s, r, out, counters);
-                }
-                return;
+            && source.weight
+                <= LINK_FACTOR * self.negligible[r as usize] * PI * clearance * clearance;
+        if dim
+            && !sn.is_leaf()
+            && distance >= LINK_RATIO * (sn.radius + rn.radius)
+            && let Some(visible) = self.shared_visibility(s, r, counters)
+        {
+            if visible {
+                self.link(s, r, out, counters);
             }
+            return;
         }
         if !dim || sn.is_leaf() || rn.radius >= sn.radius {
             let second = rn.second;
             let split = (self.receiver_tree.nodes[second as usize].first - rn.first) as usize;
             let (a, b) = out.split_at_mut(split);
             if rn.last - rn.first >= PARALLEL_RECEIVERS {
-                let (ca, cb) = rayon::join(
-                    || self.refine(s, r + 1, a),
-                    || self.refine(s, second, b),
-                );
+                let (ca, cb) =
+                    rayon::join(|| self.refine(s, r + 1, a), || self.refine(s, second, b));
                 *counters += ca;
                 *counters += cb;
             } else {
@@ -707,7 +724,8 @@ impl Gatherer<'_> {
         for (i, &index) in self.receiver_tree.items_of(r).iter().enumerate() {
             let receiver = &self.receivers[index as usize];
             for bin in bins {
-                out[i] += bin.power * point_factor(bin, self.origin, receiver.point, receiver.normal);
+                out[i] +=
+                    bin.power * point_factor(bin, self.origin, receiver.point, receiver.normal);
             }
         }
         counters.pairs += 1;
@@ -761,7 +779,10 @@ impl Gatherer<'_> {
                 }
                 if let Some(visible) = self.uniform_visibility(n, r, counters) {
                     if visible {
-                        sum += self.node_geometry(n, r, scratch, counters).iter().sum::<DVec3>();
+                        sum += self
+                            .node_geometry(n, r, scratch, counters)
+                            .iter()
+                            .sum::<DVec3>();
                     }
                     continue;
                 }
@@ -856,7 +877,7 @@ impl Gatherer<'_> {
         scratch: &mut Scratch,
         counters: &mut Counters,
     ) -> Vec<DVec3> {
-        let timed = counters.factors % TIMING_SAMPLE == 0;
+        let timed = counters.factors.is_multiple_of(TIMING_SAMPLE);
         let t0 = timed.then(Instant::now);
         let axes: Vec<u8> = self.bins_of(n).iter().map(|b| b.axis).collect();
         let mut geometry = vec![DVec3::ZERO; axes.len()];
@@ -972,7 +993,7 @@ impl Gatherer<'_> {
     }
 
     fn visible(&self, origin: DVec3, r: &Receiver, group: u32, counters: &mut Counters) -> bool {
-        let timed = counters.rays % TIMING_SAMPLE == 0;
+        let timed = counters.rays.is_multiple_of(TIMING_SAMPLE);
         let t0 = timed.then(Instant::now);
         let (from, to) = accel::shorten(origin, r.point);
         let blocked = self.occluder.occluded(from, to, [group, r.group]);
@@ -1026,9 +1047,8 @@ mod tests {
                 DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
             let distance = radius * (3.0 + 9.0 * random());
             let point = direction * distance;
-            let normal = (-direction
-                + DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5))
-            .normalize();
+            let normal = (-direction + DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5))
+                .normalize();
             let exact = crate::form_factor::analytic(point, normal, &square);
             if exact < 1e-3 * area / (PI * distance * distance) {
                 continue;
@@ -1041,6 +1061,9 @@ mod tests {
             tested += 1;
         }
         assert!(worst < 5e-3, "corrected point source errs by {worst}");
-        assert!(worst_plain > 3e-2, "plain point source errs by {worst_plain}");
+        assert!(
+            worst_plain > 3e-2,
+            "plain point source errs by {worst_plain}"
+        );
     }
 }

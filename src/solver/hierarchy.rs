@@ -99,9 +99,7 @@ impl Tree {
             order: (0..items.len() as u32).collect(),
             nodes: Vec::with_capacity(2 * items.len()),
         };
-        builder
-            .order
-            .sort_by_key(|&i| (items[i as usize].group, i));
+        builder.order.sort_by_key(|&i| (items[i as usize].group, i));
         let mut pieces = Vec::new();
         let mut start = 0;
         while start < builder.order.len() {
@@ -461,7 +459,10 @@ mod tests {
             }
             if !node.is_leaf() {
                 let (a, b) = (&tree.nodes[n + 1], &tree.nodes[node.second as usize]);
-                assert_eq!((a.first, a.last, b.first, b.last), (node.first, b.first, a.last, node.last));
+                assert_eq!(
+                    (a.first, a.last, b.first, b.last),
+                    (node.first, b.first, a.last, node.last)
+                );
                 assert_eq!(b.end, node.end);
             }
         }

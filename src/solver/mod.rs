@@ -445,6 +445,30 @@ impl<'a> Solver<'a> {
         settings: Settings,
         sensors: Vec<Receiver>,
     ) -> Solver<'a> {
+        let occluder = settings.accel.build(&scene.surfaces);
+        Solver::assemble(scene, mesh, settings, sensors, occluder)
+    }
+
+    /// Like [`Solver::new`], answering visibility with `occluder` instead of
+    /// building `settings.accel` (which then only names it): for instruments
+    /// such as a wrapper recording the shadow segments a solve casts.
+    #[must_use]
+    pub fn with_occluder(
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: Settings,
+        occluder: Box<dyn Occluder + 'a>,
+    ) -> Solver<'a> {
+        Solver::assemble(scene, mesh, settings, Vec::new(), occluder)
+    }
+
+    fn assemble(
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: Settings,
+        sensors: Vec<Receiver>,
+        occluder: Box<dyn Occluder + 'a>,
+    ) -> Solver<'a> {
         let radiosity: Vec<DVec3> = mesh
             .vertices
             .iter()
@@ -463,7 +487,7 @@ impl<'a> Solver<'a> {
         let mut solver = Solver {
             scene,
             mesh,
-            occluder: settings.accel.build(&scene.surfaces),
+            occluder,
             settings,
             method,
             irradiance: vec![DVec3::ZERO; receivers.len()],

@@ -189,3 +189,82 @@ pub fn shared_edge_group(rng: &mut Rng, out: &mut Vec<Surface>) {
         }
     }
 }
+
+/// A soup shaped like the real files (the conference room, Sponza): a
+/// floor tessellated into triangles, a finely tessellated closed cylinder
+/// (a column or chair leg: hundreds of small facets whose planes each have
+/// the whole shell behind them), clusters of triangles under 1 mm^2,
+/// needles, and pairs of faces back to back (the same triangle twice with
+/// opposite windings, as modelling tools leave them), all offset by
+/// `offset`.
+pub fn real_file_soup(rng: &mut Rng, offset: DVec3) -> Vec<Surface> {
+    let mut out = Vec::new();
+    let mut push = |polygon: Vec<DVec3>| {
+        out.extend(surface(polygon.into_iter().map(|p| p + offset).collect()));
+    };
+    // The floor: a 12 x 12 grid of squares, each cut into two triangles.
+    for i in 0..12 {
+        for j in 0..12 {
+            let (x, y) = (0.25 * f64::from(i), 0.25 * f64::from(j));
+            let a = DVec3::new(x, y, 0.0);
+            let b = a + DVec3::X * 0.25;
+            let c = b + DVec3::Y * 0.25;
+            let d = a + DVec3::Y * 0.25;
+            push(vec![a, b, c]);
+            push(vec![a, c, d]);
+        }
+    }
+    // A cylinder of radius 0.2 and height 1.5 standing on the floor, 48
+    // sides by 12 rings, with caps.
+    let (centre, radius, sides, rings) = (DVec3::new(1.5, 1.5, 0.0), 0.2, 48, 12);
+    let ring = |k: usize, h: usize| {
+        let angle = std::f64::consts::TAU * k as f64 / sides as f64;
+        centre + DVec3::new(radius * angle.cos(), radius * angle.sin(), 0.125 * h as f64)
+    };
+    for h in 0..rings {
+        for k in 0..sides {
+            let (a, b) = (ring(k, h), ring((k + 1) % sides, h));
+            let (c, d) = (ring((k + 1) % sides, h + 1), ring(k, h + 1));
+            push(vec![a, b, c]);
+            push(vec![a, c, d]);
+        }
+    }
+    for k in 0..sides {
+        let top = centre + DVec3::Z * 0.125 * rings as f64;
+        push(vec![top, ring(k, rings), ring((k + 1) % sides, rings)]);
+    }
+    // Clusters of tiny triangles (edges of 0.1 to 1 mm) scattered above
+    // the floor, some sharing corners.
+    for _ in 0..12 {
+        let base = rng.point_in(DVec3::new(0.2, 0.2, 0.05), DVec3::new(2.8, 2.8, 1.8));
+        let mut last = base;
+        for _ in 0..25 {
+            let size = rng.range(1e-4, 1e-3);
+            let a = if rng.chance(0.5) { last } else { base };
+            let b = a + rng.direction() * size;
+            let c = a + rng.direction() * size;
+            last = b;
+            push(vec![a, b, c]);
+        }
+    }
+    // Needles: a long edge and a tiny third side.
+    for _ in 0..20 {
+        let a = rng.point_in(DVec3::new(0.0, 0.0, 0.1), DVec3::new(3.0, 3.0, 1.5));
+        let u = rng.direction();
+        let w = u.any_orthonormal_vector() * rng.range(1e-6, 1e-3);
+        push(vec![a, a + u * 0.5, a + u * 0.5 + w]);
+    }
+    // Faces back to back: a box of thin panels modelled twice, once per
+    // side, and a few floating back-to-back triangles.
+    for _ in 0..10 {
+        let a = rng.point_in(DVec3::new(0.0, 0.0, 0.2), DVec3::new(2.5, 2.5, 1.5));
+        let (u, v) = (rng.direction() * 0.3, rng.direction() * 0.3);
+        push(vec![a, a + u, a + v]);
+        push(vec![a, a + v, a + u]);
+    }
+    let table = DVec3::new(0.3, 2.0, 0.7);
+    let (u, v) = (DVec3::X * 0.8, DVec3::Y * 0.6);
+    push(vec![table, table + u, table + u + v, table + v]);
+    push(vec![table, table + v, table + u + v, table + u]);
+    out
+}

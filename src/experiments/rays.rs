@@ -1,0 +1,740 @@
+//! Shadow-ray accelerators on real scenes (Wong & Tsang 1993, section 3,
+//! at the scale of issue 9): the BSP tree of the paper against the BVH, the
+//! brute-force oracle and, when a Python with the `embreex` package is
+//! given, Intel's Embree, all on the same shadow segments.
+//!
+//! The segments are the solver's own: a real solve (the default
+//! `wong-tsang93` preset, its hemicube pre-test included, visibility answered
+//! by a BVH wrapped in a recorder) runs a few shots on each scene, and every
+//! segment it casts during the recorded shots (subsource centre to vertex
+//! gathering point, shortened by [`accel::shorten`], skipping the source's
+//! and receiver's surfaces) is kept. They are put in receiver order, so the
+//! sample does not depend on the thread count, and a deterministic sample of
+//! blocks of consecutive segments is timed: one thread answers the whole
+//! list with each accelerator in turn, repetitions interleaved, and the
+//! median per ray is reported. Times are the timing thread's CPU time where
+//! the system has that clock, so a shared machine's other jobs (waiting for
+//! a core) do not count; they still share the caches. Every accelerator must give the same answer
+//! on every segment (the brute-force oracle on an evenly spaced sample): the
+//! experiment fails otherwise.
+//!
+//! Embree (`tools/embree_rays.py`) reads the same triangles (our convex
+//! surfaces fanned) and segments from a binary file and times
+//! `rtcOccluded1` over them with `tfar` the segment's length, between our
+//! own repetitions. It does not skip the source's and receiver's surfaces
+//! and works in `f32`, so its answers can differ from ours on a few grazing
+//! segments; the agreement is reported.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::{Context, Error, Report, median, table};
+use crate::accel::Occluder;
+use crate::accel::brute::BruteForce;
+use crate::accel::bsp::{Bsp, BspSettings};
+use crate::accel::bvh::Bvh;
+use crate::app;
+use crate::mesh::{Mesh, MeshSettings};
+use crate::scene::{self, Scene, Surface};
+use crate::solver::{Flow, Settings, Solver};
+
+/// The Embree benchmark script, written next to its data when it is run.
+const EMBREE_SCRIPT: &str = include_str!("../../tools/embree_rays.py");
+
+/// Where the shared scenes are looked for when no folder is given, relative
+/// to the working directory and to the source tree.
+const DEFAULT_SCENES: &str = "../shared/scenes";
+
+/// One shadow query as the solver asked it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// Start (on the subsource side, already shortened).
+    pub from: DVec3,
+    /// End (at the receiver, already shortened).
+    pub to: DVec3,
+    /// The surfaces the query skips.
+    pub skip: [u32; 2],
+}
+
+/// An occluder that logs every query while `recording` is set.
+struct Recorder<'a> {
+    inner: Box<dyn Occluder + 'a>,
+    log: &'a Mutex<Vec<Segment>>,
+    recording: &'a AtomicBool,
+}
+
+impl Occluder for Recorder<'_> {
+    fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool {
+        if self.recording.load(Ordering::Relaxed) {
+            let mut log = self
+                .log
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            log.push(Segment { from, to, skip });
+        }
+        self.inner.occluded(from, to, skip)
+    }
+}
+
+/// A scene of the experiment and where it comes from.
+#[derive(Clone, Debug)]
+pub struct SceneSpec {
+    /// Short name for the tables.
+    pub name: &'static str,
+    /// A built-in name, or a path relative to the scenes folder.
+    pub source: &'static str,
+    /// Whether `source` is in the scenes folder (else built in).
+    pub shared: bool,
+}
+
+/// The scenes of `radiosity experiment rays`.
+pub const SCENES: [SceneSpec; 3] = [
+    SceneSpec {
+        name: "room",
+        source: "room",
+        shared: false,
+    },
+    SceneSpec {
+        name: "sponza",
+        source: "sponza_dabrovic/sponza_dabrovic.obj",
+        shared: true,
+    },
+    SceneSpec {
+        name: "conference",
+        source: "conference/conference.obj",
+        shared: true,
+    },
+];
+
+/// Shots whose segments are recorded (1-based): the first shots come from
+/// the light sources, the later ones from reflectors.
+fn recorded_shots(quick: bool) -> &'static [u64] {
+    if quick { &[1] } else { &[1, 2, 12, 13] }
+}
+
+/// Segments timed per scene.
+fn segment_budget(quick: bool) -> usize {
+    if quick { 4_096 } else { 200_000 }
+}
+
+/// Segments checked against (and timed with) brute force per scene: it
+/// costs a test of every surface.
+fn brute_budget(quick: bool, surfaces: usize) -> usize {
+    let full = if quick {
+        200
+    } else {
+        400_000_000 / surfaces.max(1)
+    };
+    full.clamp(50, 20_000)
+}
+
+/// Consecutive segments kept together when sampling, so the sample keeps
+/// the solver's locality (a receiver's segments from every subsource).
+const BLOCK: usize = 256;
+
+/// The folder holding the shared scenes: the context's, or
+/// [`DEFAULT_SCENES`] from the working directory or the source tree.
+fn scenes_folder(context: &Context, wanted: &[SceneSpec]) -> Result<PathBuf, Error> {
+    let candidates: Vec<PathBuf> = match &context.scenes {
+        Some(dir) => vec![dir.clone()],
+        None => vec![
+            PathBuf::from(DEFAULT_SCENES),
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENES),
+        ],
+    };
+    let needed: Vec<&str> = wanted
+        .iter()
+        .filter(|s| s.shared)
+        .map(|s| s.source)
+        .collect();
+    for dir in &candidates {
+        if needed.iter().all(|f| dir.join(f).is_file()) {
+            return Ok(dir.clone());
+        }
+    }
+    let looked: Vec<String> = candidates
+        .iter()
+        .map(|d| format!("{}", d.display()))
+        .collect();
+    Err(Error::Experiment(format!(
+        "the real scenes ({}) are not in {}: give the folder holding them with --scenes DIR",
+        needed.join(", "),
+        looked.join(" nor in ")
+    )))
+}
+
+/// `radiosity experiment rays`: every scene of [`SCENES`].
+pub fn rays(context: &Context) -> Result<Report, Error> {
+    rays_on(context, &SCENES)
+}
+
+/// Timings of one accelerator on one scene.
+#[derive(Clone, Debug, Default)]
+struct Timing {
+    build_seconds: Vec<f64>,
+    ns_per_ray: Vec<f64>,
+}
+
+impl Timing {
+    fn build(&self) -> f64 {
+        median(&mut self.build_seconds.clone())
+    }
+
+    fn per_ray(&self) -> f64 {
+        median(&mut self.ns_per_ray.clone())
+    }
+}
+
+/// Our accelerators, in the tables' order: the default BSP, the BSP on
+/// surface planes only (the paper's auto-partition), the BVH.
+const OURS: [&str; 3] = ["bsp", "bsp, surface planes only", "bvh"];
+
+/// One of [`OURS`], built.
+enum Built<'a> {
+    Bsp(Bsp<'a>),
+    Bvh(Bvh<'a>),
+}
+
+impl<'a> Built<'a> {
+    fn new(k: usize, surfaces: &'a [Surface]) -> Built<'a> {
+        match k {
+            0 => Built::Bsp(Bsp::with_settings(surfaces, BspSettings::sah())),
+            1 => Built::Bsp(Bsp::with_settings(surfaces, BspSettings::auto_partition())),
+            _ => Built::Bvh(Bvh::new(surfaces)),
+        }
+    }
+
+    fn occluder(&self) -> &dyn Occluder {
+        match self {
+            Built::Bsp(b) => b,
+            Built::Bvh(b) => b,
+        }
+    }
+
+    /// `(blocked, surfaces tested, nodes or child boxes visited)`.
+    fn counting(&self, s: &Segment) -> (bool, u32, u32) {
+        match self {
+            Built::Bsp(b) => b.occluded_counting(s.from, s.to, s.skip),
+            Built::Bvh(b) => b.occluded_counting(s.from, s.to, s.skip),
+        }
+    }
+}
+
+/// What [`measure`] found on one scene.
+struct Outcome {
+    /// Per accelerator of [`OURS`].
+    ours: Vec<Timing>,
+    stats: Vec<Vec<(&'static str, usize)>>,
+    /// Mean surfaces tested and nodes visited per ray.
+    per_ray: Vec<[f64; 2]>,
+    brute: Timing,
+    embree: Option<Timing>,
+    blocked: usize,
+    brute_checked: usize,
+    embree_agreement: Option<f64>,
+}
+
+/// The experiment on the given scenes.
+pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error> {
+    let folder = if scenes.iter().any(|s| s.shared) {
+        Some(scenes_folder(context, scenes)?)
+    } else {
+        None
+    };
+    let mut report = Report::default();
+    let repetitions = context.repetitions();
+    report.setting("repetitions (interleaved; medians)", repetitions);
+    report.setting(
+        "recorded shots",
+        format!("{:?}", recorded_shots(context.quick)),
+    );
+    report.setting(
+        "clock",
+        if thread_cpu_seconds().is_some() {
+            "the timing thread's CPU time (CLOCK_THREAD_CPUTIME_ID), so time the thread waits \
+             for a core on a shared machine does not count; Embree likewise (Python's \
+             time.thread_time)"
+        } else {
+            "wall time"
+        },
+    );
+    if let Some(folder) = &folder {
+        report.setting("scenes", folder.display());
+    }
+    report.setting(
+        "embree",
+        match &context.embree_python {
+            Some(p) => format!("{} tools/embree_rays.py", p.display()),
+            None => "not measured (give --embree-python PYTHON with embreex installed)".into(),
+        },
+    );
+    let mut segment_rows = Vec::new();
+    let mut time_rows = Vec::new();
+    let mut build_rows = Vec::new();
+    for spec in scenes {
+        let path = match (&folder, spec.shared) {
+            (Some(folder), true) => folder.join(spec.source).display().to_string(),
+            _ => spec.source.to_string(),
+        };
+        let scene = scene::load(&path).map_err(app::Error::from)?;
+        let sizes = scene.default_mesh_sizes();
+        let mesh = Mesh::build(
+            &scene,
+            &MeshSettings {
+                patch_size: sizes.patch_size,
+                element_size: sizes.element_size,
+                ..MeshSettings::default()
+            },
+        )
+        .map_err(|e| Error::App(app::Error::Mesh(e)))?;
+        let recorded = record(&scene, &mesh, recorded_shots(context.quick));
+        let segments = sample(&recorded, segment_budget(context.quick));
+        drop(mesh);
+        let outcome = measure(context, spec.name, &scene, &segments)?;
+        segment_rows.push(vec![
+            spec.name.to_string(),
+            scene.surfaces.len().to_string(),
+            recorded.len().to_string(),
+            segments.len().to_string(),
+            format!(
+                "{:.1}%",
+                100.0 * outcome.blocked as f64 / segments.len().max(1) as f64
+            ),
+            outcome.brute_checked.to_string(),
+            outcome
+                .embree_agreement
+                .map_or("-".into(), |a| format!("{:.2}%", 100.0 * a)),
+        ]);
+        let ns: Vec<f64> = outcome.ours.iter().map(Timing::per_ray).collect();
+        let embree = outcome.embree.as_ref().map(Timing::per_ray);
+        let (bsp, auto, bvh) = (ns[0], ns[1], ns[2]);
+        time_rows.push(vec![
+            spec.name.to_string(),
+            format!("{bsp:.0}"),
+            format!("{auto:.0}"),
+            format!("{bvh:.0}"),
+            embree.map_or("-".into(), |e| format!("{e:.0}")),
+            format!("{:.0}", outcome.brute.per_ray()),
+            format!("{:.2}", bsp / bvh),
+            embree.map_or("-".into(), |e| format!("{:.2}", e / bvh)),
+        ]);
+        for (k, name) in OURS.iter().enumerate() {
+            let stats = &outcome.stats[k];
+            let stat = |key: &str| stats.iter().find(|(k, _)| *k == key).map(|(_, v)| *v);
+            let text = |v: Option<usize>| v.map_or("-".to_string(), |v| v.to_string());
+            build_rows.push(vec![
+                spec.name.to_string(),
+                (*name).to_string(),
+                format!("{:.2}", outcome.ours[k].build()),
+                text(stat("nodes")),
+                text(stat("depth")),
+                text(stat("fragments")),
+                stat("bytes").map_or("-".into(), |b| format!("{:.1}", b as f64 / 1e6)),
+                format!("{:.1}", outcome.per_ray[k][0]),
+                format!("{:.1}", outcome.per_ray[k][1]),
+            ]);
+        }
+        if let Some(e) = &outcome.embree {
+            let mut row = vec![
+                spec.name.to_string(),
+                "embree".into(),
+                format!("{:.2}", e.build()),
+            ];
+            row.extend(std::iter::repeat_n("-".to_string(), 6));
+            build_rows.push(row);
+        }
+    }
+    report.paragraph(
+        "Segments: those the solver cast in the recorded shots (after its hemicube \
+         pre-test), then a deterministic sample of blocks of 256 consecutive ones in receiver \
+         order. Blocked: the share every accelerator found blocked (they agree on every \
+         segment, and brute force on an evenly spaced sample of them, or the experiment \
+         fails). Embree's agreement is with our answers: it works in f32 and does not skip the \
+         source's and receiver's surfaces.",
+    );
+    report.body.push_str(&table(
+        &[
+            "scene",
+            "surfaces",
+            "segments recorded",
+            "segments timed",
+            "blocked",
+            "checked by brute force",
+            "embree agrees",
+        ],
+        &segment_rows,
+    ));
+    report.paragraph(
+        "Time per shadow ray on one thread, nanoseconds (median of the interleaved \
+         repetitions; brute force on its sample). bsp/bvh: the default BSP's time over the \
+         BVH's (target: at most 3). embree/bvh: Embree's time over the BVH's, i.e. the BVH's \
+         share of Embree's throughput (target: at least 0.5).",
+    );
+    report.body.push_str(&table(
+        &[
+            "scene",
+            "bsp ns",
+            "bsp, surface planes only, ns",
+            "bvh ns",
+            "embree ns",
+            "brute ns",
+            "bsp/bvh",
+            "embree/bvh",
+        ],
+        &time_rows,
+    ));
+    report.paragraph(
+        "Builds (median seconds on one thread; Embree's build uses its own thread pool) and \
+         sizes: MB are the accelerator's own arrays (the prepared surfaces every accelerator \
+         has are not counted). Per ray: surfaces tested with the exact segment test, and BSP \
+         nodes visited or BVH child boxes tested (four per node of its four-wide tree), means \
+         over the timed segments.",
+    );
+    report.body.push_str(&table(
+        &[
+            "scene",
+            "accelerator",
+            "build s",
+            "nodes",
+            "depth",
+            "fragments",
+            "MB",
+            "tests/ray",
+            "nodes or boxes/ray",
+        ],
+        &build_rows,
+    ));
+    Ok(report)
+}
+
+/// Runs a solve (the `wong-tsang93` preset, visibility by a recording BVH)
+/// and returns the segments cast during `shots` (1-based), in receiver
+/// order.
+pub fn record(scene: &Scene, mesh: &Mesh, shots: &[u64]) -> Vec<Segment> {
+    let log = Mutex::new(Vec::new());
+    let recording = AtomicBool::new(shots.contains(&1));
+    let last = shots.iter().copied().max().unwrap_or(0);
+    {
+        let settings = Settings {
+            max_shots: Some(last),
+            ..Settings::wong_tsang93()
+        };
+        let recorder = Recorder {
+            inner: Box::new(Bvh::new(&scene.surfaces)),
+            log: &log,
+            recording: &recording,
+        };
+        let mut solver = Solver::with_occluder(scene, mesh, settings, Box::new(recorder));
+        solver.run(|s| {
+            let next = s.stats().shots + 1;
+            recording.store(shots.contains(&next), Ordering::Relaxed);
+            Flow::Continue
+        });
+    }
+    let mut segments = log
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let key =
+        |s: &Segment| [s.to.x, s.to.y, s.to.z, s.from.x, s.from.y, s.from.z].map(f64::to_bits);
+    segments.sort_unstable_by_key(key);
+    segments
+}
+
+/// About `budget` segments: blocks of 256 consecutive ones, evenly
+/// spaced.
+pub fn sample(segments: &[Segment], budget: usize) -> Vec<Segment> {
+    if segments.len() <= budget {
+        return segments.to_vec();
+    }
+    let blocks = budget.div_ceil(BLOCK);
+    let stride = segments.len() / blocks;
+    (0..blocks)
+        .flat_map(|b| {
+            let start = b * stride;
+            segments[start..(start + BLOCK).min(segments.len())]
+                .iter()
+                .copied()
+        })
+        .take(budget)
+        .collect()
+}
+
+/// Seconds of CPU time the calling thread has used
+/// (`CLOCK_THREAD_CPUTIME_ID`), where the system has that clock.
+fn thread_cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut t = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `clock_gettime` only writes the `timespec` it is given,
+        // which lives on this stack frame.
+        let status = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &raw mut t) };
+        (status == 0).then_some(t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    None
+}
+
+/// A clock for timings: the thread's CPU time where available, else wall
+/// time.
+struct Clock(Option<f64>, Instant);
+
+impl Clock {
+    fn start() -> Clock {
+        Clock(thread_cpu_seconds(), Instant::now())
+    }
+
+    fn seconds(&self) -> f64 {
+        match (self.0, thread_cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => self.1.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+/// Seconds for one thread to answer every segment.
+fn time_queries(occluder: &dyn Occluder, segments: &[Segment]) -> f64 {
+    let clock = Clock::start();
+    let mut count = 0usize;
+    for s in segments {
+        count += usize::from(occluder.occluded(std::hint::black_box(s.from), s.to, s.skip));
+    }
+    std::hint::black_box(count);
+    clock.seconds()
+}
+
+fn measure(
+    context: &Context,
+    name: &str,
+    scene: &Scene,
+    segments: &[Segment],
+) -> Result<Outcome, Error> {
+    let surfaces = &scene.surfaces;
+    let repetitions = context.repetitions();
+    let brute_count = brute_budget(context.quick, surfaces.len()).min(segments.len());
+    let brute_sample: Vec<Segment> = (0..brute_count)
+        .map(|i| segments[i * segments.len() / brute_count.max(1)])
+        .collect();
+    let mut outcome = Outcome {
+        ours: vec![Timing::default(); OURS.len()],
+        stats: vec![Vec::new(); OURS.len()],
+        per_ray: vec![[0.0; 2]; OURS.len()],
+        brute: Timing::default(),
+        embree: None,
+        blocked: 0,
+        brute_checked: 0,
+        embree_agreement: None,
+    };
+    // Builds, interleaved; the last one of each is kept.
+    let mut built: Vec<Option<Built>> = (0..OURS.len()).map(|_| None).collect();
+    for _ in 0..repetitions.min(3) {
+        for (k, slot) in built.iter_mut().enumerate() {
+            *slot = None;
+            let clock = Clock::start();
+            let b = Built::new(k, surfaces);
+            outcome.ours[k].build_seconds.push(clock.seconds());
+            outcome.stats[k] = b.occluder().build_statistics();
+            *slot = Some(b);
+        }
+    }
+    let built: Vec<Built> = built.into_iter().flatten().collect();
+    let brute = BruteForce::new(surfaces);
+
+    // Answers: identical everywhere, brute force on its sample.
+    let mut answers = Vec::with_capacity(segments.len());
+    let mut totals = vec![[0u64; 2]; OURS.len()];
+    for s in segments {
+        let mut first = None;
+        for (k, b) in built.iter().enumerate() {
+            let (blocked, tests, nodes) = b.counting(s);
+            totals[k][0] += u64::from(tests);
+            totals[k][1] += u64::from(nodes);
+            match first {
+                None => first = Some(blocked),
+                Some(f) if f != blocked => {
+                    return Err(Error::Experiment(format!(
+                        "{name}: {} says {blocked} and {} says {f} for the segment {:?} -> {:?} \
+                         skipping {:?}",
+                        OURS[k], OURS[0], s.from, s.to, s.skip
+                    )));
+                }
+                Some(_) => {}
+            }
+        }
+        answers.push(first.unwrap_or(false));
+    }
+    for (k, s) in brute_sample.iter().enumerate() {
+        let expected = brute.occluded(s.from, s.to, s.skip);
+        let index = k * segments.len() / brute_count.max(1);
+        if answers[index] != expected {
+            return Err(Error::Experiment(format!(
+                "{name}: brute force says {expected} for the segment {:?} -> {:?} skipping \
+                 {:?}, the accelerators do not",
+                s.from, s.to, s.skip
+            )));
+        }
+    }
+    outcome.brute_checked = brute_sample.len();
+    outcome.blocked = answers.iter().filter(|&&a| a).count();
+    let n = segments.len().max(1) as f64;
+    outcome.per_ray = totals
+        .iter()
+        .map(|t| [t[0] as f64 / n, t[1] as f64 / n])
+        .collect();
+
+    let embree = match &context.embree_python {
+        Some(python) => Some(EmbreeRun::prepare(python, name, scene, segments, &answers)?),
+        None => None,
+    };
+    // Timings, interleaved: each round runs every accelerator once, the
+    // starting one rotating.
+    let mut embree_timing = Timing::default();
+    let contestants = OURS.len() + 2;
+    for round in 0..repetitions {
+        for i in 0..contestants {
+            let k = (round + i) % contestants;
+            if k < OURS.len() {
+                let seconds = time_queries(built[k].occluder(), segments);
+                outcome.ours[k].ns_per_ray.push(1e9 * seconds / n);
+            } else if k == OURS.len() {
+                let seconds = time_queries(&brute, &brute_sample);
+                outcome
+                    .brute
+                    .ns_per_ray
+                    .push(1e9 * seconds / brute_sample.len().max(1) as f64);
+            } else if let Some(run) = &embree {
+                let result = run.run()?;
+                embree_timing.ns_per_ray.push(result.ns_per_ray);
+                embree_timing.build_seconds.push(result.build_seconds);
+                outcome.embree_agreement = Some(result.agreement);
+            }
+        }
+    }
+    if embree.is_some() {
+        outcome.embree = Some(embree_timing);
+    }
+    Ok(outcome)
+}
+
+/// The Embree script and its data in a temporary folder, removed on drop.
+struct EmbreeRun {
+    python: PathBuf,
+    dir: PathBuf,
+}
+
+/// One run of the Embree script.
+struct EmbreeResult {
+    ns_per_ray: f64,
+    build_seconds: f64,
+    agreement: f64,
+}
+
+impl EmbreeRun {
+    fn prepare(
+        python: &Path,
+        name: &str,
+        scene: &Scene,
+        segments: &[Segment],
+        answers: &[bool],
+    ) -> Result<EmbreeRun, Error> {
+        let dir =
+            std::env::temp_dir().join(format!("radiosity-rays-{}-{name}", std::process::id()));
+        let output = |source| Error::Output {
+            path: std::env::temp_dir(),
+            source,
+        };
+        std::fs::create_dir_all(&dir).map_err(output)?;
+        let run = EmbreeRun {
+            python: python.to_path_buf(),
+            dir,
+        };
+        std::fs::write(run.dir.join("embree_rays.py"), EMBREE_SCRIPT).map_err(output)?;
+        let file = std::fs::File::create(run.dir.join("rays.bin")).map_err(output)?;
+        let mut w = std::io::BufWriter::new(file);
+        write_rays(&mut w, scene, segments, answers)
+            .and_then(|()| w.flush())
+            .map_err(output)?;
+        Ok(run)
+    }
+
+    fn run(&self) -> Result<EmbreeResult, Error> {
+        let out = Command::new(&self.python)
+            .arg(self.dir.join("embree_rays.py"))
+            .arg(self.dir.join("rays.bin"))
+            .output()
+            .map_err(|e| Error::Experiment(format!("cannot run {}: {e}", self.python.display())))?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        if !out.status.success() {
+            return Err(Error::Experiment(format!(
+                "{} tools/embree_rays.py failed: {}",
+                self.python.display(),
+                String::from_utf8_lossy(&out.stderr).trim()
+            )));
+        }
+        let value: serde_json::Value = serde_json::from_str(text.trim()).map_err(|e| {
+            Error::Experiment(format!("tools/embree_rays.py printed {text:?}: {e}"))
+        })?;
+        let field = |k: &str| {
+            value[k].as_f64().ok_or_else(|| {
+                Error::Experiment(format!("tools/embree_rays.py gave no {k} in {text:?}"))
+            })
+        };
+        Ok(EmbreeResult {
+            ns_per_ray: field("ns_per_ray")?,
+            build_seconds: field("build_seconds")?,
+            agreement: field("agreement")?,
+        })
+    }
+}
+
+impl Drop for EmbreeRun {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// The binary file `tools/embree_rays.py` reads, little-endian:
+/// `b"RADRAYS1"`, the triangle count `T` and segment count `S` (`u64`),
+/// `T x 9` `f64` triangle corners (each convex surface fanned from its
+/// first corner), `S x 6` `f64` segment ends (`from`, `to`), `S` bytes of
+/// our answers (1 = blocked).
+pub fn write_rays(
+    w: &mut impl std::io::Write,
+    scene: &Scene,
+    segments: &[Segment],
+    answers: &[bool],
+) -> std::io::Result<()> {
+    let triangles: Vec<[DVec3; 3]> = scene
+        .surfaces
+        .iter()
+        .flat_map(|s| {
+            let p = &s.polygon;
+            (1..p.len() - 1).map(move |i| [p[0], p[i], p[i + 1]])
+        })
+        .collect();
+    w.write_all(b"RADRAYS1")?;
+    w.write_all(&(triangles.len() as u64).to_le_bytes())?;
+    w.write_all(&(segments.len() as u64).to_le_bytes())?;
+    for t in &triangles {
+        for p in t {
+            for c in p.to_array() {
+                w.write_all(&c.to_le_bytes())?;
+            }
+        }
+    }
+    for s in segments {
+        for c in s.from.to_array().into_iter().chain(s.to.to_array()) {
+            w.write_all(&c.to_le_bytes())?;
+        }
+    }
+    let bytes: Vec<u8> = answers.iter().map(|&a| u8::from(a)).collect();
+    w.write_all(&bytes)
+}
