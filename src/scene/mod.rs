@@ -339,8 +339,8 @@ pub fn read_input(path: &Path, limits: &Limits) -> Result<Vec<u8>, SceneError> {
     }
     let too_large = |bytes: u64| {
         invalid(format!(
-            "the file is {} MiB, more than the limit of {} MiB (raise it with --max-file-size)",
-            bytes.div_ceil(1 << 20),
+            "the file is {bytes} bytes, more than the limit of {} MiB (raise it with \
+             --max-file-size)",
             limits.max_file_bytes >> 20
         ))
     };

@@ -610,7 +610,7 @@ impl ObjParser<'_> {
         const NAMED: usize = 3;
         for (line, warp) in self.warped.iter().take(NAMED) {
             warnings.push(format!(
-                "{}:{line}: the face is not planar (a corner is {} off its plane, {:.2}% of its \
+                "{}:{line}: the face is not planar (a corner is {} off its plane, {:.3}% of its \
                  size): split into {} triangles folding by {:.2} degrees",
                 self.path.display(),
                 length(warp.deviation),
