@@ -467,7 +467,14 @@ impl ObjParser<'_> {
     /// The position a face's vertex reference (`v`, `v/vt`, `v//vn` or
     /// `v/vt/vn`, indices 1-based or negative from the end) names.
     fn reference(&self, line_no: usize, token: &str) -> Result<DVec3, SceneError> {
-        let parts: Vec<&str> = token.split('/').collect();
+        let mut split = token.splitn(4, '/');
+        let mut parts: [&str; 4] = [""; 4];
+        let mut count = 0;
+        for part in split.by_ref() {
+            parts[count] = part;
+            count += 1;
+        }
+        let parts = &parts[..count];
         let bad_form = || {
             self.error(
                 line_no,
@@ -477,7 +484,7 @@ impl ObjParser<'_> {
                 ),
             )
         };
-        let (vt, vn) = match parts.as_slice() {
+        let (vt, vn) = match parts {
             [_] => (None, None),
             [_, vt] if !vt.is_empty() => (Some(*vt), None),
             [_, vt, vn] if !vn.is_empty() => ((!vt.is_empty()).then_some(*vt), Some(*vn)),

@@ -93,6 +93,23 @@ pub fn convex_pieces(corners: &[DVec3]) -> Result<Pieces, FaceProblem> {
         return Err(FaceProblem::Degenerate);
     }
     let tolerance = MERGE_TOLERANCE * size;
+    if let [a, b, c] = *corners {
+        // Most faces of real scenes: the tests of `simplify` and the area
+        // test below, without their allocations.
+        let twice_area = (b - a).cross(c - a).length();
+        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+        let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
+        if shortest <= tolerance
+            || twice_area <= tolerance * longest
+            || 0.5 * twice_area <= 1e-12 * size * size
+        {
+            return Err(FaceProblem::Degenerate);
+        }
+        return Ok(Pieces {
+            polygons: vec![corners.to_vec()],
+            warp: None,
+        });
+    }
     let points = simplify(corners, tolerance);
     if points.len() < 3 {
         return Err(FaceProblem::Degenerate);
