@@ -89,12 +89,12 @@ impl Camera {
             .filter(|t| !t.is_empty())
             .map(|t| {
                 t.parse::<f64>()
-                    .map_err(|_| format!("'{t}' is not a number"))
+                    .map_err(|_| format!("{} is not a number", obj::quoted(t)))
                     .and_then(|v| {
                         if v.is_finite() {
                             Ok(v)
                         } else {
-                            Err(format!("'{t}' is not a finite number"))
+                            Err(format!("{} is not a finite number", obj::quoted(t)))
                         }
                     })
             })

@@ -261,9 +261,19 @@ fn length(metres: f64) -> String {
     }
 }
 
-/// The statements of the OBJ format (and common extensions) that carry
-/// nothing a radiosity solve uses: skipped without a word.
+/// The statements of the OBJ format that carry nothing a radiosity solve
+/// uses: skipped without a word.
 const OBJ_SKIPPED: [&str; 4] = ["o", "g", "s", "mg"];
+
+/// The other statements of the OBJ format (free-form geometry, lines,
+/// points, display attributes): ignored with a warning. A keyword that is
+/// in neither list is not OBJ (often a typo, such as `usemt`, that would
+/// silently give faces the wrong material) and is an error.
+const OBJ_UNSUPPORTED: [&str; 25] = [
+    "p", "l", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole",
+    "scrv", "sp", "end", "con", "bevel", "c_interp", "d_interp", "lod", "shadow_obj",
+    "trace_obj", "ctech", "stech", "maplib",
+];
 
 struct ObjParser<'a> {
     path: &'a Path,
@@ -454,11 +464,20 @@ impl ObjParser<'_> {
                 }
             }
             other if OBJ_SKIPPED.contains(&other) => {}
-            other => {
+            other if OBJ_UNSUPPORTED.contains(&other) || other == "usemap" => {
                 let other = quoted(other);
-                if self.ignored.len() < 10 && !self.ignored.contains(&other) {
+                if !self.ignored.contains(&other) {
                     self.ignored.push(other);
                 }
+            }
+            other => {
+                return Err(self.error(
+                    line_no,
+                    format!(
+                        "{} is not an OBJ statement (v, vt, vn, f, usemtl, mtllib, o, g, s, ...)",
+                        quoted(other)
+                    ),
+                ));
             }
         }
         Ok(())
@@ -1091,6 +1110,19 @@ mod tests {
             run(&format!("{HEAD}f 1 \\\n2 \\\n3 \\\n4 \\\n1 \\\n2 \\\n3\n")),
             "t.obj:7: the line is 21 bytes long, more than the limit of 20 bytes (raise it with \
              --max-line-length)"
+        );
+    }
+
+    #[test]
+    fn unknown_statements_are_errors_and_unsupported_ones_warnings() {
+        assert_eq!(
+            message(&format!("{HEAD}usemt grey\nf 1 2 3\n"), MTL),
+            "t.obj:7: 'usemt' is not an OBJ statement (v, vt, vn, f, usemtl, mtllib, o, g, s, ...)"
+        );
+        let scene = parse_with(&format!("{HEAD}l 1 2\nf 1 2 3\ncurv 0 1 1 2\n"), MTL).unwrap();
+        assert_eq!(
+            scene.warnings,
+            ["t.obj: ignored unsupported statement(s): 'l', 'curv'"]
         );
     }
 
