@@ -25,6 +25,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let start = Instant::now();
     let scene = scene::load(&path)?;
     let loaded = start.elapsed();
+    println!(
+        "{path}: {} surfaces loaded in {:.2} s",
+        scene.surfaces.len(),
+        loaded.as_secs_f64()
+    );
     let sizes = scene.default_mesh_sizes();
     let settings = MeshSettings {
         patch_size: sizes.patch_size,
@@ -33,16 +38,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let start = Instant::now();
     let mesh = Mesh::build(&scene, &settings)?;
-    let meshed = start.elapsed();
     println!(
-        "{path}: {} surfaces loaded in {:.2} s; {} patches, {} elements, {} vertices meshed in \
-         {:.2} s; peak RSS {:.0} MiB",
-        scene.surfaces.len(),
-        loaded.as_secs_f64(),
+        "{} patches, {} elements, {} vertices meshed in {:.2} s; peak RSS {:.0} MiB",
         mesh.patches.len(),
         mesh.elements.len(),
         mesh.vertices.len(),
-        meshed.as_secs_f64(),
+        start.elapsed().as_secs_f64(),
         peak_rss_mib()
     );
     Ok(())

@@ -58,9 +58,16 @@ pub fn check_scene(scene: &Scene) {
             .fold(0.0, f64::max);
         for p in &s.polygon {
             let off = (s.normal.dot(*p) - s.offset).abs();
-            assert!(off <= 1e-6 * size.max(1e-300), "off-plane corner: {off} of {size}");
+            assert!(
+                off <= 1e-6 * size.max(1e-300),
+                "off-plane corner: {off} of {size}"
+            );
         }
-        assert!(geometry::is_convex(&s.polygon, s.normal, 1e-6 * size * size));
+        assert!(geometry::is_convex(
+            &s.polygon,
+            s.normal,
+            1e-6 * size * size
+        ));
         assert!(s.rho.min_element() >= 0.0 && s.rho.max_element() < 1.0);
         assert!(s.emission.min_element() >= 0.0 && s.emission.is_finite());
     }
