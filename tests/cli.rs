@@ -6,6 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 const MTL: &str = "newmtl light\nKd 0.5 0.5 0.5\nKe 10 10 10\nnewmtl white\nKd 0.7 0.7 0.7\n";
 
 /// A floor under a light, with a hole for one bad line.
@@ -531,23 +533,9 @@ fn strongly_warped_face_is_refused_and_slightly_warped_face_is_split() {
     );
 }
 
-/// The shared scenes folder: beside the clone in CI, two levels up from a
-/// worktree under wt/.
-fn shared_scene(relative: &str) -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    [
-        root.join("../shared/scenes"),
-        root.join("../../shared/scenes"),
-    ]
-    .into_iter()
-    .map(|folder| folder.join(relative))
-    .find(|p| p.exists())
-    .unwrap_or_else(|| panic!("shared/scenes/{relative} is not beside the repository"))
-}
-
 #[test]
 fn measured_cornell_box_loads_with_a_warning_naming_the_red_wall() {
-    let path = shared_scene("cornell_box/cornell_box.obj");
+    let path = common::shared_scene("cornell_box/cornell_box.obj");
     let case = Case::new("", "");
     let out = render_with(&case, path.to_str().unwrap(), &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);

@@ -270,9 +270,31 @@ const OBJ_SKIPPED: [&str; 4] = ["o", "g", "s", "mg"];
 /// in neither list is not OBJ (often a typo, such as `usemt`, that would
 /// silently give faces the wrong material) and is an error.
 const OBJ_UNSUPPORTED: [&str; 25] = [
-    "p", "l", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole",
-    "scrv", "sp", "end", "con", "bevel", "c_interp", "d_interp", "lod", "shadow_obj",
-    "trace_obj", "ctech", "stech", "maplib",
+    "p",
+    "l",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "maplib",
 ];
 
 struct ObjParser<'a> {
