@@ -103,6 +103,7 @@ pub fn parse_bytes(
         texture_coordinates: 0,
         normals: 0,
         materials: HashMap::new(),
+        libraries: std::collections::HashSet::new(),
         current: None,
         surfaces: Vec::new(),
         faces: 0,
@@ -304,6 +305,7 @@ struct ObjParser<'a> {
     texture_coordinates: usize,
     normals: usize,
     materials: HashMap<String, Material>,
+    libraries: std::collections::HashSet<String>,
     current: Option<Material>,
     surfaces: Vec<Surface>,
     faces: u32,
@@ -459,12 +461,20 @@ impl ObjParser<'_> {
                 // A single name may contain spaces; otherwise each token
                 // names a library.
                 let whole = args.join(" ");
-                let names: Vec<String> = if args.len() > 1 && resolve(&whole).is_ok() {
+                let names: Vec<String> = if args.len() > 1
+                    && (self.libraries.contains(&whole) || resolve(&whole).is_ok())
+                {
                     vec![whole]
                 } else {
                     args.iter().map(|s| s.to_string()).collect()
                 };
                 for lib in names {
+                    // Each library is read once, however often it is named:
+                    // a million `mtllib big.mtl` lines must not read it a
+                    // million times.
+                    if !self.libraries.insert(lib.clone()) {
+                        continue;
+                    }
                     let (lib_path, bytes) = resolve(&lib).map_err(|e| {
                         self.error(
                             line_no,
@@ -1146,6 +1156,24 @@ mod tests {
             scene.warnings,
             ["t.obj: ignored unsupported statement(s): 'l', 'curv'"]
         );
+    }
+
+    #[test]
+    fn a_library_named_many_times_is_read_once() {
+        let mut reads = 0;
+        let obj = format!("{}{HEAD}f 1 2 3\n", "mtllib t.mtl\n".repeat(1000));
+        let scene = parse_bytes(
+            "t",
+            Path::new("t.obj"),
+            obj.as_bytes(),
+            &Limits::default(),
+            &mut |_| {
+                reads += 1;
+                Ok((PathBuf::from("t.mtl"), MTL.as_bytes().to_vec()))
+            },
+        );
+        assert!(scene.is_ok());
+        assert_eq!(reads, 1);
     }
 
     #[test]
