@@ -129,14 +129,22 @@ pub fn convex_pieces(corners: &[DVec3]) -> Result<Pieces, FaceProblem> {
         }
     };
     let area_vector = crate::geometry::newell_area_vector(&positions);
-    // An area below (1e-6 size)^2 is round-off of a line or a point, or the
-    // cancelling lobes of a figure eight such as a bow-tie.
-    if 0.5 * area_vector.length() <= 1e-12 * size * size {
-        if let Some(normal) = spread_normal(&positions)
-            && let Some(crossing) = find_crossing(&flatten(&positions, normal))
-        {
-            return Err(crossing_error(crossing));
-        }
+    // An area below (1e-6 size)^2 is round-off of a line or a point.
+    let tiny = 0.5 * area_vector.length() <= 1e-12 * size * size;
+    // The lobes of a figure eight such as a bow-tie cancel in Newell's
+    // normal: what is left is small, and, when the face is not exactly
+    // planar, it can point along the face rather than across it, so the
+    // face seen along it looks simple. Such a face is tested for crossings
+    // in the plane of its spread.
+    let spread = spread_normal(&positions);
+    let suspicious = tiny || spread.is_some_and(|s| area_vector.normalize().dot(s).abs() < 0.5);
+    if suspicious
+        && let Some(s) = spread
+        && let Some(crossing) = find_crossing(&flatten(&positions, s))
+    {
+        return Err(crossing_error(crossing));
+    }
+    if tiny {
         return Err(FaceProblem::Degenerate);
     }
     let normal = area_vector.normalize();
@@ -176,7 +184,7 @@ pub fn convex_pieces(corners: &[DVec3]) -> Result<Pieces, FaceProblem> {
         });
     }
     let triangles = if positions.len() == 4 {
-        flattest_quad_split(&positions, &flat)
+        flattest_quad_split(&positions, &flat).ok_or(FaceProblem::Untriangulable)?
     } else {
         triangulate(&flat).ok_or(FaceProblem::Untriangulable)?
     };
@@ -301,7 +309,7 @@ fn is_convex(p: &[DVec2]) -> bool {
 
 /// Of a non-planar quad's two diagonals, the one whose triangles fold least
 /// (and lie inside the quad seen along its normal).
-fn flattest_quad_split(positions: &[DVec3], flat: &[DVec2]) -> Vec<[usize; 3]> {
+fn flattest_quad_split(positions: &[DVec3], flat: &[DVec2]) -> Option<Vec<[usize; 3]>> {
     let splits = [[[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]];
     splits
         .into_iter()
@@ -313,7 +321,6 @@ fn flattest_quad_split(positions: &[DVec3], flat: &[DVec2]) -> Vec<[usize; 3]> {
         .map(|split| (largest_fold(positions, &split), split))
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, split)| split.to_vec())
-        .expect("a simple quad has an interior diagonal")
 }
 
 /// Largest angle in degrees between the normals of two triangles that share
@@ -1028,6 +1035,27 @@ mod tests {
             convex_pieces(&quad(0.5)),
             Err(FaceProblem::TooWarped(w)) if w.fold_degrees > 20.0
         ));
+    }
+
+    #[test]
+    fn slightly_non_planar_bow_tie_is_a_crossing() {
+        // Found by the load_mesh fuzzer: a bow-tie 0.08 mm out of plane,
+        // whose Newell normal lies along the face; seen along it the face
+        // looked simple, and no diagonal split it.
+        let bow_tie = [
+            DVec3::new(0.556, 0.5488, 0.5592),
+            DVec3::new(0.0, 0.5488, 0.0),
+            DVec3::new(0.0, 0.5488, 0.5592),
+            DVec3::new(0.556, 0.54888, 0.0),
+        ];
+        assert_eq!(
+            convex_pieces(&bow_tie).unwrap_err(),
+            FaceProblem::Crossing {
+                first: 0,
+                second: 2,
+                corners: 4
+            }
+        );
     }
 
     #[test]
