@@ -878,3 +878,22 @@ fn a_write_failure_midway_leaves_nothing_behind() {
         "{dir}/out.csv: cannot write: File too large (os error 27)",
     );
 }
+
+#[test]
+fn limit_defaults_in_the_help_are_the_library_defaults() {
+    let out = run(&["render", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    let limits = radiosity::scene::Limits::default();
+    let max_elements = radiosity::mesh::MeshSettings::default().max_elements;
+    for (flag, value) in [
+        ("--max-file-size", (limits.max_file_bytes >> 20) as usize),
+        ("--max-line-length", limits.max_line_bytes),
+        ("--max-corners", limits.max_corners),
+        ("--max-faces", limits.max_faces),
+        ("--max-vertices", limits.max_vertices),
+        ("--max-elements", max_elements),
+    ] {
+        let line = help.lines().find(|l| l.contains(flag)).unwrap();
+        assert!(line.contains(&format!("[default: {value}]")), "{line}");
+    }
+}
