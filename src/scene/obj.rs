@@ -379,7 +379,7 @@ impl ObjParser<'_> {
         let args: Vec<&str> = tokens.collect();
         match keyword {
             "v" => {
-                if !matches!(args.len(), 3 | 4 | 6 | 7) {
+                if !matches!(args.len(), 3 | 4 | 6) {
                     return Err(self.error(
                         line_no,
                         format!(
