@@ -632,16 +632,17 @@ pub(crate) fn triangulate(p: &[DVec2]) -> Option<Vec<[usize; 3]>> {
     for face in split_faces(p, &diagonals)? {
         triangulate_monotone(p, &face, &mut triangles)?;
     }
-    // A guard against a wrong split: the pieces must tile the polygon.
-    let polygon_area: f64 = (0..n)
-        .map(|i| p[i].perp_dot(p[(i + 1) % n]))
-        .sum::<f64>()
-        .abs();
-    let pieces_area: f64 = triangles
+    // A guard against a wrong split: the pieces must tile the polygon, up to
+    // the round-off of the sums, whose scale is the sum of the magnitudes
+    // of their terms (a thin polygon's area is far below that).
+    let edge_terms = (0..n).map(|i| p[i].perp_dot(p[(i + 1) % n]));
+    let piece_terms = triangles
         .iter()
-        .map(|t| (p[t[1]] - p[t[0]]).perp_dot(p[t[2]] - p[t[0]]))
-        .sum();
-    if (pieces_area - polygon_area).abs() > 1e-9 * polygon_area.max(f64::MIN_POSITIVE) {
+        .map(|t| (p[t[1]] - p[t[0]]).perp_dot(p[t[2]] - p[t[0]]));
+    let polygon_area: f64 = edge_terms.clone().sum();
+    let pieces_area: f64 = piece_terms.clone().sum();
+    let scale: f64 = edge_terms.map(f64::abs).sum::<f64>() + piece_terms.map(f64::abs).sum::<f64>();
+    if (pieces_area - polygon_area).abs() > 1e-9 * scale {
         return None;
     }
     Some(triangles)
