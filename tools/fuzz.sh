@@ -16,8 +16,12 @@
 # timeout and memory limit stay on.
 #
 # The corpus grows in fuzz/corpus/TARGET (not committed), seeded from
-# fuzz/seeds/TARGET (committed: the test scenes, and for OBJ targets each
-# seed is OBJ bytes, a NUL, then MTL bytes). A crash is saved in
+# fuzz/seeds/TARGET (committed: small files for every reference form, line
+# end, directive and face shape) and from the test scenes, assembled at
+# each run into fuzz/generated-seeds/ (the built-in scenes of scenes/ and
+# the measured Cornell box of shared/scenes, which is read from there, not
+# copied into the project). For OBJ targets a seed is OBJ bytes, a NUL,
+# then MTL bytes. A crash is saved in
 # fuzz/artifacts/TARGET/; turn it into a regression test in
 # tests/fuzz_regressions.rs and fix it. Each run's closing statistics go to
 # fuzz/logs/TARGET.log (executions: the `stat::number_of_executed_units`
@@ -44,11 +48,23 @@ if [ "$target" = all ]; then
 fi
 targets | grep -qx "$target" || { echo "no fuzz target '$target' (tools/fuzz.sh list)" >&2; exit 1; }
 
-mkdir -p "corpus/$target" "artifacts/$target" logs
-seeds=()
-[ -d "seeds/$target" ] && seeds=("seeds/$target")
-# OBJ targets share the OBJ seeds.
-[ "$target" = load_mesh ] && seeds=(seeds/obj)
+mkdir -p "corpus/$target" "artifacts/$target" logs generated-seeds/obj generated-seeds/mtl
+# The test scenes as seeds: the built-in ones, and the shared measured
+# Cornell box (beside a clone, or two levels up from a worktree).
+for scene in ../scenes/cornell ../scenes/room \
+    ../../shared/scenes/cornell_box/cornell_box ../../../shared/scenes/cornell_box/cornell_box; do
+    if [ -f "$scene.obj" ] && [ -f "$scene.mtl" ]; then
+        name=$(basename "$scene")
+        { cat "$scene.obj"; printf '\0'; cat "$scene.mtl"; } > "generated-seeds/obj/$name"
+        cp "$scene.mtl" "generated-seeds/mtl/$name.mtl"
+    fi
+done
+case "$target" in
+    # OBJ targets share the OBJ seeds.
+    obj | load_mesh) seeds=(seeds/obj generated-seeds/obj) ;;
+    mtl) seeds=(generated-seeds/mtl) ;;
+    *) seeds=(); [ -d "seeds/$target" ] && seeds=("seeds/$target") ;;
+esac
 # -max_len: inputs up to 64 KiB (the load_mesh target itself skips inputs
 # over 16 KiB); -timeout: a single input running 10 s is a hang; the RSS
 # limit catches memory blow-ups.
