@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use crate::export::{self, Staged};
 use crate::mesh::{Mesh, MeshError};
 use crate::render::{self, Exposure, RenderSettings};
-use crate::scene::{self, Camera, Scene, SceneError};
+use crate::scene::{self, Camera, Limits, MeshHint, Scene, SceneError};
 use crate::solver::{Flow, Settings, Solver, Stats, StopReason};
 
 /// What to draw and where.
@@ -48,6 +48,8 @@ pub struct Job {
     pub vertices_csv: Option<PathBuf>,
     /// `--stats FILE.json`.
     pub stats_json: Option<PathBuf>,
+    /// Bounds on the scene file (`--max-file-size`, `--max-corners`, ...).
+    pub limits: Limits,
 }
 
 /// Why a run failed.
@@ -260,7 +262,8 @@ impl Counts {
 /// 2.5 GB of frame buffer.
 pub const MAX_SAMPLES: u64 = 150_000_000;
 
-/// Checks outputs before any work: known picture format, existing folder.
+/// Checks outputs before any work: known picture format, a folder that
+/// exists and can be written to (a file is created there and removed).
 fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Error> {
     let extension = path
         .extension()
@@ -278,16 +281,22 @@ fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Erro
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
+    let output_error = |source: std::io::Error| Error::Output {
+        path: path.to_path_buf(),
+        source,
+    };
     if !folder.is_dir() {
-        return Err(Error::Output {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                format!("folder {} does not exist", folder.display()),
-            ),
-        });
+        let problem = if folder.exists() {
+            format!("{} is a file, not a folder", folder.display())
+        } else {
+            format!("folder {} does not exist", folder.display())
+        };
+        return Err(output_error(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            problem,
+        )));
     }
-    Ok(())
+    export::probe_writable(path).map_err(output_error)
 }
 
 /// Validates a job's settings and outputs without doing any work.
@@ -338,7 +347,7 @@ pub fn validate(job: &Job) -> Result<(), Error> {
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let start = Instant::now();
     validate(job)?;
-    let mut scene = scene::load(&job.scene)?;
+    let mut scene = scene::load_with(&job.scene, &job.limits)?;
     if job.settings.merge_coplanar {
         scene::merge::merge_coplanar(&mut scene.surfaces);
     }
@@ -346,7 +355,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let suggested = scene.default_mesh_sizes();
     settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
     settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
-    let mesh = Mesh::build(&scene, &settings.mesh)?;
+    let mesh = Mesh::build(&scene, &settings.mesh)
+        .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     let mut counts = Counts::of(&scene, &mesh);
     observer.started(&scene, &mesh);
 
@@ -428,6 +438,62 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     }
     outcome.total_time = start.elapsed();
     Ok(outcome)
+}
+
+/// A mesh that would be too large, explained with the size at fault and
+/// where it came from: the flag the user gave, the scene's `#@mesh`
+/// directive (file and line), or the default derived from the scene's
+/// extent.
+fn mesh_error(error: MeshError, job: &Job, suggested: &MeshHint, settings: &Settings) -> Error {
+    let MeshError::TooManyElements {
+        elements,
+        patches,
+        limit,
+        ..
+    } = error
+    else {
+        return Error::Mesh(error);
+    };
+    // Patches alone beyond the limit: the patch size is at fault.
+    let (what, flag, size, given, fraction) = if patches > limit as u128 {
+        (
+            "patch",
+            "--patch-size",
+            settings.mesh.patch_size,
+            job.patch_size,
+            3,
+        )
+    } else {
+        (
+            "element",
+            "--element-size",
+            settings.mesh.element_size,
+            job.element_size,
+            40,
+        )
+    };
+    // 1e-9 rather than 0.000000001.
+    let size = if size < 1e-3 {
+        format!("{size:e}")
+    } else {
+        format!("{size}")
+    };
+    let remedy = if given.is_some() {
+        format!("raise {flag} (now {size} m)")
+    } else if let Some(directive) = &suggested.directive {
+        format!(
+            "raise the {what} size of the #@mesh directive at {directive} (now {size} m) or give \
+             a larger {flag}"
+        )
+    } else {
+        format!(
+            "give a {flag} larger than {size} m (the default: 1/{fraction} of the scene's size)"
+        )
+    };
+    Error::Settings(format!(
+        "meshing would create {elements} elements, more than the limit of {limit}: {remedy}, or \
+         raise --max-elements"
+    ))
 }
 
 /// Progress of a solver, with completion estimated from the nearest

@@ -4,7 +4,8 @@
 //!
 //! Every file is written to a temporary name beside its destination and
 //! renamed only once all of a run's outputs are complete, so a failed run
-//! leaves no half-written file behind.
+//! leaves no half-written file behind. A destination that is a symbolic
+//! link is written through: the link's target is replaced, the link stays.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -25,21 +26,16 @@ pub struct Staged {
 }
 
 impl Staged {
-    /// Writes `contents` through `write` to a temporary file beside `path`.
+    /// Writes `contents` through `write` to a temporary file beside `path`
+    /// (beside the file it links to, if it is a symbolic link).
     pub fn write(
         path: &Path,
         write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
     ) -> io::Result<Staged> {
-        let name = path
-            .file_name()
-            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
-        let mut temporary_name = std::ffi::OsString::from(".");
-        temporary_name.push(name);
-        temporary_name.push(format!(".{}.tmp", std::process::id()));
-        let temporary = path.with_file_name(temporary_name);
+        let target = resolve_links(path)?;
         let staged = Staged {
-            temporary,
-            destination: path.to_path_buf(),
+            temporary: temporary_beside(&target, "tmp")?,
+            destination: target,
             committed: false,
         };
         let mut writer = BufWriter::new(File::create(&staged.temporary)?);
@@ -71,6 +67,60 @@ impl Drop for Staged {
             let _ = std::fs::remove_file(&self.temporary);
         }
     }
+}
+
+/// Most symbolic links followed from one output path, as the kernel's
+/// own limit (`ELOOP`).
+const MAX_LINKS: usize = 40;
+
+/// The file a path finally names: symbolic links followed (also a dangling
+/// one, whose target is then created), other paths unchanged.
+pub fn resolve_links(path: &Path) -> io::Result<PathBuf> {
+    let mut current = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match std::fs::symlink_metadata(&current) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let target = std::fs::read_link(&current)?;
+                current = match current.parent() {
+                    Some(folder) if target.is_relative() => folder.join(target),
+                    _ => target,
+                };
+            }
+            _ => return Ok(current),
+        }
+    }
+    Err(io::Error::other(format!(
+        "more than {MAX_LINKS} symbolic links in a chain"
+    )))
+}
+
+/// A hidden name beside `path` unique to this process:
+/// `.NAME.PID.SUFFIX`.
+fn temporary_beside(path: &Path, suffix: &str) -> io::Result<PathBuf> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
+    let mut temporary_name = std::ffi::OsString::from(".");
+    temporary_name.push(name);
+    temporary_name.push(format!(".{}.{suffix}", std::process::id()));
+    Ok(path.with_file_name(temporary_name))
+}
+
+/// Checks that `path` can be written before any work is done: creates and
+/// removes a file beside it (beside its target, for a symbolic link), so a
+/// read-only, missing or non-folder parent is reported at once rather than
+/// after the solve.
+pub fn probe_writable(path: &Path) -> io::Result<()> {
+    let target = resolve_links(path)?;
+    if target.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::IsADirectory,
+            "this is a folder: give a file name",
+        ));
+    }
+    let probe = temporary_beside(&target, "probe")?;
+    File::options().write(true).create_new(true).open(&probe)?;
+    std::fs::remove_file(&probe)
 }
 
 /// Writes 8-bit sRGB pixels as PNG.

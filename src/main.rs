@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow};
+use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -19,7 +20,7 @@ use radiosity::form_factor::FormFactor;
 use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::Scene;
-use radiosity::scene::{Camera, builtin};
+use radiosity::scene::{Camera, Limits, builtin};
 use radiosity::serve;
 use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
 
@@ -84,7 +85,8 @@ struct ExperimentArgs {
     quick: bool,
 
     /// Worker threads (default: every core).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = positive::<usize>("--threads"))]
     threads: Option<usize>,
 
     /// Folder holding the shared real scenes, for `rays` (default:
@@ -160,33 +162,40 @@ struct RenderArgs {
     visibility: Option<String>,
 
     /// Pixels across the top face of the pre-test hemicube.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = positive::<u32>("--hemicube-resolution"))]
     hemicube_resolution: Option<u32>,
 
     /// A shooting patch is split into N x N subsources.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = positive::<u32>("--subsources"))]
     subsources: Option<u32>,
 
     /// Longest patch edge, metres (default: the scene's #@mesh suggestion,
     /// else a third of the scene's bounding-box diagonal).
-    #[arg(long, value_name = "METRES")]
+    #[arg(long, value_name = "METRES", allow_negative_numbers = true,
+          value_parser = metres("--patch-size"))]
     patch_size: Option<f64>,
 
     /// Longest element edge, metres (default: the scene's #@mesh
     /// suggestion, else 1/40 of the scene's bounding-box diagonal).
-    #[arg(long, value_name = "METRES")]
+    #[arg(long, value_name = "METRES", allow_negative_numbers = true,
+          value_parser = metres("--element-size"))]
     element_size: Option<f64>,
 
     /// Stop when unshot power falls below this fraction of emitted power.
-    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_CONVERGE)]
+    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_CONVERGE,
+          allow_negative_numbers = true, value_parser = fraction("--converge"))]
     converge: f64,
 
     /// Stop after N patches have shot.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = whole::<u64>("--max-shots"))]
     max_shots: Option<u64>,
 
     /// Stop once N subsources have shot.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = whole::<u64>("--max-subsources"))]
     max_subsources: Option<u64>,
 
     /// Stop the solve after this many seconds and write every output from
@@ -195,15 +204,18 @@ struct RenderArgs {
     time_limit: Option<f64>,
 
     /// Worker threads (default: every core).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = positive::<usize>("--threads"))]
     threads: Option<usize>,
 
     /// Picture width in pixels.
-    #[arg(long, default_value_t = 800)]
+    #[arg(long, default_value_t = 800, allow_negative_numbers = true,
+          value_parser = positive::<u32>("--width"))]
     width: u32,
 
     /// Picture height in pixels.
-    #[arg(long, default_value_t = 600)]
+    #[arg(long, default_value_t = 600, allow_negative_numbers = true,
+          value_parser = positive::<u32>("--height"))]
     height: u32,
 
     /// The view as eye,target,up,fov: ten numbers, e.g.
@@ -213,7 +225,8 @@ struct RenderArgs {
     camera: Option<String>,
 
     /// Anti-aliasing: N x N samples a pixel.
-    #[arg(long, value_name = "N", default_value_t = 3)]
+    #[arg(long, value_name = "N", default_value_t = 3, allow_negative_numbers = true,
+          value_parser = positive::<u32>("--supersampling"))]
     supersampling: u32,
 
     /// Exposure adjustment in stops, on top of automatic exposure.
@@ -232,6 +245,124 @@ struct RenderArgs {
     /// No progress bar and no summary.
     #[arg(short, long)]
     quiet: bool,
+
+    /// Largest scene file (OBJ or MTL) read, MiB [default: 1024].
+    #[arg(long, value_name = "MIB", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<u64>("--max-file-size"))]
+    max_file_size: Option<u64>,
+
+    /// Longest line of a scene file, bytes [default: 4194304].
+    #[arg(long, value_name = "BYTES", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-line-length"))]
+    max_line_length: Option<usize>,
+
+    /// Most corners of one face [default: 100000].
+    #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-corners"))]
+    max_corners: Option<usize>,
+
+    /// Most faces in a scene [default: 5000000].
+    #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-faces"))]
+    max_faces: Option<usize>,
+
+    /// Most vertices (`v` lines) in a scene [default: 10000000].
+    #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-vertices"))]
+    max_vertices: Option<usize>,
+
+    /// Most elements in the mesh [default: 4000000].
+    #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-elements"))]
+    max_elements: Option<usize>,
+}
+
+/// Help heading of the options that bound a load.
+const LIMITS: &str = "Limits (each error says which to raise)";
+
+/// The value of an option as echoed in a message: cut to a readable length.
+fn shown(value: &str) -> String {
+    const SHOWN: usize = 40;
+    if value.chars().count() <= SHOWN {
+        value.to_string()
+    } else {
+        format!(
+            "{}... ({} bytes)",
+            value.chars().take(SHOWN).collect::<String>(),
+            value.len()
+        )
+    }
+}
+
+/// An integer option of at least `min`; messages name the flag and the
+/// value, negative values included (clap lets them through as values).
+fn integer<T: TryFrom<i128> + std::fmt::Display + Copy + Send + Sync + 'static>(
+    flag: &'static str,
+    min: i128,
+    kind: &'static str,
+    max: T,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    move |text: &str| {
+        let value: i128 = text
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v| *v >= min)
+            .ok_or_else(|| format!("{flag} must be {kind}, not {}", shown(text)))?;
+        T::try_from(value).map_err(|_| format!("{flag} must be at most {max}, not {}", shown(text)))
+    }
+}
+
+/// A positive integer option (1 or more).
+fn positive<T: TryFrom<i128> + std::fmt::Display + Copy + Send + Sync + 'static + num_max::Max>(
+    flag: &'static str,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    integer(flag, 1, "a positive integer", T::MAX)
+}
+
+/// A whole-number option (0 or more).
+fn whole<T: TryFrom<i128> + std::fmt::Display + Copy + Send + Sync + 'static + num_max::Max>(
+    flag: &'static str,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    integer(flag, 0, "a whole number (0 or more)", T::MAX)
+}
+
+/// The largest value of an integer type, for messages.
+mod num_max {
+    pub trait Max {
+        const MAX: Self;
+    }
+    macro_rules! max {
+        ($($t:ty),*) => { $(impl Max for $t { const MAX: Self = <$t>::MAX; })* };
+    }
+    max!(u32, u64, usize);
+}
+
+/// A length option: a positive finite number of metres.
+fn metres(flag: &'static str) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    move |text: &str| {
+        text.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .ok_or_else(|| {
+                format!(
+                    "{flag} must be a positive number of metres, not {}",
+                    shown(text)
+                )
+            })
+    }
+}
+
+/// A fraction option in [0, 1).
+fn fraction(flag: &'static str) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync {
+    move |text: &str| {
+        text.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| (0.0..1.0).contains(v))
+            .ok_or_else(|| format!("{flag} must be a fraction in [0, 1), not {}", shown(text)))
+    }
 }
 
 fn names(names: &[&'static str]) -> clap::builder::PossibleValuesParser {
@@ -273,6 +404,19 @@ impl RenderArgs {
             settings.subsources = n;
         }
         settings.converge = self.converge;
+        if let Some(n) = self.max_elements {
+            settings.mesh.max_elements = n;
+        }
+        let defaults = Limits::default();
+        let limits = Limits {
+            max_file_bytes: self
+                .max_file_size
+                .map_or(defaults.max_file_bytes, |mib| mib.saturating_mul(1 << 20)),
+            max_line_bytes: self.max_line_length.unwrap_or(defaults.max_line_bytes),
+            max_corners: self.max_corners.unwrap_or(defaults.max_corners),
+            max_faces: self.max_faces.unwrap_or(defaults.max_faces),
+            max_vertices: self.max_vertices.unwrap_or(defaults.max_vertices),
+        };
         settings.max_shots = self.max_shots;
         settings.max_subsources = self.max_subsources;
         if let Some(seconds) = self.time_limit {
@@ -315,22 +459,58 @@ impl RenderArgs {
             }),
             vertices_csv: self.vertices.clone(),
             stats_json: self.stats.clone(),
+            limits,
         })
     }
 }
 
 fn main() -> ExitCode {
-    match real_main() {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // An option's value checked by one of the parsers above: one line
+        // in the words of that parser, like every other bad input.
+        Err(e) if e.kind() == ErrorKind::ValueValidation => {
+            // Our own checks name their option; other parsers' words (an
+            // address, a number) go with clap's line, which names it.
+            match std::error::Error::source(&e).map(|s| s.to_string()) {
+                Some(source) if source.contains("--") => eprintln!("error: {source}"),
+                _ => eprintln!(
+                    "{}",
+                    e.render().to_string().lines().next().unwrap_or("error")
+                ),
+            }
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
+    match real_main(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", message(&error));
             ExitCode::FAILURE
         }
     }
 }
 
-fn real_main() -> Result<()> {
-    let cli = Cli::parse();
+/// An error and its causes on one line, each cause once: a cause whose
+/// text the message already holds (an I/O error a library message quotes)
+/// is not repeated.
+fn message(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
+}
+
+fn real_main(cli: Cli) -> Result<()> {
     match cli.command {
         Some(Command::Scenes) => {
             for (name, description) in builtin::list() {
@@ -431,6 +611,8 @@ struct ProgressDisplay {
     lines: bool,
     meter: app::ProgressMeter,
     last_line: Instant,
+    /// What is being solved, until it has been said.
+    header: Option<String>,
     interrupted: &'static AtomicBool,
 }
 
@@ -450,6 +632,7 @@ impl ProgressDisplay {
             lines: !quiet && !terminal,
             meter: app::ProgressMeter::new(),
             last_line: Instant::now(),
+            header: None,
             interrupted,
         }
     }
@@ -475,16 +658,15 @@ impl app::Observer for ProgressDisplay {
     fn started(&mut self, scene: &Scene, mesh: &Mesh) {
         self.meter = app::ProgressMeter::new();
         self.last_line = Instant::now();
-        if self.lines {
-            eprintln!(
-                "solving {}: {} surfaces, {} patches, {} elements, {} vertices",
-                scene.name,
-                scene.surfaces.len(),
-                mesh.patches.len(),
-                mesh.elements.len(),
-                mesh.vertices.len()
-            );
-        }
+        // Said with the first progress line, so a short run's log holds
+        // only its summary.
+        self.header = Some(format!(
+            "solving {}: {} surfaces, {} elements, {} vertices",
+            scene.name,
+            scene.surfaces.len(),
+            mesh.elements.len(),
+            mesh.vertices.len()
+        ));
     }
 
     fn shot(&mut self, solver: &Solver<'_>) -> Flow {
@@ -506,6 +688,9 @@ impl app::Observer for ProgressDisplay {
             bar.set_message(message);
         } else if self.lines && self.last_line.elapsed() >= PROGRESS_LINE_INTERVAL {
             self.last_line = Instant::now();
+            if let Some(header) = self.header.take() {
+                eprintln!("{header}");
+            }
             eprintln!("progress: {}, {} elapsed", message, clock(p.elapsed));
         }
         if self.interrupted.load(Ordering::SeqCst) {

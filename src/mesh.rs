@@ -127,6 +127,9 @@ pub enum MeshError {
     TooManyElements {
         /// Elements the settings would create.
         elements: u128,
+        /// Patches the settings would create (when they alone exceed the
+        /// limit, the patch size is at fault).
+        patches: u128,
         /// The limit.
         limit: usize,
         /// The element size asked for.
@@ -140,6 +143,14 @@ pub enum MeshError {
 /// Number of pieces a length is cut into so none exceeds `size`.
 fn pieces(length: f64, size: f64) -> u64 {
     ((length / size) - 1e-9).ceil().max(1.0) as u64
+}
+
+/// The product of counts, saturating: an absurd size (1e-300 m) gives
+/// counts beyond `u64`, and a wrapped product could pass the element limit.
+fn saturating_product(factors: &[u64]) -> u128 {
+    factors
+        .iter()
+        .fold(1u128, |acc, &f| acc.saturating_mul(u128::from(f)))
 }
 
 /// The grid chosen for one surface.
@@ -201,10 +212,18 @@ impl Grid {
         }
     }
 
+    fn patch_count(self) -> u128 {
+        match self {
+            Grid::Quad { pu, pv, .. } => saturating_product(&[pu, pv]),
+            Grid::Fan { fans, p, .. } => saturating_product(&[fans, p, p]),
+            Grid::Bisect { .. } => 1,
+        }
+    }
+
     fn element_count(self) -> u128 {
         match self {
-            Grid::Quad { pu, pv, mu, mv } => (pu * mu) as u128 * (pv * mv) as u128,
-            Grid::Fan { fans, p, m } => fans as u128 * ((p * m) as u128).pow(2),
+            Grid::Quad { pu, pv, mu, mv } => saturating_product(&[pu, mu, pv, mv]),
+            Grid::Fan { fans, p, m } => saturating_product(&[fans, p, m, p, m]),
             Grid::Bisect { elements } => elements as u128,
         }
     }
@@ -253,10 +272,15 @@ impl Mesh {
             .iter()
             .map(|s| Grid::choose(&s.polygon, settings))
             .collect();
-        let total: u128 = grids.iter().map(|g| g.element_count()).sum();
+        let total: u128 = grids
+            .iter()
+            .fold(0u128, |acc, g| acc.saturating_add(g.element_count()));
         if total > settings.max_elements as u128 {
             return Err(MeshError::TooManyElements {
                 elements: total,
+                patches: grids
+                    .iter()
+                    .fold(0u128, |acc, g| acc.saturating_add(g.patch_count())),
                 limit: settings.max_elements,
                 element_size: settings.element_size,
             });

@@ -3,12 +3,16 @@
 //!
 //! A [`Surface`] is one planar, convex, single-sided polygon carrying a
 //! reflectance `rho` and an emitted radiant exitance `E`. Loading turns an
-//! input file into surfaces: [`obj`] reads Wavefront OBJ + MTL and
-//! [`builtin`] holds the scenes shipped inside the binary.
+//! input file into surfaces: [`obj`] reads Wavefront OBJ + MTL,
+//! [`polygon`] turns a face into planar convex pieces and [`builtin`] holds
+//! the scenes shipped inside the binary. Every load is bounded by
+//! [`Limits`], and input files are checked to be regular files of a sane
+//! size before they are read.
 
 pub mod builtin;
 pub mod merge;
 pub mod obj;
+pub mod polygon;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -95,12 +99,12 @@ impl Camera {
             .filter(|t| !t.is_empty())
             .map(|t| {
                 t.parse::<f64>()
-                    .map_err(|_| format!("'{t}' is not a number"))
+                    .map_err(|_| format!("{} is not a number", obj::quoted(t)))
                     .and_then(|v| {
                         if v.is_finite() {
                             Ok(v)
                         } else {
-                            Err(format!("'{t}' is not a finite number"))
+                            Err(format!("{} is not a finite number", obj::quoted(t)))
                         }
                     })
             })
@@ -159,12 +163,16 @@ impl Camera {
 }
 
 /// Patch and element sizes a scene file suggests, in metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct MeshHint {
     /// Suggested `--patch-size`.
     pub patch_size: f64,
     /// Suggested `--element-size`.
     pub element_size: f64,
+    /// The directive that gave them (`#@mesh` with its file and line), for
+    /// messages about sizes that are too small; `None` for sizes derived
+    /// from the scene's extent.
+    pub directive: Option<Location>,
 }
 
 /// A loaded scene.
@@ -202,12 +210,13 @@ impl Scene {
     /// scene modelled in centimetres meshes as finely as one in metres.
     #[must_use]
     pub fn default_mesh_sizes(&self) -> MeshHint {
-        self.mesh_hint.unwrap_or_else(|| {
+        self.mesh_hint.clone().unwrap_or_else(|| {
             let (lo, hi) = self.bounds();
             let diagonal = (hi - lo).length().max(1e-9);
             MeshHint {
                 patch_size: diagonal / 3.0,
                 element_size: diagonal / 40.0,
+                directive: None,
             }
         })
     }
@@ -284,16 +293,98 @@ pub enum SceneError {
     NotFound(String),
 }
 
+/// Bounds on what a scene may hold, so that no input can make a load run
+/// for hours or exhaust memory. Each default is generous for real scenes
+/// (the conference room of `../shared/scenes`: 277k triangles, 155k
+/// vertices, a 10 MB OBJ) and each error names the option that raises it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Largest input file (OBJ or MTL), bytes; `--max-file-size` (MiB).
+    pub max_file_bytes: u64,
+    /// Longest line, bytes (continuation lines joined);
+    /// `--max-line-length`.
+    pub max_line_bytes: usize,
+    /// Most corners of one face; `--max-corners`.
+    pub max_corners: usize,
+    /// Most faces (`f` statements); `--max-faces`.
+    pub max_faces: usize,
+    /// Most vertices (`v` statements); `--max-vertices`.
+    pub max_vertices: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_file_bytes: 1 << 30,
+            max_line_bytes: 4 << 20,
+            max_corners: 100_000,
+            max_faces: 5_000_000,
+            max_vertices: 10_000_000,
+        }
+    }
+}
+
+/// Reads an input file whole, after checking that it is a regular file (not
+/// a folder, device or pipe, which could be endless) no larger than
+/// `limits.max_file_bytes`.
+pub fn read_input(path: &Path, limits: &Limits) -> Result<Vec<u8>, SceneError> {
+    use std::io::Read;
+    let io = |source: std::io::Error| SceneError::Io {
+        location: Location::file(path),
+        source,
+    };
+    let invalid = |message: String| SceneError::Invalid {
+        location: Location::file(path),
+        message,
+    };
+    let metadata = std::fs::metadata(path).map_err(io)?;
+    if metadata.is_dir() {
+        return Err(invalid("this is a folder, not a file".into()));
+    }
+    if !metadata.is_file() {
+        return Err(invalid(
+            "this is not a regular file (a device, pipe or socket can be endless): give a file"
+                .into(),
+        ));
+    }
+    let too_large = |bytes: u64| {
+        invalid(format!(
+            "the file is {bytes} bytes, more than the limit of {} MiB (raise it with \
+             --max-file-size)",
+            limits.max_file_bytes >> 20
+        ))
+    };
+    if metadata.len() > limits.max_file_bytes {
+        return Err(too_large(metadata.len()));
+    }
+    let mut bytes = Vec::with_capacity(metadata.len() as usize);
+    // `take` guards against a file that grows while it is read.
+    std::fs::File::open(path)
+        .map_err(io)?
+        .take(limits.max_file_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > limits.max_file_bytes {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
 /// Loads a scene given on the command line: the name of a built-in scene,
 /// or the path of an `.obj` file.
 pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+    load_with(name_or_path, &Limits::default())
+}
+
+/// [`load`] with explicit limits.
+pub fn load_with(name_or_path: &str, limits: &Limits) -> Result<Scene, SceneError> {
     let path = Path::new(name_or_path);
     let looks_like_path = path.extension().is_some() || path.components().count() > 1;
     if !looks_like_path && let Some(scene) = builtin::load(name_or_path) {
         return scene;
     }
     if path.exists() {
-        return obj::load_file(path);
+        return obj::load_file_with(path, limits);
     }
     if looks_like_path {
         return Err(SceneError::Io {

@@ -4,8 +4,24 @@
 
 pub mod soup;
 
+use std::path::{Path, PathBuf};
+
 use glam::DVec3;
 use radiosity::scene::{Scene, Surface};
+
+/// A file of the shared real scenes (`shared/scenes/`): beside the clone in
+/// CI, two levels up from a worktree under `wt/`.
+pub fn shared_scene(relative: &str) -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    [
+        root.join("../shared/scenes"),
+        root.join("../../shared/scenes"),
+    ]
+    .into_iter()
+    .map(|folder| folder.join(relative))
+    .find(|p| p.exists())
+    .unwrap_or_else(|| panic!("shared/scenes/{relative} is not beside the repository"))
+}
 
 /// A quad with corners `origin`, `origin + u`, `origin + u + v`,
 /// `origin + v`; its front is `u x v`.

@@ -1,0 +1,84 @@
+//! Shared pieces of the fuzz targets: how an input is split into files, the
+//! limits a fuzzed load runs under, and the invariants every loaded scene
+//! must satisfy. A new loader's target is a few lines on top of these (see
+//! fuzz_targets/obj.rs).
+
+use std::path::{Path, PathBuf};
+
+use radiosity::geometry;
+use radiosity::scene::{Limits, Scene, SceneError, obj};
+
+/// Limits small enough that one input runs in milliseconds.
+pub const LIMITS: Limits = Limits {
+    max_file_bytes: 1 << 20,
+    max_line_bytes: 1 << 16,
+    max_corners: 2_000,
+    max_faces: 2_000,
+    max_vertices: 10_000,
+};
+
+/// An input as an OBJ file and the MTL library it may name: the bytes
+/// before the first NUL are the OBJ, the rest the MTL (a NUL is never valid
+/// OBJ text, so nothing is lost).
+#[must_use]
+pub fn split(data: &[u8]) -> (&[u8], &[u8]) {
+    match data.iter().position(|&b| b == 0) {
+        Some(i) => (&data[..i], &data[i + 1..]),
+        None => (data, b"newmtl m\nKd 0.5\nKe 1\n"),
+    }
+}
+
+/// Loads an input through the OBJ loader: every `mtllib` name resolves to
+/// the MTL part.
+pub fn load_obj(data: &[u8]) -> Result<Scene, SceneError> {
+    let (obj_bytes, mtl_bytes) = split(data);
+    obj::parse_bytes(
+        "fuzz",
+        Path::new("fuzz.obj"),
+        obj_bytes,
+        &LIMITS,
+        &mut |name: &str| Ok((PathBuf::from(name), mtl_bytes.to_vec())),
+    )
+}
+
+/// What every loaded scene guarantees to the stages after it: finite,
+/// planar, convex, counter-clockwise surfaces with area, unit normals and
+/// materials in range, and messages that are short enough to read.
+pub fn check_scene(scene: &Scene) {
+    assert!(!scene.surfaces.is_empty());
+    for s in &scene.surfaces {
+        assert!(s.polygon.len() >= 3);
+        assert!(s.polygon.iter().all(|p| p.is_finite()));
+        assert!(s.area > 0.0 && s.area.is_finite(), "area {}", s.area);
+        assert!((s.normal.length() - 1.0).abs() < 1e-9);
+        let size = s
+            .polygon
+            .iter()
+            .map(|p| p.distance(s.polygon[0]))
+            .fold(0.0, f64::max);
+        for p in &s.polygon {
+            let off = (s.normal.dot(*p) - s.offset).abs();
+            assert!(
+                off <= 1e-6 * size.max(1e-300),
+                "off-plane corner: {off} of {size}"
+            );
+        }
+        assert!(geometry::is_convex(
+            &s.polygon,
+            s.normal,
+            1e-6 * size * size
+        ));
+        assert!(s.rho.min_element() >= 0.0 && s.rho.max_element() < 1.0);
+        assert!(s.emission.min_element() >= 0.0 && s.emission.is_finite());
+    }
+    for w in &scene.warnings {
+        assert!(w.len() < 2_000, "a warning of {} bytes", w.len());
+    }
+}
+
+/// Error messages name a place and are short enough to read.
+pub fn check_error(error: &SceneError) {
+    let text = error.to_string();
+    assert!(text.len() < 2_000, "a message of {} bytes", text.len());
+    assert!(!text.is_empty());
+}
