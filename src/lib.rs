@@ -18,6 +18,7 @@ pub mod mesh;
 pub mod render;
 pub mod scene;
 pub mod solver;
+pub mod viewer;
 
 use glam::DVec3;
 

@@ -488,14 +488,14 @@ fn parse_mtl(
 }
 
 /// Why a face cannot become surfaces.
-enum FaceProblem {
+pub(super) enum FaceProblem {
     Degenerate,
     NonPlanar { deviation: f64, diameter: f64 },
 }
 
 /// Splits an input face into planar convex pieces: drops repeated and
 /// collinear corners, checks planarity, and ear-clips concave faces.
-fn convex_pieces(mut polygon: Vec<DVec3>) -> Result<Vec<Vec<DVec3>>, FaceProblem> {
+pub(super) fn convex_pieces(mut polygon: Vec<DVec3>) -> Result<Vec<Vec<DVec3>>, FaceProblem> {
     let diameter = geometry::diameter(&polygon);
     if diameter == 0.0 {
         return Err(FaceProblem::Degenerate);
