@@ -11,7 +11,7 @@ use std::net::{Ipv4Addr, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 
 /// The embedded files: URL path, MIME type, contents.
-const FILES: [(&str, &str, &str); 7] = [
+const FILES: [(&str, &str, &str); 8] = [
     (
         "/",
         "text/html; charset=utf-8",
@@ -46,6 +46,11 @@ const FILES: [(&str, &str, &str); 7] = [
         "/vendor/three/examples/jsm/utils/BufferGeometryUtils.js",
         "text/javascript; charset=utf-8",
         include_str!("../web/vendor/three/examples/jsm/utils/BufferGeometryUtils.js"),
+    ),
+    (
+        "/vendor/three/examples/jsm/utils/SkeletonUtils.js",
+        "text/javascript; charset=utf-8",
+        include_str!("../web/vendor/three/examples/jsm/utils/SkeletonUtils.js"),
     ),
 ];
 

@@ -1037,8 +1037,14 @@ impl<'a> Loader<'a> {
                 mode,
                 Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
             ) {
+                let name = match mode {
+                    Mode::Points => "POINTS",
+                    Mode::Lines => "LINES",
+                    Mode::LineLoop => "LINE_LOOP",
+                    _ => "LINE_STRIP",
+                };
                 self.warnings.push(format!(
-                    "{}: {what} has mode {mode:?}: ignored (only triangles make surfaces)",
+                    "{}: {what} has mode {name}: ignored (only triangles make surfaces)",
                     self.path.display()
                 ));
                 continue;
