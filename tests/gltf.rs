@@ -1152,10 +1152,10 @@ fn exr_holds_the_linear_picture() {
     for y in 0..90 {
         for x in 0..120 {
             let row = 89 - y;
-            for c in 0..3 {
+            for (c, value) in exr[y * 120 + x].iter().enumerate() {
                 let at = header + 4 * (3 * (row * 120 + x) + c);
                 let v = f32::from_le_bytes(pfm[at..at + 4].try_into().unwrap());
-                assert_eq!(exr[y * 120 + x][c], v, "pixel {x},{y}");
+                assert_eq!(*value, v, "pixel {x},{y}");
             }
             lit += usize::from(exr[y * 120 + x][0] > 0.0);
         }
