@@ -5,10 +5,10 @@
 // tests/data/blender-cornell.glb), export-scene of both built-in scenes, and
 // the hand-written inputs themselves. Any error fails; warnings and infos
 // are printed.
-import { existsSync, readFileSync } from 'node:fs';
+import { existsSync } from 'node:fs';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
-import validator from 'gltf-validator';
+import { validate } from '../validate.mjs';
 import { radiosity, tempDir } from './helpers.mjs';
 
 const repo = resolve(dirname(fileURLToPath(import.meta.url)), '..', '..');
@@ -39,19 +39,6 @@ for (const scene of ['room', 'cornell']) {
 files.push(...inputs.filter((s) => s.includes('/')));
 
 let errors = 0;
-for (const file of files) {
-  const report = await validator.validateBytes(new Uint8Array(readFileSync(file)), {
-    uri: file,
-    maxIssues: 0,
-    externalResourceFunction: (uri) => Promise.resolve(
-      new Uint8Array(readFileSync(join(dirname(file), decodeURIComponent(uri))))),
-  });
-  const { numErrors, numWarnings, numInfos, messages } = report.issues;
-  console.log(`${file}: ${numErrors} errors, ${numWarnings} warnings, ${numInfos} infos`);
-  for (const m of messages.filter((m) => m.severity <= 2)) {
-    console.log(`  ${["ERROR", "warning", "info"][m.severity]} ${m.code} ${m.pointer || ''}: ${m.message}`);
-  }
-  errors += numErrors;
-}
+for (const file of files) errors += await validate(file);
 console.log(`validated ${files.length} files`);
 if (errors > 0) throw new Error(`${errors} validation error(s)`);
