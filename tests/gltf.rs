@@ -211,11 +211,13 @@ fn blender_export_renders_like_the_builtin_box() {
     let wall_means = |scene: &Scene| {
         let settings = Settings {
             mesh: MeshSettings {
-                patch_size: 0.2,
-                element_size: 0.05,
+                patch_size: 0.3,
+                element_size: 0.1,
                 max_elements: 100_000,
             },
-            converge: 0.02,
+            converge: 0.01,
+            subsources: 2,
+            hemicube_resolution: 96,
             ..Settings::wong_tsang93()
         };
         let mesh = Mesh::build(scene, &settings.mesh).unwrap();
