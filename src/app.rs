@@ -391,14 +391,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             std::io::Write::write_all(w, b"\n")
         })?);
     }
-    for file in staged {
-        let path = file.destination().to_path_buf();
-        file.commit().map_err(|source| Error::Output {
-            path: path.clone(),
-            source,
-        })?;
-        outcome.written.push(path);
-    }
+    outcome.written = commit_all(staged)?;
     outcome.total_time = start.elapsed();
     Ok(outcome)
 }
@@ -480,6 +473,12 @@ pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<P
             })?,
         );
     }
+    commit_all(staged)
+}
+
+/// Moves every staged file into place (once all are complete); returns
+/// their paths.
+fn commit_all(staged: Vec<Staged>) -> Result<Vec<PathBuf>, Error> {
     let mut written = Vec::new();
     for file in staged {
         let path = file.destination().to_path_buf();
