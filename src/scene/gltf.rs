@@ -39,8 +39,10 @@
 //! `export-scene` also records exact reflectance and exitance in the
 //! material's `extras`, used when they agree with the standard fields.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 use base64::Engine as _;
 use glam::{DMat4, DQuat, DVec3};
@@ -154,6 +156,7 @@ pub fn load_slice(
         warnings: Vec::new(),
         materials: HashMap::new(),
         texture_means: HashMap::new(),
+        decoded: RefCell::new(HashMap::new()),
         surfaces: Vec::new(),
         material_of: Vec::new(),
         uvs: Vec::new(),
@@ -279,6 +282,9 @@ struct Loader<'a> {
     warnings: Vec<String>,
     materials: HashMap<Option<usize>, MaterialInfo>,
     texture_means: HashMap<usize, DVec3>,
+    /// Accessors already decoded: primitives often share one vertex
+    /// accessor, which is then read once, not once per primitive.
+    decoded: RefCell<HashMap<usize, Rc<Data>>>,
     surfaces: Vec<Surface>,
     material_of: Vec<Option<usize>>,
     uvs: Vec<Vec<Vec<[f64; 2]>>>,
@@ -301,10 +307,14 @@ fn label(what: &str, index: usize, name: Option<&String>) -> String {
 /// Widens a single-precision value to the shortest decimal that rounds to
 /// it (see the module documentation).
 fn widen(x: f32) -> f64 {
-    if !x.is_finite() {
+    // Integers (common: 0, 1) are exact either way.
+    if !x.is_finite() || x.fract() == 0.0 {
         return f64::from(x);
     }
-    x.to_string().parse().unwrap_or(f64::from(x))
+    ryu::Buffer::new()
+        .format_finite(x)
+        .parse()
+        .unwrap_or(f64::from(x))
 }
 
 fn widen3(v: [f32; 3]) -> DVec3 {
@@ -520,7 +530,7 @@ impl<'a> Loader<'a> {
         index: usize,
         what: &str,
         allowed: &[json::accessor::Type],
-    ) -> Result<Data, SceneError> {
+    ) -> Result<Rc<Data>, SceneError> {
         use json::accessor::{ComponentType, Type};
         let accessors = &self.root.accessors;
         let accessor = accessors.get(index).ok_or_else(|| {
@@ -556,6 +566,9 @@ impl<'a> Loader<'a> {
                 return Err(self.error(format!("{what}: matrix accessors are not read")));
             }
         };
+        if let Some(data) = self.decoded.borrow().get(&index) {
+            return Ok(Rc::clone(data));
+        }
         let size = component.size();
         let normalized = accessor.normalized;
         if normalized && matches!(component, ComponentType::U32 | ComponentType::F32) {
@@ -705,7 +718,9 @@ impl<'a> Loader<'a> {
                 values[bad]
             )));
         }
-        Ok(Data { values, components })
+        let data = Rc::new(Data { values, components });
+        self.decoded.borrow_mut().insert(index, Rc::clone(&data));
+        Ok(data)
     }
 
     /// Mean linear colour of image `index`, cached.
