@@ -1,21 +1,23 @@
 //! One render job from scene to files: load, mesh, solve (design.md
 //! section 2), then write the picture, the vertex CSV and the statistics of
-//! design.md section 6. The binary only parses flags into a [`Job`] and
-//! calls [`run`].
+//! design.md section 6, plus the glTF bake, PLY and EXR outputs and
+//! [`export_scene`]. The binary only parses flags into a [`Job`] and calls
+//! [`run`].
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use crate::export::gltf::{Bake, BakeMode};
 use crate::export::{self, Staged};
 use crate::mesh::{Mesh, MeshError};
 use crate::render::{self, Exposure, RenderSettings};
-use crate::scene::{self, Camera, Limits, MeshHint, Scene, SceneError};
+use crate::scene::{self, Camera, LoadOptions, MeshHint, Scene, SceneError};
 use crate::solver::{Flow, Settings, Solver, Stats, StopReason};
 
 /// What to draw and where.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImageJob {
-    /// `.png` (tone-mapped sRGB) or `.pfm` (linear radiosity).
+    /// `.png` (tone-mapped sRGB), `.pfm` or `.exr` (linear radiosity).
     pub path: PathBuf,
     /// Width in pixels.
     pub width: u32,
@@ -48,8 +50,22 @@ pub struct Job {
     pub vertices_csv: Option<PathBuf>,
     /// `--stats FILE.json`.
     pub stats_json: Option<PathBuf>,
-    /// Bounds on the scene file (`--max-file-size`, `--max-corners`, ...).
-    pub limits: Limits,
+    /// Bounds on the scene file (`--max-file-size`, `--max-corners`, ...)
+    /// and how glTF materials map to reflectance and exitance.
+    pub load: LoadOptions,
+    /// `--bake FILE.glb|.gltf`.
+    pub bake: Option<BakeJob>,
+    /// `--ply FILE.ply`.
+    pub ply: Option<PathBuf>,
+}
+
+/// `--bake`: the element mesh as glTF with baked vertex colours.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeJob {
+    /// `.glb`, or `.gltf` (written with a `.bin` beside it).
+    pub path: PathBuf,
+    /// What `COLOR_0` holds.
+    pub mode: BakeMode,
 }
 
 /// Why a run failed.
@@ -302,8 +318,15 @@ fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Erro
 /// Validates a job's settings and outputs without doing any work.
 pub fn validate(job: &Job) -> Result<(), Error> {
     job.settings.validate().map_err(Error::Settings)?;
+    job.load.validate().map_err(Error::Settings)?;
+    if let Some(bake) = &job.bake {
+        check_output(&bake.path, &["glb", "gltf"], "--bake")?;
+    }
+    if let Some(path) = &job.ply {
+        check_output(path, &["ply"], "--ply")?;
+    }
     if let Some(image) = &job.image {
-        check_output(&image.path, &["png", "pfm"], "--output")?;
+        check_output(&image.path, &["png", "pfm", "exr"], "--output")?;
         for (name, side) in [("--width", image.width), ("--height", image.height)] {
             if !(1..=render::MAX_SIDE).contains(&side) {
                 return Err(Error::Settings(format!(
@@ -347,7 +370,8 @@ pub fn validate(job: &Job) -> Result<(), Error> {
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let start = Instant::now();
     validate(job)?;
-    let mut scene = scene::load_with(&job.scene, &job.limits)?;
+    let loaded = scene::load_with(&job.scene, &job.load)?;
+    let mut scene = loaded.scene;
     if job.settings.merge_coplanar {
         scene::merge::merge_coplanar(&mut scene.surfaces);
     }
@@ -377,29 +401,74 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             source,
         })
     };
-    if let Some(image_job) = &job.image {
-        let colours = solver.display_radiosity(image_job.ambient);
+    // The bake and the PLY show what the picture shows: the same view
+    // fixes the exposure, so a picture is drawn for them even when none is
+    // written.
+    let view = job.image.clone().unwrap_or(ImageJob {
+        path: PathBuf::new(),
+        width: 800,
+        height: 600,
+        camera: None,
+        supersampling: 1,
+        exposure: Exposure::Auto { ev: 0.0 },
+        ambient: true,
+    });
+    let camera = view.camera.unwrap_or_else(|| scene.camera_or_framing());
+    let display = solver.display_radiosity(view.ambient);
+    let mut exposure = None;
+    if job.image.is_some() || job.bake.is_some() || job.ply.is_some() {
         let settings = RenderSettings {
-            width: image_job.width,
-            height: image_job.height,
-            camera: image_job
-                .camera
-                .unwrap_or_else(|| scene.camera_or_framing()),
-            supersampling: image_job.supersampling,
+            width: view.width,
+            height: view.height,
+            camera,
+            supersampling: view.supersampling,
         };
-        let image = render::render(&scene, &mesh, &colours, &settings);
-        let is_pfm = image_job
-            .path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-        staged.push(if is_pfm {
-            stage(&image_job.path, &mut |w| export::write_pfm(w, &image))?
-        } else {
-            let rgb = image.to_srgb8(image.exposure_scale(image_job.exposure));
-            stage(&image_job.path, &mut |w| {
-                export::write_png(w, image.width, image.height, &rgb)
-            })?
-        });
+        let image = render::render(&scene, &mesh, &display, &settings);
+        let scale = image.exposure_scale(view.exposure);
+        exposure = Some(scale);
+        if let Some(image_job) = &job.image {
+            let extension = image_job
+                .path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            staged.push(match extension.as_deref() {
+                Some("pfm") => stage(&image_job.path, &mut |w| export::write_pfm(w, &image))?,
+                Some("exr") => stage(&image_job.path, &mut |w| export::write_exr(w, &image))?,
+                _ => {
+                    let rgb = image.to_srgb8(scale);
+                    stage(&image_job.path, &mut |w| {
+                        export::write_png(w, image.width, image.height, &rgb)
+                    })?
+                }
+            });
+        }
+    }
+    if let (Some(bake_job), Some(exposure)) = (&job.bake, exposure) {
+        let (colours, metadata) =
+            bake_colours(&solver, bake_job.mode, &display, exposure, view.ambient);
+        let bake = Bake {
+            scene: &scene,
+            mesh: &mesh,
+            appearance: loaded.appearance.as_ref(),
+            colours: &colours,
+            mode: bake_job.mode,
+            camera,
+            aspect_ratio: f64::from(view.width) / f64::from(view.height),
+            metadata,
+        };
+        let files = export::gltf::bake(&bake, &bake_job.path).map_err(|source| Error::Output {
+            path: bake_job.path.clone(),
+            source,
+        })?;
+        for (path, bytes) in files {
+            staged.push(stage(&path, &mut |w| std::io::Write::write_all(w, &bytes))?);
+        }
+    }
+    if let (Some(path), Some(exposure)) = (&job.ply, exposure) {
+        staged.push(stage(path, &mut |w| {
+            export::write_ply(w, &mesh, &display, exposure, solver.radiosity())
+        })?);
     }
     if let Some(path) = &job.vertices_csv {
         staged.push(stage(path, &mut |w| {
@@ -428,16 +497,104 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             std::io::Write::write_all(w, b"\n")
         })?);
     }
+    outcome.written = commit_all(staged)?;
+    outcome.total_time = start.elapsed();
+    Ok(outcome)
+}
+
+/// The `COLOR_0` values of a bake and the metadata recorded beside them
+/// (see [`export::gltf`]): `COLOR_0 = min(1, color_scale x radiance)`, the
+/// radiance being `B_shown / pi` (lit) or `(E + ambient) / pi`
+/// (irradiance). Lit uses the picture's exposure; irradiance uses it too
+/// unless that would clip a vertex, then the largest scale that does not.
+#[must_use]
+pub fn bake_colours(
+    solver: &Solver<'_>,
+    mode: BakeMode,
+    display: &[glam::DVec3],
+    exposure: f64,
+    ambient: bool,
+) -> (Vec<glam::DVec3>, serde_json::Value) {
+    use std::f64::consts::PI;
+    let ambient_term = if ambient {
+        solver.ambient()
+    } else {
+        glam::DVec3::ZERO
+    };
+    let (radiance, mut scale, quantity): (Vec<glam::DVec3>, f64, &str) = match mode {
+        BakeMode::Lit => (
+            display.iter().map(|b| *b / PI).collect(),
+            PI * exposure,
+            "radiance shown by the picture, B/pi with the ambient term, W/(m^2 sr)",
+        ),
+        BakeMode::Irradiance => (
+            solver
+                .irradiance()
+                .iter()
+                .map(|e| (*e + ambient_term) / PI)
+                .collect(),
+            PI * exposure,
+            "irradiance over pi, (E + ambient)/pi, W/(m^2 sr): multiply by the base colour",
+        ),
+    };
+    if mode == BakeMode::Irradiance {
+        let peak = radiance.iter().map(|r| r.max_element()).fold(0.0, f64::max);
+        if peak * scale > 1.0 {
+            scale = 1.0 / peak;
+        }
+    }
+    let colours = radiance
+        .iter()
+        .map(|r| (*r * scale).clamp(glam::DVec3::ZERO, glam::DVec3::ONE))
+        .collect();
+    let metadata = serde_json::json!({
+        "bake_mode": mode.name(),
+        "color_0": quantity,
+        "color_scale": scale,
+        "ambient": ambient_term.to_array(),
+        "picture_exposure": exposure,
+    });
+    (colours, metadata)
+}
+
+/// `radiosity export-scene`: writes a built-in or file scene as glTF
+/// (`.glb`, or `.gltf` with its `.bin`), staged like every output. Returns
+/// the files written.
+pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<PathBuf>, Error> {
+    load.validate().map_err(Error::Settings)?;
+    check_output(out, &["glb", "gltf"], "export-scene")?;
+    let loaded = scene::load_with(scene, load)?;
+    let files = export::gltf::export_scene(&loaded.scene, out).map_err(|source| Error::Output {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    let mut staged = Vec::new();
+    for (path, bytes) in &files {
+        staged.push(
+            Staged::write(path, |w| std::io::Write::write_all(w, bytes)).map_err(|source| {
+                Error::Output {
+                    path: path.clone(),
+                    source,
+                }
+            })?,
+        );
+    }
+    commit_all(staged)
+}
+
+/// Moves every staged file into place (once all are complete); returns
+/// their paths.
+fn commit_all(staged: Vec<Staged>) -> Result<Vec<PathBuf>, Error> {
+    let mut written = Vec::new();
     for file in staged {
         let path = file.destination().to_path_buf();
         file.commit().map_err(|source| Error::Output {
             path: path.clone(),
             source,
         })?;
-        outcome.written.push(path);
+        written.push(path);
     }
-    outcome.total_time = start.elapsed();
-    Ok(outcome)
+    Ok(written)
 }
 
 /// A mesh that would be too large, explained with the size at fault and

@@ -1,6 +1,7 @@
-//! Results out (design.md section 6): the picture as PNG (tone-mapped sRGB)
-//! or PFM (linear radiosity), the per-vertex radiosities as CSV, and the
-//! run's counters as JSON.
+//! Results out (design.md section 6): the picture as PNG (tone-mapped sRGB),
+//! PFM or OpenEXR (linear radiosity), the per-vertex radiosities as CSV, the
+//! run's counters as JSON, the element mesh with its colours as binary PLY,
+//! and glTF 2.0 ([`gltf`]: baked meshes and exported scenes).
 //!
 //! Every file is written to a temporary name beside its destination and
 //! renamed only once all of a run's outputs are complete, so a failed run
@@ -14,8 +15,10 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use crate::mesh::Mesh;
-use crate::render::Image;
+use crate::render::{self, Image};
 use crate::scene::Scene;
+
+pub mod gltf;
 
 /// A file being written under a temporary name; [`Staged::commit`] moves it
 /// into place, dropping it uncommitted deletes it.
@@ -171,6 +174,76 @@ pub fn write_vertices_csv(
             "{},{},{},{},{},{},{},{},{},{}",
             p.x, p.y, p.z, n.x, n.y, n.z, face, b.x, b.y, b.z
         )?;
+    }
+    Ok(())
+}
+
+/// Writes the linear picture as OpenEXR (32-bit float RGB, radiosity in
+/// W/m^2 per pixel, top row first).
+pub fn write_exr(out: &mut (impl Write + io::Seek), image: &Image) -> io::Result<()> {
+    use exr::prelude::{Image as ExrImage, SpecificChannels, Vec2, WritableImage};
+    let width = image.width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = image.pixels[y * width + x];
+        (p.x, p.y, p.z)
+    });
+    ExrImage::from_channels((width, image.height as usize), channels)
+        .write()
+        .to_buffered(out)
+        .map_err(io::Error::other)
+}
+
+/// Writes the element mesh as binary little-endian PLY for MeshLab and
+/// CloudCompare: per vertex its position, unit normal, the 8-bit sRGB colour
+/// the picture shows (`display` times `exposure`, through the picture's
+/// sRGB curve) and the linear radiosity `B` (W/m^2, ambient excluded) as
+/// float properties `radiosity_r/g/b`; faces are triangles (quads split).
+pub fn write_ply(
+    out: &mut impl Write,
+    mesh: &Mesh,
+    display: &[DVec3],
+    exposure: f64,
+    radiosity: &[DVec3],
+) -> io::Result<()> {
+    let triangles: usize = mesh
+        .elements
+        .iter()
+        .map(|e| e.vertices().len().saturating_sub(2))
+        .sum();
+    write!(
+        out,
+        "ply\nformat binary_little_endian 1.0\ncomment radiosity {}: colours are the picture's \
+         sRGB, radiosity_* is B in W/m^2\nelement vertex {}\nproperty float x\nproperty float \
+         y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nproperty float \
+         radiosity_r\nproperty float radiosity_g\nproperty float radiosity_b\nelement face \
+         {triangles}\nproperty list uchar uint vertex_indices\nend_header\n",
+        env!("CARGO_PKG_VERSION"),
+        mesh.vertices.len()
+    )?;
+    for ((v, d), b) in mesh.vertices.iter().zip(display).zip(radiosity) {
+        let n = v.normal.normalize_or_zero();
+        for c in [v.position.x, v.position.y, v.position.z, n.x, n.y, n.z] {
+            out.write_all(&(c as f32).to_le_bytes())?;
+        }
+        let shown = *d * exposure;
+        out.write_all(&[
+            render::srgb8(shown.x as f32),
+            render::srgb8(shown.y as f32),
+            render::srgb8(shown.z as f32),
+        ])?;
+        for c in [b.x, b.y, b.z] {
+            out.write_all(&(c as f32).to_le_bytes())?;
+        }
+    }
+    for e in &mesh.elements {
+        let corners = e.vertices();
+        for i in 1..corners.len().saturating_sub(1) {
+            out.write_all(&[3])?;
+            for v in [corners[0], corners[i], corners[i + 1]] {
+                out.write_all(&v.to_le_bytes())?;
+            }
+        }
     }
     Ok(())
 }

@@ -19,6 +19,7 @@ pub mod render;
 pub mod scene;
 pub mod serve;
 pub mod solver;
+pub mod viewer;
 
 use glam::DVec3;
 

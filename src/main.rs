@@ -14,13 +14,14 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use radiosity::accel::Accel;
-use radiosity::app::{self, ImageJob, Job, Outcome};
+use radiosity::app::{self, BakeJob, ImageJob, Job, Outcome};
 use radiosity::experiments;
+use radiosity::export::gltf::BakeMode;
 use radiosity::form_factor::FormFactor;
 use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::Scene;
-use radiosity::scene::{Camera, Limits, builtin};
+use radiosity::scene::{Camera, DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions, builtin};
 use radiosity::serve;
 use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
 
@@ -49,6 +50,13 @@ enum Command {
     /// with pause, stop (writes the outputs asked for), ambient and
     /// exposure controls; Ctrl-C quits.
     Serve(Box<ServeArgs>),
+    /// Write a built-in or file scene as glTF 2.0 (.glb, or .gltf with a
+    /// .bin): reflectance as baseColorFactor, exitance as emissive (the
+    /// inverse of the glTF reader's mapping), one polygon per surface.
+    ExportScene(ExportSceneArgs),
+    /// Show a baked .glb/.gltf in the browser: serves the viewer page on
+    /// 127.0.0.1 and prints its address (Ctrl-C to stop).
+    View(ViewArgs),
 }
 
 #[derive(Parser, Debug)]
@@ -65,6 +73,57 @@ struct ServeArgs {
     /// machine is on.
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1")]
     host: IpAddr,
+}
+
+#[derive(Parser, Debug)]
+struct ExportSceneArgs {
+    /// A built-in scene (see `radiosity scenes`) or an .obj/.gltf/.glb file.
+    scene: String,
+
+    /// The glTF file to write: .glb or .gltf.
+    #[arg(value_name = "OUT")]
+    out: PathBuf,
+
+    #[command(flatten)]
+    load: LoadArgs,
+}
+
+#[derive(Parser, Debug)]
+struct ViewArgs {
+    /// The baked file (.glb or .gltf).
+    file: PathBuf,
+
+    /// Port on 127.0.0.1 (0: any free port).
+    #[arg(long, default_value_t = 8417)]
+    port: u16,
+}
+
+/// How glTF materials become reflectance and exitance.
+#[derive(clap::Args, Debug)]
+struct LoadArgs {
+    /// glTF input: largest reflectance per channel; brighter base colours
+    /// (white is common) are clamped to it with a warning, since a closed
+    /// scene with reflectance 1 never converges. Must be below 1.
+    #[arg(long, value_name = "RHO", default_value_t = DEFAULT_REFLECTANCE_CAP)]
+    reflectance_cap: f64,
+
+    /// glTF input: exitance (W/m^2) = pi x SCALE x emissiveFactor x
+    /// KHR_materials_emissive_strength. glTF emissive is read as radiance in
+    /// W/(m^2 sr): a Blender Emission strength S (colour C) gives exitance
+    /// pi S C W/m^2 at scale 1. To make a lamp of area A emit P watts, set
+    /// its strength to P / (pi A), or scale all emitters with this flag.
+    #[arg(long, value_name = "SCALE", default_value_t = 1.0)]
+    emission_scale: f64,
+}
+
+impl LoadArgs {
+    fn options(&self, limits: Limits) -> LoadOptions {
+        LoadOptions {
+            limits,
+            reflectance_cap: self.reflectance_cap,
+            emission_scale: self.emission_scale,
+        }
+    }
 }
 
 #[derive(Parser, Debug)]
@@ -102,13 +161,13 @@ struct ExperimentArgs {
 
 #[derive(Parser, Debug)]
 struct RenderArgs {
-    /// A built-in scene (see `radiosity scenes`) or an .obj file with its
-    /// .mtl.
+    /// A built-in scene (see `radiosity scenes`), an .obj file with its
+    /// .mtl, or a glTF 2.0 file (.gltf with its buffers, or .glb).
     #[arg(default_value = "room")]
     scene: String,
 
-    /// The picture: .png (tone-mapped sRGB) or .pfm (linear radiosity).
-    /// Default: SCENE-NAME.png in the current folder.
+    /// The picture: .png (tone-mapped sRGB), .pfm or .exr (linear
+    /// radiosity). Default: SCENE-NAME.png in the current folder.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
 
@@ -119,6 +178,26 @@ struct RenderArgs {
     /// Write the run's counters and settings as JSON.
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
+
+    /// Write the element mesh as glTF 2.0 (.glb, or .gltf with a .bin) with
+    /// per-vertex baked colours (COLOR_0), normals and the view's camera.
+    #[arg(long, value_name = "FILE.glb")]
+    bake: Option<PathBuf>,
+
+    /// What the bake's COLOR_0 holds: lit (the picture's radiance, exposure
+    /// and ambient term included, under an unlit material: opens lit in any
+    /// viewer) or irradiance (E/pi, scaled, with the input's materials and
+    /// UVs kept, for engines that multiply it with their own base colour).
+    #[arg(long, value_name = "MODE", default_value = "lit", value_parser = names(&BakeMode::ALL.map(BakeMode::name)))]
+    bake_mode: String,
+
+    /// Write the element mesh as binary PLY: positions, normals, the
+    /// picture's 8-bit sRGB colours and float radiosity (W/m^2).
+    #[arg(long, value_name = "FILE.ply")]
+    ply: Option<PathBuf>,
+
+    #[command(flatten)]
+    load: LoadArgs,
 
     /// Named settings. adaptive (the default, the most accurate and
     /// fastest): unshot radiosity per element, clusters of elements as
@@ -459,7 +538,18 @@ impl RenderArgs {
             }),
             vertices_csv: self.vertices.clone(),
             stats_json: self.stats.clone(),
-            limits,
+            load: self.load.options(limits),
+            bake: self
+                .bake
+                .clone()
+                .map(|path| -> Result<BakeJob> {
+                    Ok(BakeJob {
+                        path,
+                        mode: BakeMode::from_name(&self.bake_mode).context("bake mode")?,
+                    })
+                })
+                .transpose()?,
+            ply: self.ply.clone(),
         })
     }
 }
@@ -521,6 +611,17 @@ fn real_main(cli: Cli) -> Result<()> {
         Some(Command::Render(args)) => render(&args),
         Some(Command::Experiment(args)) => experiment(&args),
         Some(Command::Serve(args)) => serve(&args),
+        Some(Command::ExportScene(args)) => {
+            for path in app::export_scene(
+                &args.scene,
+                &args.out,
+                &args.load.options(Limits::default()),
+            )? {
+                println!("wrote {}", path.display());
+            }
+            Ok(())
+        }
+        Some(Command::View(args)) => view(&args),
         None => render(&RenderArgs::parse_from(["radiosity"])),
     }
 }
@@ -699,6 +800,14 @@ impl app::Observer for ProgressDisplay {
             Flow::Continue
         }
     }
+}
+
+fn view(args: &ViewArgs) -> Result<()> {
+    let server = radiosity::viewer::Server::bind(&args.file, args.port)?;
+    println!("serving {} at {}", args.file.display(), server.url());
+    println!("open that address in a browser; Ctrl-C stops");
+    server.run()?;
+    Ok(())
 }
 
 fn print_summary(o: &Outcome) {

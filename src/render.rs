@@ -348,8 +348,10 @@ impl Image {
     }
 }
 
-/// The sRGB transfer curve, quantised to 8 bits.
-fn srgb8(linear: f32) -> u8 {
+/// The sRGB transfer curve, quantised to 8 bits (the pictures' mapping,
+/// shared with the PLY colours).
+#[must_use]
+pub fn srgb8(linear: f32) -> u8 {
     let v = linear.clamp(0.0, 1.0);
     let encoded = if v <= 0.003_130_8 {
         12.92 * v

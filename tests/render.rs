@@ -39,7 +39,9 @@ fn cornell_box_red_wall_is_redder_and_exposure_is_sane() {
         }),
         vertices_csv: None,
         stats_json: None,
-        limits: Default::default(),
+        load: Default::default(),
+        bake: None,
+        ply: None,
     };
     app::run(&job, &mut ()).unwrap();
     let (w, h, rgb) = decode(&path);

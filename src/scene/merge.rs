@@ -37,6 +37,37 @@ pub struct MergeSummary {
     pub groups: usize,
 }
 
+/// Gives each input face its own surface id, the pieces of one face (a
+/// concave face triangulated) sharing it, but not the two sides of a
+/// double-sided face (back-to-back twins with one face index): a surface id
+/// is planar and single-sided. Ids are numbered from 0 in input order. What
+/// loaders leave; [`merge_coplanar`] may then join faces.
+pub fn group_by_face(surfaces: &mut [Surface]) {
+    // (face, normal of its first piece, id) of recent faces: pieces of a
+    // face are consecutive.
+    let mut last: Option<(u32, DVec3, u32)> = None;
+    let mut twin: Option<(u32, u32)> = None;
+    let mut next = 0;
+    for s in surfaces.iter_mut() {
+        let id = match (last, twin) {
+            (Some((face, normal, id)), _) if face == s.face && s.normal.dot(normal) > 0.0 => id,
+            (_, Some((face, id))) if face == s.face => id,
+            _ => {
+                let id = next;
+                next += 1;
+                if last.is_some_and(|(face, _, _)| face == s.face) {
+                    twin = Some((s.face, id));
+                } else {
+                    last = Some((s.face, s.normal, id));
+                    twin = None;
+                }
+                id
+            }
+        };
+        s.group = id;
+    }
+}
+
 /// Gives adjacent coplanar faces of one material a common [`Surface::group`],
 /// numbering groups from 0 in the order of their first surface.
 pub fn merge_coplanar(surfaces: &mut [Surface]) -> MergeSummary {
@@ -195,6 +226,20 @@ mod tests {
         let summary = merge_coplanar(&mut s);
         assert_eq!(summary.groups, 3);
         assert_eq!(s.iter().map(|x| x.group).collect::<Vec<_>>(), [0, 0, 1, 2]);
+    }
+
+    #[test]
+    fn faces_and_their_pieces_get_ids_twins_their_own() {
+        let up = |face| tri([0., 0., 0.], [0., 0., 1.], [1., 0., 1.], face);
+        let down = |face| tri([0., 0., 0.], [1., 0., 1.], [0., 0., 1.], face);
+        // Face 0 in two pieces, face 1 double-sided (interleaved sides, as
+        // a loader emitting each triangle's twin after it does), face 2.
+        let mut s = vec![up(0), up(0), up(1), down(1), up(1), down(1), up(2)];
+        group_by_face(&mut s);
+        assert_eq!(
+            s.iter().map(|x| x.group).collect::<Vec<_>>(),
+            [0, 0, 1, 2, 1, 2, 3]
+        );
     }
 
     #[test]

@@ -3,13 +3,15 @@
 //!
 //! A [`Surface`] is one planar, convex, single-sided polygon carrying a
 //! reflectance `rho` and an emitted radiant exitance `E`. Loading turns an
-//! input file into surfaces: [`obj`] reads Wavefront OBJ + MTL,
-//! [`polygon`] turns a face into planar convex pieces and [`builtin`] holds
-//! the scenes shipped inside the binary. Every load is bounded by
-//! [`Limits`], and input files are checked to be regular files of a sane
-//! size before they are read.
+//! input file into surfaces: [`obj`] reads Wavefront OBJ + MTL, [`gltf`]
+//! reads glTF 2.0 (`.gltf`, `.glb`), [`polygon`] turns a face into planar
+//! convex pieces and [`builtin`] holds the scenes shipped inside the
+//! binary. Every load is bounded by [`Limits`], and input files are checked
+//! to be regular files of a sane size before they are read; [`merge`] gives
+//! adjacent coplanar faces one surface id.
 
 pub mod builtin;
+pub mod gltf;
 pub mod merge;
 pub mod obj;
 pub mod polygon;
@@ -324,6 +326,34 @@ impl Default for Limits {
     }
 }
 
+/// Default `--reflectance-cap`: glTF base colours of 1 (white) are common,
+/// and a closed scene with a reflectance of 1 never converges.
+pub const DEFAULT_REFLECTANCE_CAP: f64 = 0.9;
+
+/// How glTF materials map to radiosity (OBJ's `Kd` and `Ke` are already
+/// reflectance and exitance, so these do not apply to it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoadOptions {
+    /// Bounds on what the input may hold.
+    pub limits: Limits,
+    /// Largest reflectance per channel; higher values are clamped with a
+    /// warning (`--reflectance-cap`).
+    pub reflectance_cap: f64,
+    /// Exitance in W/m^2 is `pi x emission_scale x emissive x strength`
+    /// (`--emission-scale`).
+    pub emission_scale: f64,
+}
+
+impl Default for LoadOptions {
+    fn default() -> LoadOptions {
+        LoadOptions {
+            limits: Limits::default(),
+            reflectance_cap: DEFAULT_REFLECTANCE_CAP,
+            emission_scale: 1.0,
+        }
+    }
+}
+
 /// Reads an input file whole, after checking that it is a regular file (not
 /// a folder, device or pipe, which could be endless) no larger than
 /// `limits.max_file_bytes`.
@@ -370,21 +400,71 @@ pub fn read_input(path: &Path, limits: &Limits) -> Result<Vec<u8>, SceneError> {
     Ok(bytes)
 }
 
-/// Loads a scene given on the command line: the name of a built-in scene,
-/// or the path of an `.obj` file.
-pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
-    load_with(name_or_path, &Limits::default())
+impl LoadOptions {
+    /// Checks the options are usable.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.reflectance_cap > 0.0 && self.reflectance_cap < 1.0) {
+            return Err(format!(
+                "--reflectance-cap must be above 0 and below 1, not {}",
+                self.reflectance_cap
+            ));
+        }
+        if !(self.emission_scale.is_finite() && self.emission_scale > 0.0) {
+            return Err(format!(
+                "--emission-scale must be a positive number, not {}",
+                self.emission_scale
+            ));
+        }
+        Ok(())
+    }
 }
 
-/// [`load`] with explicit limits.
-pub fn load_with(name_or_path: &str, limits: &Limits) -> Result<Scene, SceneError> {
+/// A loaded scene and, for glTF input, what the irradiance bake needs to
+/// keep the original materials.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// The surfaces, camera and hints.
+    pub scene: Scene,
+    /// Materials, textures and texture coordinates of a glTF input.
+    pub appearance: Option<gltf::Appearance>,
+}
+
+/// True when the path names a glTF file (`.gltf` or `.glb`).
+#[must_use]
+pub fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Loads a scene given on the command line: the name of a built-in scene,
+/// or the path of an `.obj`, `.gltf` or `.glb` file, with default options.
+pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+    load_with(name_or_path, &LoadOptions::default()).map(|l| l.scene)
+}
+
+/// [`load`] with options, keeping a glTF input's appearance.
+pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
     let path = Path::new(name_or_path);
     let looks_like_path = path.extension().is_some() || path.components().count() > 1;
     if !looks_like_path && let Some(scene) = builtin::load(name_or_path) {
-        return scene;
+        return scene.map(|scene| Loaded {
+            scene,
+            appearance: None,
+        });
     }
     if path.exists() {
-        return obj::load_file_with(path, limits);
+        if is_gltf(path) {
+            let (scene, appearance) = gltf::load_file(path, options)?;
+            return Ok(Loaded {
+                scene,
+                appearance: Some(appearance),
+            });
+        }
+        return obj::load_file_with(path, &options.limits).map(|scene| Loaded {
+            scene,
+            appearance: None,
+        });
     }
     if looks_like_path {
         return Err(SceneError::Io {

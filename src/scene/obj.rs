@@ -697,9 +697,11 @@ impl ObjParser<'_> {
                 self.ignored.join(", ")
             ));
         }
+        let mut surfaces = self.surfaces;
+        super::merge::group_by_face(&mut surfaces);
         Ok(Scene {
             name: name.to_string(),
-            surfaces: self.surfaces,
+            surfaces,
             camera: self.camera,
             mesh_hint: self.mesh_hint,
             warnings,

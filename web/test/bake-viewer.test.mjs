@@ -1,0 +1,114 @@
+// The baked Cornell box in a real browser: `radiosity render cornell
+// --bake` writes the picture and the .glb; `radiosity view` serves the
+// viewer page (web/viewer/, three.js GLTFLoader); headless Chromium draws
+// the .glb from the bake's camera at the picture's size, and the screenshot
+// is compared with our own PNG. Both bake modes: lit (unlit material,
+// COLOR_0 shown as is) and irradiance (the input's materials, base colour x
+// COLOR_0 under the ambient light the viewer derives from the bake's
+// extras), which must both look like the picture.
+//
+// Tolerance: mean absolute difference over all pixels and channels of at
+// most 2 levels (of 255) for lit, 3 for irradiance; measured here 0.43 and
+// 1.75. Both pictures interpolate the same vertex colours
+// linearly and encode sRGB, so inside faces they agree to a level or two
+// (8-bit rounding, float precision); the difference concentrates on
+// silhouettes, where our 3x3 supersampling and Chromium's 4x multisampling
+// (SwiftShader) cover edge pixels differently. A wrong camera, a wrong
+// colour space (sRGB decoded twice: about 40 levels darker), missing vertex
+// colours or a lit PBR material instead of unlit each cost tens of levels.
+// Irradiance goes through three.js's physical material, which keeps the
+// specular lobe's share (F0 = 0.04: a few percent at roughness 1) from the
+// diffuse layer, so it shows slightly darker than base x COLOR_0: one more
+// level of allowance.
+import { spawn } from 'node:child_process';
+import { readFileSync, writeFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { chromium } from 'playwright-core';
+import { BIN, CHROMIUM_ARGS, decodePng, radiosity, tempDir } from './helpers.mjs';
+
+const WIDTH = 400;
+const HEIGHT = 400;
+const TOLERANCE = { lit: 2, irradiance: 3 };
+
+const dir = tempDir('viewer');
+const png = join(dir, 'cornell.png');
+const bakes = { lit: join(dir, 'cornell-lit.glb'), irradiance: join(dir, 'cornell-irradiance.glb') };
+for (const [mode, file] of Object.entries(bakes)) {
+  radiosity(['render', 'cornell', '-q', '--output', png, '--bake', file, '--bake-mode', mode,
+    '--width', String(WIDTH), '--height', String(HEIGHT)]);
+}
+const ours = decodePng(readFileSync(png));
+
+/** Serves `file` with `radiosity view`; resolves to [url, process]. */
+function serve(file) {
+  const server = spawn(BIN, ['view', file, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    server.stdout.on('data', (chunk) => {
+      out += chunk;
+      const m = out.match(/http:\/\/127\.0\.0\.1:\d+\/\S*/);
+      if (m) resolve([m[0], server]);
+    });
+    server.on('exit', (code) => reject(new Error(`radiosity view exited (${code}): ${out}`)));
+    setTimeout(() => { server.kill(); reject(new Error('radiosity view printed no address in 10 s')); }, 10000);
+  });
+}
+
+// Redness (R - G) of a band of columns at mid height.
+function redness(image, x0, x1) {
+  let total = 0; let n = 0;
+  for (let y = Math.floor(0.3 * image.height); y < Math.floor(0.7 * image.height); y++) {
+    for (let x = Math.floor(x0 * image.width); x < Math.floor(x1 * image.width); x++) {
+      const i = 3 * (y * image.width + x);
+      total += image.rgb[i] - image.rgb[i + 1];
+      n++;
+    }
+  }
+  return total / n;
+}
+
+const browser = await chromium.launch({ executablePath: process.env.CHROMIUM, args: CHROMIUM_ARGS });
+const failures = [];
+try {
+  for (const [mode, file] of Object.entries(bakes)) {
+    const [url, server] = await serve(file);
+    let shot;
+    try {
+      const page = await browser.newPage({ viewport: { width: WIDTH, height: HEIGHT }, deviceScaleFactor: 1 });
+      const logs = [];
+      page.on('console', (m) => logs.push(m.text()));
+      page.on('pageerror', (e) => logs.push(String(e)));
+      await page.goto(`${url}&ui=0`);
+      await page.waitForFunction(() => window.viewer, null, { timeout: 60000 });
+      const state = await page.evaluate(() => window.viewer);
+      if (!state.ready) throw new Error(`${mode}: the viewer failed: ${state.error}\n${logs.join('\n')}`);
+      if (state.mode !== mode) throw new Error(`the bake's mode is ${state.mode}, expected ${mode}`);
+      shot = await page.locator('canvas').screenshot();
+      await page.close();
+    } finally {
+      server.kill();
+    }
+    const screenshot = join(dir, `browser-${mode}.png`);
+    writeFileSync(screenshot, shot);
+    const theirs = decodePng(shot);
+    if (theirs.width !== ours.width || theirs.height !== ours.height) {
+      throw new Error(`screenshot ${theirs.width}x${theirs.height}, picture ${ours.width}x${ours.height}`);
+    }
+    let sum = 0;
+    for (let i = 0; i < ours.rgb.length; i++) sum += Math.abs(ours.rgb[i] - theirs.rgb[i]);
+    const mad = sum / ours.rgb.length;
+    // The red wall (x = 0.55) is seen on the left, the green wall (x = 0) on the right.
+    const left = redness(theirs, 0.04, 0.14);
+    const right = redness(theirs, 0.86, 0.96);
+    console.log(`${mode} bake in three.js vs our picture: mean absolute difference ${mad.toFixed(2)} levels `
+      + `(tolerance ${TOLERANCE[mode]}); redness (R-G) left wall ${left.toFixed(1)}, right wall ${right.toFixed(1)}; `
+      + `screenshot ${screenshot}`);
+    if (!(mad <= TOLERANCE[mode])) failures.push(`${mode}: mean absolute difference ${mad.toFixed(2)} > ${TOLERANCE[mode]}`);
+    if (!(left > 0 && right < 0 && left - right > 100)) {
+      failures.push(`${mode}: the red wall (redness ${left.toFixed(1)}) is not clearly redder than the green (${right.toFixed(1)})`);
+    }
+  }
+} finally {
+  await browser.close();
+}
+if (failures.length > 0) throw new Error(failures.join('\n'));
