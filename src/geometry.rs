@@ -12,10 +12,16 @@ use glam::DVec3;
 /// non-planar or nearly collinear input. Zero for a degenerate polygon.
 #[must_use]
 pub fn newell_area_vector(polygon: &[DVec3]) -> DVec3 {
+    // About the first corner rather than the origin: the same sum, but a
+    // small polygon far from the origin keeps its digits (about the origin
+    // each cross product is huge and they cancel).
+    let Some(&origin) = polygon.first() else {
+        return DVec3::ZERO;
+    };
     let mut sum = DVec3::ZERO;
     for (i, a) in polygon.iter().enumerate() {
         let b = polygon[(i + 1) % polygon.len()];
-        sum += a.cross(b);
+        sum += (*a - origin).cross(b - origin);
     }
     sum
 }
@@ -163,6 +169,16 @@ mod tests {
         assert!((area(&sq) - 1.0).abs() < 1e-15);
         assert_eq!(normal(&sq), Some(DVec3::Z));
         assert!((centroid(&sq) - DVec3::new(0.5, 0.5, 0.0)).length() < 1e-15);
+    }
+
+    #[test]
+    fn a_small_triangle_far_from_the_origin_keeps_its_normal() {
+        let far = DVec3::new(1e4, -3e3, 7e3);
+        let tri = [far, far + DVec3::X * 1e-4, far + DVec3::Y * 1e-4];
+        let n = normal(&tri).unwrap();
+        assert!((n - DVec3::Z).length() < 1e-9, "{n}");
+        // Corners are rounded to about 2e-12 at this distance.
+        assert!((area(&tri) / 0.5e-8 - 1.0).abs() < 1e-6);
     }
 
     #[test]
