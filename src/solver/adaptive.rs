@@ -20,10 +20,11 @@
 //! * **Two-sided refinement** (Hanrahan, Salzman & Aupperle 1991; with
 //!   clusters at both ends as in Smits, Arvo & Greenberg 1994): a transfer
 //!   from a source node to a group of receivers is accepted as one *link*
-//!   when the two are far apart (beyond [`LINK_RATIO`] times their radii
-//!   added), it can send little to them (below [`LINK_FACTOR`] times the
-//!   negligible irradiance), and shadow rays between points spread over
-//!   both agree on their visibility; each receiver then takes the source's
+//!   when every receiver is beyond [`FAR_RATIO`] of the source's radius,
+//!   the group spans at most [`LINK_SPREAD`] of its distance, the source
+//!   can send it little (below [`LINK_FACTOR`] times the negligible
+//!   irradiance), and shadow rays between points spread over both agree on
+//!   their visibility; each receiver then takes the source's
 //!   corrected point-source irradiance ([`point_factor`]) with that shared
 //!   visibility, without rays of its own. Otherwise the larger of the two is
 //!   split.
@@ -71,9 +72,14 @@ pub const FAR_RATIO: f64 = 3.0;
 /// it can send is below this many times the negligible irradiance.
 pub const FAR_FACTOR: f64 = 30.0;
 
-/// A source node and a receiver node are far apart beyond this many times
-/// their radii added.
-pub const LINK_RATIO: f64 = 3.0;
+/// A link's receivers may spread over at most this fraction of their
+/// distance from the source: its shared visibility is judged by rays to
+/// four of them.
+pub const LINK_SPREAD: f64 = 0.5;
+
+/// Receiver groups smaller than this are not linked: a link's four shadow
+/// rays would cost as much as theirs.
+pub const LINK_MIN_RECEIVERS: u32 = 16;
 
 /// A link shares its visibility among its receivers only while the
 /// irradiance it can send is below this many times the negligible
@@ -87,7 +93,7 @@ pub const QUADRATURE_RATIO: f64 = 4.0;
 
 /// The brightest shooter shoots alone while it holds at least this share of
 /// all unshot power; below it the whole scene shoots at once.
-pub const SWEEP_SHARE: f64 = 0.05;
+pub const SWEEP_SHARE: f64 = 0.0;
 
 /// Receiver groups at least this large are refined in parallel.
 const PARALLEL_RECEIVERS: u32 = 1024;
@@ -454,6 +460,14 @@ fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mu
     }
 }
 
+/// True when the receiver's tangent plane cuts the node's bounding sphere:
+/// part of the node may be behind the receiver and part in front, which no
+/// point source (whose centre is on one side) can stand for; such a node is
+/// refined down to elements, whose factors clip exactly.
+fn straddles(node: &Node, r: &Receiver) -> bool {
+    r.normal.dot(node.centre - r.point).abs() < node.radius
+}
+
 /// Irradiance at the receiver per unit power of `bin` seen as a point:
 /// `cos(theta_s) cos(theta_r) / (pi r^2)`, times `1 + c` where `c` is the
 /// second-order term of the kernel's Taylor expansion over a flat source of
@@ -598,9 +612,12 @@ impl Gatherer<'_> {
         if !self.may_reach(sn, rn) {
             return;
         }
-        // A transfer too bright to share visibility goes to each receiver,
-        // which refines the source for itself; a dim one is linked where
-        // far and uniformly visible, else the larger end is split.
+        // A link: every receiver of `r` is far enough from `s` for its own
+        // corrected point sources to be accurate, `r` is small as seen from
+        // `s`, and `s` sends it little; then only occlusion is shared, and
+        // only if rays spread over both ends agree. A transfer too bright
+        // to share visibility goes on to each receiver, which refines the
+        // source for itself.
         let distance = sn.centre.distance(rn.centre);
         let clearance = distance - sn.radius - rn.radius;
         let dim = clearance > 0.0
@@ -608,30 +625,30 @@ impl Gatherer<'_> {
                 <= LINK_FACTOR * self.negligible[r as usize] * PI * clearance * clearance;
         if dim
             && !sn.is_leaf()
-            && distance >= LINK_RATIO * (sn.radius + rn.radius)
+            && rn.last - rn.first >= LINK_MIN_RECEIVERS
+            && distance - rn.radius >= FAR_RATIO * sn.radius
+            && rn.radius <= LINK_SPREAD * distance
             && let Some(visible) = self.shared_visibility(s, r, counters)
         {
             if visible {
-                self.link(s, r, out, counters);
+                self.link(s, r, out, scratch, counters);
             }
             return;
         }
-        if !dim || sn.is_leaf() || rn.radius >= sn.radius {
-            let second = rn.second;
-            let split = (self.receiver_tree.nodes[second as usize].first - rn.first) as usize;
-            let (a, b) = out.split_at_mut(split);
-            if rn.last - rn.first >= PARALLEL_RECEIVERS {
-                let (ca, cb) =
-                    rayon::join(|| self.refine(s, r + 1, a), || self.refine(s, second, b));
-                *counters += ca;
-                *counters += cb;
-            } else {
-                self.refine_into(s, r + 1, a, scratch, counters);
-                self.refine_into(s, second, b, scratch, counters);
-            }
+        // Split the receivers, never the source: each receiver refines the
+        // source for itself far more cheaply than pairs of pieces could (a
+        // source split down to elements against a group of receivers would
+        // cost every receiver every element).
+        let second = rn.second;
+        let split = (self.receiver_tree.nodes[second as usize].first - rn.first) as usize;
+        let (a, b) = out.split_at_mut(split);
+        if rn.last - rn.first >= PARALLEL_RECEIVERS {
+            let (ca, cb) = rayon::join(|| self.refine(s, r + 1, a), || self.refine(s, second, b));
+            *counters += ca;
+            *counters += cb;
         } else {
-            self.refine_into(s + 1, r, out, scratch, counters);
-            self.refine_into(sn.second, r, out, scratch, counters);
+            self.refine_into(s, r + 1, a, scratch, counters);
+            self.refine_into(s, second, b, scratch, counters);
         }
     }
 
@@ -719,10 +736,24 @@ impl Gatherer<'_> {
 
     /// A link: every receiver of `r` takes source `s`'s corrected point
     /// sources, visible.
-    fn link(&self, s: u32, r: u32, out: &mut [DVec3], counters: &mut Counters) {
+    fn link(
+        &self,
+        s: u32,
+        r: u32,
+        out: &mut [DVec3],
+        scratch: &mut Scratch,
+        counters: &mut Counters,
+    ) {
         let bins = self.bins_of(s);
+        let sn = self.source_node(s);
         for (i, &index) in self.receiver_tree.items_of(r).iter().enumerate() {
             let receiver = &self.receivers[index as usize];
+            if straddles(sn, receiver) {
+                // Its horizon cuts the source: no point source will do.
+                let negligible = self.negligible[r as usize];
+                out[i] += self.gather(s, receiver, negligible, scratch, counters);
+                continue;
+            }
             for bin in bins {
                 out[i] +=
                     bin.power * point_factor(bin, self.origin, receiver.point, receiver.normal);
@@ -757,12 +788,12 @@ impl Gatherer<'_> {
                 continue;
             }
             let distance = node.centre.distance(r.point);
-            if distance < FAR_RATIO * node.radius {
+            if distance < FAR_RATIO * node.radius || straddles(node, r) {
                 // Near: accepted whole only if even all its power at the
                 // nearest point of its bounding sphere would be negligible.
                 let clearance = distance - node.radius;
                 if clearance > 0.0 && source.weight <= negligible * PI * clearance * clearance {
-                    sum += self.bins_irradiance(n, r, scratch, counters);
+                    sum += self.dim_irradiance(n, r, scratch, counters);
                     continue;
                 }
             } else {
@@ -774,7 +805,7 @@ impl Gatherer<'_> {
                     .map(|b| b.weight * point_factor(b, self.origin, r.point, r.normal))
                     .sum();
                 if estimate <= FAR_FACTOR * negligible {
-                    sum += self.bins_irradiance(n, r, scratch, counters);
+                    sum += self.dim_irradiance(n, r, scratch, counters);
                     continue;
                 }
                 if let Some(visible) = self.uniform_visibility(n, r, counters) {
@@ -812,9 +843,11 @@ impl Gatherer<'_> {
         surface.normal.dot(r.point) - surface.offset > 0.0
     }
 
-    /// A node as up to six sources by normal direction, each behind one
-    /// shadow ray from its representative element's centre.
-    fn bins_irradiance(
+    /// A node that can send the receiver little, as up to six sources by
+    /// normal direction behind one shadow ray, from the representative of
+    /// the bin that sends the most: an error in its visibility costs at
+    /// most what the node sends.
+    fn dim_irradiance(
         &self,
         n: u32,
         r: &Receiver,
@@ -822,18 +855,22 @@ impl Gatherer<'_> {
         counters: &mut Counters,
     ) -> DVec3 {
         let geometry = self.node_geometry(n, r, scratch, counters);
-        let mut sum = DVec3::ZERO;
-        for (bin, g) in self.bins_of(n).iter().zip(geometry) {
-            if g == DVec3::ZERO {
-                continue;
-            }
-            counters.pairs += 1;
-            counters.cat[1] += 1;
-            if self.visible_from(bin.representative, r, counters) {
-                sum += g;
-            }
+        let Some((bin, _)) = self
+            .bins_of(n)
+            .iter()
+            .zip(&geometry)
+            .filter(|(_, g)| **g != DVec3::ZERO)
+            .max_by(|a, b| luminance(*a.1).total_cmp(&luminance(*b.1)))
+        else {
+            return DVec3::ZERO;
+        };
+        counters.pairs += 1;
+        counters.cat[1] += 1;
+        if self.visible_from(bin.representative, r, counters) {
+            geometry.iter().sum()
+        } else {
+            DVec3::ZERO
         }
-        sum
     }
 
     /// Whether the receiver sees all of a node or none of it, judged by
@@ -887,8 +924,9 @@ impl Gatherer<'_> {
         pieces.push(n);
         while let Some(piece) = pieces.pop() {
             let node = self.source_node(piece);
-            let near =
-                r.point.distance_squared(node.centre) < (QUADRATURE_RATIO * node.radius).powi(2);
+            let near = r.point.distance_squared(node.centre)
+                < (QUADRATURE_RATIO * node.radius).powi(2)
+                || straddles(node, r);
             if near && !node.is_leaf() {
                 pieces.push(node.second);
                 pieces.push(piece + 1);
