@@ -5,6 +5,8 @@
 //! [`run`].
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use crate::export::gltf::{Bake, BakeMode};
@@ -198,6 +200,13 @@ pub trait Observer {
         Flow::Continue
     }
 
+    /// A flag that, once raised, stops the solve at once, abandoning the
+    /// shot under way (see [`Solver::interrupt_on`]): for Ctrl-C and stop
+    /// buttons, which should not wait for a long shot to end.
+    fn interrupt(&self) -> Option<Arc<AtomicBool>> {
+        None
+    }
+
     /// The solve has ended, for `stop`, and the outputs are about to be
     /// written from `solver`'s state: the last state a live view shows
     /// (the last [`Observer::shot`] cannot know it is the last).
@@ -386,6 +395,9 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
 
     let solve_start = Instant::now();
     let mut solver = Solver::new(&scene, &mesh, settings.clone());
+    if let Some(flag) = observer.interrupt() {
+        solver.interrupt_on(flag);
+    }
     counts.patches = solver.shooters();
     let stop = solver.run(|s| observer.shot(s));
     let solve_time = solve_start.elapsed();

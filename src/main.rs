@@ -5,6 +5,7 @@ use std::io::IsTerminal;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -684,20 +685,21 @@ fn render(args: &RenderArgs) -> Result<()> {
 /// Ctrl-C once asks the solve to stop after the current shot and write its
 /// outputs from the state reached; a second Ctrl-C aborts at once, writing
 /// nothing. Returns the flag the first one raises.
-fn interrupt_handler() -> Result<&'static AtomicBool> {
-    static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-    ctrlc::set_handler(|| {
-        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+fn interrupt_handler() -> Result<Arc<AtomicBool>> {
+    let interrupted = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&interrupted);
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
             eprintln!("\naborted: no output written");
             std::process::exit(130);
         }
         eprintln!(
-            "\nstopping after this shot and writing the outputs (Ctrl-C again aborts without \
-             writing)"
+            "\nstopping and writing the outputs from the state reached (Ctrl-C again aborts \
+             without writing)"
         );
     })
     .context("cannot install the Ctrl-C handler")?;
-    Ok(&INTERRUPTED)
+    Ok(interrupted)
 }
 
 /// How often a progress line is printed when standard error is not a
@@ -714,11 +716,11 @@ struct ProgressDisplay {
     last_line: Instant,
     /// What is being solved, until it has been said.
     header: Option<String>,
-    interrupted: &'static AtomicBool,
+    interrupted: Arc<AtomicBool>,
 }
 
 impl ProgressDisplay {
-    fn new(quiet: bool, interrupted: &'static AtomicBool) -> ProgressDisplay {
+    fn new(quiet: bool, interrupted: Arc<AtomicBool>) -> ProgressDisplay {
         let terminal = std::io::stderr().is_terminal();
         let bar = (!quiet && terminal).then(|| {
             let bar = ProgressBar::new(1000);
@@ -799,6 +801,10 @@ impl app::Observer for ProgressDisplay {
         } else {
             Flow::Continue
         }
+    }
+
+    fn interrupt(&self) -> Option<Arc<AtomicBool>> {
+        Some(Arc::clone(&self.interrupted))
     }
 }
 

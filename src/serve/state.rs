@@ -145,7 +145,7 @@ pub struct Shared {
     resume: Condvar,
     /// Read on every shot without taking the lock.
     pause_flag: AtomicBool,
-    stop_flag: AtomicBool,
+    stop_flag: Arc<AtomicBool>,
     shutdown_flag: AtomicBool,
     /// Bumped on every change clients should see.
     changed: watch::Sender<u64>,
@@ -179,7 +179,7 @@ impl Shared {
             }),
             resume: Condvar::new(),
             pause_flag: AtomicBool::new(false),
-            stop_flag: AtomicBool::new(false),
+            stop_flag: Arc::new(AtomicBool::new(false)),
             shutdown_flag: AtomicBool::new(false),
             changed: watch::Sender::new(0),
             closing: watch::Sender::new(false),
@@ -471,6 +471,10 @@ impl Observer for LiveObserver {
                 status.phase = Phase::Solving;
             });
         self.solve_start = Instant::now();
+    }
+
+    fn interrupt(&self) -> Option<Arc<AtomicBool>> {
+        Some(Arc::clone(&self.shared.stop_flag))
     }
 
     fn shot(&mut self, solver: &Solver<'_>) -> Flow {

@@ -55,7 +55,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 
 use super::hierarchy::{self, Hierarchy, NONE, Node, Tree};
-use super::{Received, Receiver, Settings, Shot, ShotInputs, Stats};
+use super::{Abort, Received, Receiver, Settings, Shot, ShotInputs, Stats};
 use crate::accel::{self, Occluder};
 use crate::form_factor::{FormFactor, Source};
 use crate::geometry;
@@ -94,6 +94,10 @@ pub const QUADRATURE_RATIO: f64 = 4.0;
 /// The brightest shooter shoots alone while it holds at least this share of
 /// all unshot power; below it the whole scene shoots at once.
 pub const SWEEP_SHARE: f64 = 0.0;
+
+/// Receiver groups at least this large check whether the shot is to be
+/// abandoned before they are refined.
+const ABORT_CHECK_RECEIVERS: u32 = 64;
 
 /// Receiver groups at least this large are refined in parallel.
 const PARALLEL_RECEIVERS: u32 = 1024;
@@ -257,7 +261,7 @@ impl AdaptiveShooting {
 
     /// One shot of the chosen node; its elements' unshot radiosity is
     /// zeroed.
-    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Shot {
+    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
         let start = Instant::now();
         let (scene, mesh) = (inputs.scene, inputs.mesh);
         let root = self.choose_shooting_node();
@@ -285,6 +289,7 @@ impl AdaptiveShooting {
             origin: self.hierarchy.tree.nodes[root as usize].centre,
             occluder: inputs.occluder,
             form_factor: inputs.settings.form_factor,
+            abort: inputs.abort,
         };
         // Irradiance in the receiver tree's order, then put back in order.
         let mut gathered = vec![DVec3::ZERO; inputs.receivers.len()];
@@ -293,28 +298,15 @@ impl AdaptiveShooting {
         } else {
             gatherer.refine(root, 0, &mut gathered)
         };
+        if inputs.abort.fired() {
+            return None;
+        }
         let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
         for (&r, e) in self.receiver_tree.items.iter().zip(gathered) {
             irradiance[r as usize] = e;
         }
         let gather_end = Instant::now();
 
-        if std::env::var("RAD_DEBUG").is_ok() {
-            let node = &self.hierarchy.tree.nodes[root as usize];
-            eprintln!(
-                "shot {} root {root} elements {elements} radius {:.2} power {:.3e} rays {} [leaf {} bins {} uniform {} linkrays {} linked receivers {}] {:.2}s",
-                stats.shots,
-                node.radius,
-                luminance(power),
-                counters.rays,
-                counters.cat[0],
-                counters.cat[1],
-                counters.cat[2],
-                counters.cat[3],
-                counters.cat[4],
-                (gather_end - gather_start).as_secs_f64()
-            );
-        }
         stats.pairs += counters.pairs;
         stats.rays_cast += counters.rays;
         stats.ray_time += counters.ray_time;
@@ -327,11 +319,11 @@ impl AdaptiveShooting {
         }
         stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
-        Shot {
+        Some(Shot {
             irradiance,
             power,
             selection_time: gather_start - start,
-        }
+        })
     }
 
     /// The negligible irradiance of each receiver-tree node: the smallest
@@ -503,14 +495,9 @@ fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
     length * cos_s * cos_r / (PI * r2) * (1.0 + correction)
 }
 
-fn r_last(t: &Tree, r: u32) -> u32 {
-    t.nodes[r as usize].last - t.nodes[r as usize].first
-}
-
 /// Counters of a part of a shot.
 #[derive(Clone, Copy, Debug, Default)]
 struct Counters {
-    cat: [u64; 5],
     pairs: u64,
     rays: u64,
     factors: u64,
@@ -520,9 +507,6 @@ struct Counters {
 
 impl std::ops::AddAssign for Counters {
     fn add_assign(&mut self, o: Counters) {
-        for k in 0..5 {
-            self.cat[k] += o.cat[k];
-        }
         self.pairs += o.pairs;
         self.rays += o.rays;
         self.factors += o.factors;
@@ -562,6 +546,8 @@ struct Gatherer<'s> {
     origin: DVec3,
     occluder: &'s dyn Occluder,
     form_factor: FormFactor,
+    /// Checked between groups of receivers.
+    abort: &'s Abort,
 }
 
 impl Gatherer<'_> {
@@ -610,6 +596,9 @@ impl Gatherer<'_> {
             return;
         }
         if !self.may_reach(sn, rn) {
+            return;
+        }
+        if rn.last - rn.first >= ABORT_CHECK_RECEIVERS && self.abort.fired() {
             return;
         }
         // A link: every receiver of `r` is far enough from `s` for its own
@@ -692,7 +681,6 @@ impl Gatherer<'_> {
                 [self.receiver_tree.nodes[receivers.0[i % nr] as usize].first as usize]
                 as usize];
             counters.pairs += 1;
-            counters.cat[3] += 1;
             let visible = self.visible_from(e, receiver, counters);
             match seen {
                 None => seen = Some(visible),
@@ -760,7 +748,6 @@ impl Gatherer<'_> {
             }
         }
         counters.pairs += 1;
-        counters.cat[4] += (r_last(self.receiver_tree, r)) as u64;
     }
 
     /// The irradiance source node `s` sends to one receiver.
@@ -865,7 +852,6 @@ impl Gatherer<'_> {
             return DVec3::ZERO;
         };
         counters.pairs += 1;
-        counters.cat[1] += 1;
         if self.visible_from(bin.representative, r, counters) {
             geometry.iter().sum()
         } else {
@@ -888,7 +874,6 @@ impl Gatherer<'_> {
                 continue;
             };
             counters.pairs += 1;
-            counters.cat[2] += 1;
             let visible = self.visible_from(e, r, counters);
             match seen {
                 None => seen = Some(visible),
@@ -991,7 +976,6 @@ impl Gatherer<'_> {
             geometry::centroid(&scratch.clipped)
         };
         counters.pairs += 1;
-        counters.cat[0] += 1;
         if !self.visible(origin, r, surface.group, counters) {
             return DVec3::ZERO;
         }

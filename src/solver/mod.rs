@@ -21,6 +21,8 @@ pub mod adaptive;
 pub mod hierarchy;
 pub mod patches;
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
@@ -428,6 +430,7 @@ pub struct Solver<'a> {
     irradiance: Vec<DVec3>,
     energy: Energy,
     stats: Stats,
+    interrupt: Option<Arc<AtomicBool>>,
 }
 
 impl<'a> Solver<'a> {
@@ -495,6 +498,7 @@ impl<'a> Solver<'a> {
             radiosity,
             energy: Energy::default(),
             stats: Stats::default(),
+            interrupt: None,
         };
         solver.energy.emitted = solver.unshot_power();
         solver
@@ -640,23 +644,34 @@ impl<'a> Solver<'a> {
         None
     }
 
+    /// Stops the solve when `flag` is raised (Ctrl-C, a live view's stop
+    /// button): within the current shot, which is then abandoned (its
+    /// receivers keep what earlier shots gave them), so even a long shot
+    /// of a large scene ends promptly.
+    pub fn interrupt_on(&mut self, flag: Arc<AtomicBool>) {
+        self.interrupt = Some(flag);
+    }
+
     /// Shoots until a stopping rule holds or `after_shot`, called after
     /// each shot, returns [`Flow::Stop`]. `--time-limit` counts from this
-    /// call.
+    /// call and, like an interrupt, is obeyed within a shot (which is then
+    /// abandoned).
     pub fn run(&mut self, mut after_shot: impl FnMut(&Solver<'_>) -> Flow) -> StopReason {
         let start = Instant::now();
+        let abort = Abort {
+            deadline: self.settings.time_limit.map(|limit| start + limit),
+            flag: self.interrupt.clone(),
+        };
         loop {
             if let Some(reason) = self.stop_reason() {
                 return reason;
             }
-            if self
-                .settings
-                .time_limit
-                .is_some_and(|limit| start.elapsed() >= limit)
-            {
-                return StopReason::TimeLimit;
+            if let Some(reason) = abort.reason() {
+                return reason;
             }
-            self.shoot();
+            if !self.shoot_unless(&abort) {
+                return abort.reason().unwrap_or(StopReason::Stopped);
+            }
             if after_shot(self) == Flow::Stop {
                 return StopReason::Stopped;
             }
@@ -666,7 +681,12 @@ impl<'a> Solver<'a> {
     /// One shot: the brightest shooter shoots its unshot radiosity to every
     /// receiver, then the book-keeping of design.md step 5.
     pub fn shoot(&mut self) {
-        let start = Instant::now();
+        self.shoot_unless(&Abort::default());
+    }
+
+    /// [`Solver::shoot`], abandoned (returning false, nothing changed) if
+    /// `abort` fires during it.
+    fn shoot_unless(&mut self, abort: &Abort) -> bool {
         let context = ShotInputs {
             scene: self.scene,
             mesh: self.mesh,
@@ -674,10 +694,14 @@ impl<'a> Solver<'a> {
             occluder: self.occluder.as_ref(),
             receivers: &self.receivers,
             irradiance: &self.irradiance,
+            abort,
         };
         let shot = match &mut self.method {
             Method::Patches(p) => p.shoot(&context, &mut self.stats),
             Method::Adaptive(a) => a.shoot(&context, &mut self.stats),
+        };
+        let Some(shot) = shot else {
+            return false;
         };
         let book_start = Instant::now();
         let vertices = self.mesh.vertices.len();
@@ -698,7 +722,36 @@ impl<'a> Solver<'a> {
         self.energy.escaped += shot.power - received.incident;
         self.stats.shots += 1;
         self.stats.bookkeeping_time += (Instant::now() - book_start) + shot.selection_time;
-        let _ = start;
+        true
+    }
+}
+
+/// When a shot must be abandoned: a deadline, a raised flag.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Abort {
+    deadline: Option<Instant>,
+    flag: Option<Arc<AtomicBool>>,
+}
+
+impl Abort {
+    /// Why to stop now, if so.
+    pub(crate) fn reason(&self) -> Option<StopReason> {
+        if self
+            .flag
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
+            return Some(StopReason::Stopped);
+        }
+        if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            return Some(StopReason::TimeLimit);
+        }
+        None
+    }
+
+    /// True when the shot must be abandoned.
+    pub(crate) fn fired(&self) -> bool {
+        self.reason().is_some()
     }
 }
 
@@ -711,6 +764,8 @@ pub(crate) struct ShotInputs<'s> {
     pub(crate) receivers: &'s [Receiver],
     /// Irradiance each receiver has gathered so far.
     pub(crate) irradiance: &'s [DVec3],
+    /// When to abandon the shot.
+    pub(crate) abort: &'s Abort,
 }
 
 /// What a shot produced: the irradiance each receiver gathered and the

@@ -74,7 +74,7 @@ impl PatchShooting {
     }
 
     /// One shot of the brightest patch; its unshot radiosity is zeroed.
-    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Shot {
+    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
         let start = Instant::now();
         let (scene, mesh, settings) = (inputs.scene, inputs.mesh, inputs.settings);
         let shooter = self.brightest_patch(mesh);
@@ -118,9 +118,18 @@ impl PatchShooting {
         let gathered: Vec<(Vec<Gathered>, PhaseTimes)> = inputs
             .receivers
             .par_chunks(chunk)
-            .map(|receivers| context.gather(receivers))
+            .map(|receivers| {
+                if inputs.abort.fired() {
+                    (Vec::new(), PhaseTimes::default())
+                } else {
+                    context.gather(receivers)
+                }
+            })
             .collect();
         let gather_end = Instant::now();
+        if inputs.abort.fired() {
+            return None;
+        }
 
         let mut irradiance = Vec::with_capacity(inputs.receivers.len());
         for (chunk, times) in &gathered {
@@ -139,11 +148,11 @@ impl PatchShooting {
         stats.subsources += subsources.len() as u64;
         stats.hemicube_time += gather_start - hemicube_start;
         stats.gather_time += gather_end - gather_start;
-        Shot {
+        Some(Shot {
             irradiance,
             power: unshot * patch.area,
             selection_time: hemicube_start - start,
-        }
+        })
     }
 
     /// Adds the reflected part of what the elements received to their
