@@ -22,7 +22,7 @@
 //! median along the longest axis of the item (or piece) centres, so a tree
 //! is balanced and its depth is `O(log n)`.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::geometry;
 use crate::mesh::Mesh;
@@ -166,9 +166,9 @@ pub struct Hierarchy {
     pub shooter_of: Vec<u32>,
     /// Each element's centroid.
     pub centroids: Vec<DVec3>,
-    /// Each element's spread: the mean squared distance of its points from
-    /// its centroid (its polar second moment per unit area).
-    pub spreads: Vec<f64>,
+    /// Each element's second moment about its centroid per unit area (the
+    /// covariance of its points).
+    pub covariances: Vec<DMat3>,
 }
 
 impl Hierarchy {
@@ -177,7 +177,7 @@ impl Hierarchy {
     #[must_use]
     pub fn build(scene: &Scene, mesh: &Mesh, shooter_size: f64) -> Hierarchy {
         let mut centroids = Vec::with_capacity(mesh.elements.len());
-        let mut spreads = Vec::with_capacity(mesh.elements.len());
+        let mut covariances = Vec::with_capacity(mesh.elements.len());
         let mut items = Vec::with_capacity(mesh.elements.len());
         let mut corners = Vec::with_capacity(4);
         for e in &mesh.elements {
@@ -193,7 +193,7 @@ impl Hierarchy {
                 .map(|c| c.distance(centre))
                 .fold(0.0, f64::max);
             centroids.push(centre);
-            spreads.push(spread(&corners, centre));
+            covariances.push(second_moment(&corners, centre));
             items.push(Item {
                 centre,
                 radius,
@@ -214,7 +214,7 @@ impl Hierarchy {
             shooters,
             shooter_of,
             centroids,
-            spreads,
+            covariances,
         }
     }
 }
@@ -399,22 +399,29 @@ fn split_at_median<T: Copy>(values: &mut [T], centre: impl Fn(T) -> DVec3) -> us
     mid.max(1)
 }
 
-/// Mean squared distance from `centre` of the points of a convex polygon:
-/// over its fan of triangles, each contributing its own polar moment (area
-/// times the sum of its squared sides over 36) and, by the parallel-axis
-/// rule, its area times its centroid's squared distance from `centre`.
+/// The second moment about `centre` of the points of a convex polygon, per
+/// unit area, `(1/A) int (y - c)(y - c)^T dA` (its trace is the mean
+/// squared distance from `centre`): over its fan of triangles, each
+/// contributing its own covariance, `(1/12) sum_i (p_i - g)(p_i - g)^T`
+/// about its centroid `g`, and by the parallel-axis rule its offset
+/// `(g - c)(g - c)^T`, weighted by area.
 #[must_use]
-pub fn spread(polygon: &[DVec3], centre: DVec3) -> f64 {
-    let (mut moment, mut area) = (0.0, 0.0);
+pub fn second_moment(polygon: &[DVec3], centre: DVec3) -> DMat3 {
+    let outer = |v: DVec3| DMat3::from_cols(v * v.x, v * v.y, v * v.z);
+    let (mut moment, mut area) = (DMat3::ZERO, 0.0);
     for i in 1..polygon.len().saturating_sub(1) {
         let (a, b, c) = (polygon[0], polygon[i], polygon[i + 1]);
         let t = 0.5 * (b - a).cross(c - a).length();
-        let sides = a.distance_squared(b) + b.distance_squared(c) + c.distance_squared(a);
         let g = (a + b + c) / 3.0;
-        moment += t * (sides / 36.0 + g.distance_squared(centre));
+        let own = (outer(a - g) + outer(b - g) + outer(c - g)) * (1.0 / 12.0);
+        moment += (own + outer(g - centre)) * t;
         area += t;
     }
-    if area > 0.0 { moment / area } else { 0.0 }
+    if area > 0.0 {
+        moment * (1.0 / area)
+    } else {
+        DMat3::ZERO
+    }
 }
 
 #[cfg(test)]
@@ -478,20 +485,33 @@ mod tests {
     }
 
     #[test]
-    fn spread_of_a_square_and_a_triangle() {
-        // A square of side a: (a^2 + a^2) / 12 about its centre.
-        let square = [
+    fn second_moments_of_a_rectangle_and_a_triangle() {
+        // A 2 x 1 rectangle: a^2/12 and b^2/12 along its sides about its
+        // centre, nothing across its plane or between its axes.
+        let rectangle = [
             DVec3::ZERO,
             DVec3::X * 2.0,
-            DVec3::new(2.0, 2.0, 0.0),
-            DVec3::Y * 2.0,
+            DVec3::new(2.0, 1.0, 0.0),
+            DVec3::Y,
         ];
-        assert!((spread(&square, DVec3::new(1.0, 1.0, 0.0)) - 8.0 / 12.0).abs() < 1e-12);
-        // About another point, plus the squared offset (parallel axes).
-        assert!((spread(&square, DVec3::new(1.0, 1.0, 3.0)) - (8.0 / 12.0 + 9.0)).abs() < 1e-12);
-        // A right triangle with legs 3 and 4: (9 + 16 + 25) / 36.
+        let centre = DVec3::new(1.0, 0.5, 0.0);
+        let m = second_moment(&rectangle, centre);
+        let expected = DMat3::from_diagonal(DVec3::new(4.0 / 12.0, 1.0 / 12.0, 0.0));
+        assert!(m.abs_diff_eq(expected, 1e-12), "{m}");
+        // About another point, plus the offset's outer product.
+        let offset = DVec3::new(0.0, 0.0, 3.0);
+        let m = second_moment(&rectangle, centre + offset);
+        let shifted = expected + DMat3::from_diagonal(DVec3::new(0.0, 0.0, 9.0));
+        assert!(m.abs_diff_eq(shifted, 1e-12), "{m}");
+        // A right triangle with legs 3 and 4: its polar moment per area is
+        // the sum of its squared sides over 36.
         let tri = [DVec3::ZERO, DVec3::X * 3.0, DVec3::Y * 4.0];
         let centroid = DVec3::new(1.0, 4.0 / 3.0, 0.0);
-        assert!((spread(&tri, centroid) - 50.0 / 36.0).abs() < 1e-12);
+        let m = second_moment(&tri, centroid);
+        assert!((m.x_axis.x + m.y_axis.y + m.z_axis.z - 50.0 / 36.0).abs() < 1e-12);
+        // Its product of inertia about the centroid, -a^2 b^2 / 72 over its
+        // area a b / 2: -1/3.
+        assert!((m.y_axis.x + 1.0 / 3.0).abs() < 1e-12, "{m}");
+        assert!((m.x_axis.y + 1.0 / 3.0).abs() < 1e-12, "{m}");
     }
 }
