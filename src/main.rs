@@ -14,7 +14,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use radiosity::accel::Accel;
-use radiosity::app::{self, BakeJob, ImageJob, Job, Outcome};
+use radiosity::app::{self, BakeJob, ImageJob, Job, Outcome, SensorJob};
 use radiosity::experiments;
 use radiosity::export::gltf::BakeMode;
 use radiosity::form_factor::FormFactor;
@@ -22,6 +22,7 @@ use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::Scene;
 use radiosity::scene::{Camera, DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions, builtin};
+use radiosity::sensors;
 use radiosity::serve;
 use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
 
@@ -196,6 +197,21 @@ struct RenderArgs {
     #[arg(long, value_name = "FILE.ply")]
     ply: Option<PathBuf>,
 
+    /// Sensor points, in Radiance's `rtrace -I` input format: one point a
+    /// line, `x y z nx ny nz` (metres; the normal says which side of the
+    /// surface to measure), `#` comments. Each point must lie on a surface
+    /// (within 1e-4 of the scene's size). Needs --sensors-out.
+    #[arg(long, value_name = "POINTS.txt", requires = "sensors_out")]
+    sensors: Option<PathBuf>,
+
+    /// Write the values at the --sensors points as CSV, one row a point in
+    /// input order: x,y,z,nx,ny,nz (as given, normal normalised),
+    /// er,eg,eb (irradiance E, W/m^2), br,bg,bb (radiosity B = Ke + Kd E
+    /// of the surface, W/m^2), lux (Radiance's 179 x (0.265 R + 0.670 G +
+    /// 0.065 B) of E).
+    #[arg(long, value_name = "FILE.csv", requires = "sensors")]
+    sensors_out: Option<PathBuf>,
+
     #[command(flatten)]
     load: LoadArgs,
 
@@ -354,6 +370,11 @@ struct RenderArgs {
     #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
           value_parser = positive::<usize>("--max-elements"))]
     max_elements: Option<usize>,
+
+    /// Most points in a --sensors file [default: 1000000].
+    #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-sensors"))]
+    max_sensors: Option<usize>,
 }
 
 /// Help heading of the options that bound a load.
@@ -550,6 +571,14 @@ impl RenderArgs {
                 })
                 .transpose()?,
             ply: self.ply.clone(),
+            sensors: match (&self.sensors, &self.sensors_out) {
+                (Some(points), Some(out)) => Some(SensorJob {
+                    points: points.clone(),
+                    out: out.clone(),
+                    max_points: self.max_sensors.unwrap_or(sensors::DEFAULT_MAX_SENSORS),
+                }),
+                _ => None,
+            },
         })
     }
 }
