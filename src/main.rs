@@ -130,8 +130,9 @@ impl LoadArgs {
 #[derive(Parser, Debug)]
 struct ExperimentArgs {
     /// Experiments to run, or `all` (the paper's): fig2-1, fig4-2, fig4-3,
-    /// formula-timing, fig5-1, fig5-2; and rays (the shared real scenes,
-    /// run by name only).
+    /// formula-timing, fig5-1, fig5-2; and, by name only, rays (the shared
+    /// real scenes), validate (against the Radiance reference harness) and
+    /// accuracy-curve (L1 against time, ours and Radiance's).
     #[arg(required = true, value_name = "NAME")]
     names: Vec<String>,
 
@@ -158,6 +159,12 @@ struct ExperimentArgs {
     /// Embree too (tools/embree_rays.py).
     #[arg(long, value_name = "PYTHON")]
     embree_python: Option<PathBuf>,
+
+    /// The Radiance reference harness's folder, for `validate` and
+    /// `accuracy-curve` (default: ../shared/reference). Its Python
+    /// environment is installed by its setup.sh.
+    #[arg(long, value_name = "DIR")]
+    reference: Option<PathBuf>,
 }
 
 #[derive(Parser, Debug)]
@@ -683,6 +690,7 @@ fn experiment(args: &ExperimentArgs) -> Result<()> {
             .join(" "),
         scenes: args.scenes.clone(),
         embree_python: args.embree_python.clone(),
+        reference: args.reference.clone(),
     };
     let written = pool(args.threads)?
         .install(|| experiments::run(&args.names, &context, |name| eprintln!("running {name}")))?;
