@@ -1,7 +1,7 @@
 //! One render job from scene to files: load, mesh, solve (design.md
 //! section 2), then write the picture, the vertex CSV and the statistics of
-//! design.md section 6, plus the glTF bake, PLY and EXR outputs and
-//! [`export_scene`]. The binary only parses flags into a [`Job`] and calls
+//! design.md section 6, plus the glTF bake, PLY and EXR outputs, the
+//! values at sensor points ([`crate::sensors`]) and [`export_scene`]. The binary only parses flags into a [`Job`] and calls
 //! [`run`].
 
 use std::path::{Path, PathBuf};
@@ -14,6 +14,7 @@ use crate::export::{self, Staged};
 use crate::mesh::{Mesh, MeshError};
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, Camera, LoadOptions, MeshHint, Scene, SceneError};
+use crate::sensors;
 use crate::solver::{Flow, Settings, Solver, Stats, StopReason};
 
 /// What to draw and where.
@@ -59,6 +60,20 @@ pub struct Job {
     pub bake: Option<BakeJob>,
     /// `--ply FILE.ply`.
     pub ply: Option<PathBuf>,
+    /// `--sensors POINTS.txt --sensors-out FILE.csv`.
+    pub sensors: Option<SensorJob>,
+}
+
+/// `--sensors`: values at the points of a Radiance `rtrace -I` points file
+/// ([`crate::sensors`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorJob {
+    /// The points file.
+    pub points: PathBuf,
+    /// The CSV to write.
+    pub out: PathBuf,
+    /// Most points the file may hold (`--max-sensors`).
+    pub max_points: usize,
 }
 
 /// `--bake`: the element mesh as glTF with baked vertex colours.
@@ -372,6 +387,12 @@ pub fn validate(job: &Job) -> Result<(), Error> {
     if let Some(path) = &job.stats_json {
         check_output(path, &["json"], "--stats")?;
     }
+    if let Some(sensors) = &job.sensors {
+        check_output(&sensors.out, &["csv"], "--sensors-out")?;
+        if sensors.max_points == 0 {
+            return Err(Error::Settings("--max-sensors must be at least 1".into()));
+        }
+    }
     Ok(())
 }
 
@@ -379,11 +400,20 @@ pub fn validate(job: &Job) -> Result<(), Error> {
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let start = Instant::now();
     validate(job)?;
+    // The points are read first: a mistake in them is found in a moment.
+    let sensor_points = match &job.sensors {
+        Some(s) => sensors::read(&s.points, &job.load.limits, s.max_points)?,
+        None => Vec::new(),
+    };
     let loaded = scene::load_with(&job.scene, &job.load)?;
     let mut scene = loaded.scene;
     if job.settings.merge_coplanar {
         scene::merge::merge_coplanar(&mut scene.surfaces);
     }
+    let sensor_receivers = match &job.sensors {
+        Some(s) => sensors::receivers(&scene, &sensor_points, &s.points)?,
+        None => Vec::new(),
+    };
     let mut settings = job.settings.clone();
     let suggested = scene.default_mesh_sizes();
     settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
@@ -394,7 +424,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     observer.started(&scene, &mesh);
 
     let solve_start = Instant::now();
-    let mut solver = Solver::new(&scene, &mesh, settings.clone());
+    let mut solver =
+        Solver::with_sensors(&scene, &mesh, settings.clone(), sensor_receivers.clone());
     if let Some(flag) = observer.interrupt() {
         solver.interrupt_on(flag);
     }
@@ -485,6 +516,17 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     if let Some(path) = &job.vertices_csv {
         staged.push(stage(path, &mut |w| {
             export::write_vertices_csv(w, &scene, &mesh, solver.radiosity())
+        })?);
+    }
+    if let Some(sensor_job) = &job.sensors {
+        staged.push(stage(&sensor_job.out, &mut |w| {
+            export::write_sensors_csv(
+                w,
+                &scene,
+                &sensor_points,
+                &sensor_receivers,
+                solver.sensor_irradiance(),
+            )
         })?);
     }
     let threads = rayon::current_num_threads();

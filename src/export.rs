@@ -1,7 +1,8 @@
 //! Results out (design.md section 6): the picture as PNG (tone-mapped sRGB),
-//! PFM or OpenEXR (linear radiosity), the per-vertex radiosities as CSV, the
-//! run's counters as JSON, the element mesh with its colours as binary PLY,
-//! and glTF 2.0 ([`gltf`]: baked meshes and exported scenes).
+//! PFM or OpenEXR (linear radiosity), the per-vertex radiosities and the
+//! values at sensor points as CSV, the run's counters as JSON, the element
+//! mesh with its colours as binary PLY, and glTF 2.0 ([`gltf`]: baked
+//! meshes and exported scenes).
 //!
 //! Every file is written to a temporary name beside its destination and
 //! renamed only once all of a run's outputs are complete, so a failed run
@@ -173,6 +174,46 @@ pub fn write_vertices_csv(
             out,
             "{},{},{},{},{},{},{},{},{},{}",
             p.x, p.y, p.z, n.x, n.y, n.z, face, b.x, b.y, b.z
+        )?;
+    }
+    Ok(())
+}
+
+/// The CSV header of `--sensors-out`.
+pub const SENSOR_CSV_HEADER: &str = "x,y,z,nx,ny,nz,er,eg,eb,br,bg,bb,lux";
+
+/// Writes one row per sensor point, in input order: the position and unit
+/// normal as given, the irradiance `E` (W/m^2), the radiosity `B = Ke + Kd
+/// E` of the surface the point lies on (W/m^2) and the illuminance in lux
+/// as Radiance computes it ([`crate::sensors::lux`]). Like the vertex CSV,
+/// `E` and `B` hold the light shot so far (no ambient term).
+pub fn write_sensors_csv(
+    out: &mut impl Write,
+    scene: &Scene,
+    points: &[crate::sensors::SensorPoint],
+    receivers: &[crate::solver::Receiver],
+    irradiance: &[DVec3],
+) -> io::Result<()> {
+    writeln!(out, "{SENSOR_CSV_HEADER}")?;
+    for ((point, receiver), e) in points.iter().zip(receivers).zip(irradiance) {
+        let (p, n) = (point.position, point.normal);
+        let b = crate::sensors::radiosity(scene, receiver, *e);
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            p.x,
+            p.y,
+            p.z,
+            n.x,
+            n.y,
+            n.z,
+            e.x,
+            e.y,
+            e.z,
+            b.x,
+            b.y,
+            b.z,
+            crate::sensors::lux(*e)
         )?;
     }
     Ok(())

@@ -17,6 +17,7 @@ pub mod hemicube;
 pub mod mesh;
 pub mod render;
 pub mod scene;
+pub mod sensors;
 pub mod serve;
 pub mod solver;
 pub mod viewer;

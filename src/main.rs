@@ -15,7 +15,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use radiosity::accel::Accel;
-use radiosity::app::{self, BakeJob, ImageJob, Job, Outcome};
+use radiosity::app::{self, BakeJob, ImageJob, Job, Outcome, SensorJob};
 use radiosity::experiments;
 use radiosity::export::gltf::BakeMode;
 use radiosity::form_factor::FormFactor;
@@ -23,6 +23,7 @@ use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::Scene;
 use radiosity::scene::{Camera, DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions, builtin};
+use radiosity::sensors;
 use radiosity::serve;
 use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
 
@@ -130,8 +131,9 @@ impl LoadArgs {
 #[derive(Parser, Debug)]
 struct ExperimentArgs {
     /// Experiments to run, or `all` (the paper's): fig2-1, fig4-2, fig4-3,
-    /// formula-timing, fig5-1, fig5-2; and rays (the shared real scenes,
-    /// run by name only).
+    /// formula-timing, fig5-1, fig5-2; and, by name only, rays (the shared
+    /// real scenes), validate (against the Radiance reference harness) and
+    /// accuracy-curve (L1 against time, ours and Radiance's).
     #[arg(required = true, value_name = "NAME")]
     names: Vec<String>,
 
@@ -158,6 +160,12 @@ struct ExperimentArgs {
     /// Embree too (tools/embree_rays.py).
     #[arg(long, value_name = "PYTHON")]
     embree_python: Option<PathBuf>,
+
+    /// The Radiance reference harness's folder, for `validate` and
+    /// `accuracy-curve` (default: ../shared/reference). Its Python
+    /// environment is installed by its setup.sh.
+    #[arg(long, value_name = "DIR")]
+    reference: Option<PathBuf>,
 }
 
 #[derive(Parser, Debug)]
@@ -196,6 +204,21 @@ struct RenderArgs {
     /// picture's 8-bit sRGB colours and float radiosity (W/m^2).
     #[arg(long, value_name = "FILE.ply")]
     ply: Option<PathBuf>,
+
+    /// Sensor points, in Radiance's `rtrace -I` input format: one point a
+    /// line, `x y z nx ny nz` (metres; the normal says which side of the
+    /// surface to measure), `#` comments. Each point must lie on a surface
+    /// (within 1e-4 of the scene's size). Needs --sensors-out.
+    #[arg(long, value_name = "POINTS.txt", requires = "sensors_out")]
+    sensors: Option<PathBuf>,
+
+    /// Write the values at the --sensors points as CSV, one row a point in
+    /// input order: x,y,z,nx,ny,nz (as given, normal normalised),
+    /// er,eg,eb (irradiance E, W/m^2), br,bg,bb (radiosity B = Ke + Kd E
+    /// of the surface, W/m^2), lux (Radiance's 179 x (0.265 R + 0.670 G +
+    /// 0.065 B) of E).
+    #[arg(long, value_name = "FILE.csv", requires = "sensors")]
+    sensors_out: Option<PathBuf>,
 
     #[command(flatten)]
     load: LoadArgs,
@@ -355,6 +378,11 @@ struct RenderArgs {
     #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
           value_parser = positive::<usize>("--max-elements"))]
     max_elements: Option<usize>,
+
+    /// Most points in a --sensors file [default: 1000000].
+    #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
+          value_parser = positive::<usize>("--max-sensors"))]
+    max_sensors: Option<usize>,
 }
 
 /// Help heading of the options that bound a load.
@@ -551,6 +579,14 @@ impl RenderArgs {
                 })
                 .transpose()?,
             ply: self.ply.clone(),
+            sensors: match (&self.sensors, &self.sensors_out) {
+                (Some(points), Some(out)) => Some(SensorJob {
+                    points: points.clone(),
+                    out: out.clone(),
+                    max_points: self.max_sensors.unwrap_or(sensors::DEFAULT_MAX_SENSORS),
+                }),
+                _ => None,
+            },
         })
     }
 }
@@ -655,6 +691,7 @@ fn experiment(args: &ExperimentArgs) -> Result<()> {
             .join(" "),
         scenes: args.scenes.clone(),
         embree_python: args.embree_python.clone(),
+        reference: args.reference.clone(),
     };
     let written = pool(args.threads)?
         .install(|| experiments::run(&args.names, &context, |name| eprintln!("running {name}")))?;

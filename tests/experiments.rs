@@ -15,6 +15,7 @@ fn context(dir: &Path) -> Context {
         command: "cargo test --test experiments".into(),
         scenes: None,
         embree_python: None,
+        reference: None,
     }
 }
 

@@ -12,12 +12,17 @@
 //! | `fig5-1` | Figure 5.1 | the room after 9, 48 and 72 subsources, both presets |
 //! | `fig5-2` | Figure 5.2 | solve times at 9, 48 and 72 subsources |
 //! | `rays` | section 3 | BSP, BVH, brute force and Embree on real scenes' shadow segments (by name only, not in `all`) |
+//! | `validate` | beyond the paper | L1, bias, median and p90 against the Radiance reference per scene and preset, error pictures (by name only) |
+//! | `accuracy-curve` | beyond the paper | L1 against solve time for both presets and `rtrace` on the Cornell boxes (by name only) |
 
+pub mod accuracy;
 pub mod form_factors;
 pub mod plot;
 pub mod rays;
+pub mod reference;
 pub mod report;
 pub mod solves;
+pub mod validate;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -40,6 +45,9 @@ pub struct Context {
     /// A Python interpreter with the `embreex` package, to time Embree
     /// beside our accelerators (`rays`); `None` skips Embree.
     pub embree_python: Option<PathBuf>,
+    /// The Radiance reference harness's folder (`validate`,
+    /// `accuracy-curve`); `None` looks for `../shared/reference`.
+    pub reference: Option<PathBuf>,
 }
 
 impl Context {
@@ -134,6 +142,18 @@ pub const EXPERIMENTS: &[Experiment] = &[
         name: "rays",
         title: "Section 3 at scale: shadow-ray accelerators on real scenes",
         run: rays::rays,
+        in_all: false,
+    },
+    Experiment {
+        name: "validate",
+        title: "Validation against the Radiance reference",
+        run: validate::validate,
+        in_all: false,
+    },
+    Experiment {
+        name: "accuracy-curve",
+        title: "Accuracy against time: our presets and Radiance",
+        run: accuracy::accuracy_curve,
         in_all: false,
     },
 ];

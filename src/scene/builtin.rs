@@ -54,6 +54,18 @@ pub fn list() -> Vec<(&'static str, &'static str)> {
     BUILTINS.iter().map(|b| (b.name, b.description)).collect()
 }
 
+/// The OBJ text, the MTL library's file name and the MTL text of a
+/// built-in scene, as shipped under `scenes/`: to hand the scene to tools
+/// that read files (the reference harness of `radiosity experiment
+/// validate`).
+#[must_use]
+pub fn files(name: &str) -> Option<(&'static str, &'static str, &'static str)> {
+    BUILTINS
+        .iter()
+        .find(|b| b.name == name)
+        .map(|b| (b.obj, b.mtl_name, b.mtl))
+}
+
 /// Loads a built-in scene by name; `None` if there is none of that name.
 #[must_use]
 pub fn load(name: &str) -> Option<Result<Scene, SceneError>> {

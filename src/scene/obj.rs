@@ -250,7 +250,7 @@ pub fn quoted(text: &str) -> String {
 }
 
 /// A length in metres for a message, in a unit a person reads at a glance.
-fn length(metres: f64) -> String {
+pub(crate) fn length(metres: f64) -> String {
     if metres >= 1.0 {
         format!("{metres:.3} m")
     } else if metres >= 0.01 {

@@ -1,0 +1,497 @@
+//! `radiosity experiment accuracy-curve` (issue 8, item 5): accuracy
+//! against time on the built-in Cornell box and the measured one, for the
+//! paper's preset (`wong-tsang93`, the old default) at its default patch
+//! size and finer ones, the default (`adaptive`) at several tolerances and
+//! convergence thresholds, and Radiance's `rtrace -I` itself with and
+//! without its irradiance cache.
+//!
+//! Every method is scored at the same points: the 600 vertices `score.py`
+//! samples from the default preset's mesh (so the reference computed for
+//! `validate` serves here too). Our solves gather there as sensors
+//! ([`crate::sensors`]); Radiance evaluates there after the harness's own
+//! point offsets. Each result is written as a vertices CSV of those points
+//! and scored by the harness's `score.py` ([`super::reference`]).
+//!
+//! What is timed: for ours, the solve (solver construction and shots, not
+//! loading and meshing; the median of three runs when a run takes under
+//! two seconds); for Radiance, the wall time of the `rtrace` call (not the
+//! scene's conversion and `oconv`). Both on two threads: a rayon pool of
+//! two, `rtrace -n 2`.
+
+use std::fmt::Write as _;
+
+use glam::DVec3;
+use plotters::prelude::*;
+
+use super::reference::{self, Harness, Scored};
+use super::validate::{self, SceneCase, seconds, solve, write_rows};
+use super::{Context, Error, Report, median, table, write_file};
+use crate::sensors::SensorPoint;
+use crate::solver::Settings;
+
+/// The scenes of the curve.
+pub const SCENES: [SceneCase; 2] = [
+    SceneCase {
+        name: "cornell",
+        source: "cornell",
+        shared: false,
+    },
+    SceneCase {
+        name: "cornell_box",
+        source: "cornell_box/cornell_box.obj",
+        shared: true,
+    },
+];
+
+/// Threads (ours) and processes (rtrace) of every run.
+pub const THREADS: usize = 2;
+
+/// One of our configurations.
+#[derive(Clone, Debug)]
+struct Ours {
+    series: &'static str,
+    setting: String,
+    settings: Settings,
+    patch_size: Option<f64>,
+}
+
+/// Our configurations: the paper's preset at its default patch size and
+/// finer ones, the default preset at several tolerances and two
+/// convergence thresholds.
+fn ours(quick: bool) -> Vec<Ours> {
+    let mut list = Vec::new();
+    let patch_sizes: &[Option<f64>] = if quick {
+        &[None]
+    } else {
+        &[None, Some(0.2), Some(0.1), Some(0.05)]
+    };
+    for &patch_size in patch_sizes {
+        list.push(Ours {
+            series: "wong-tsang93 (patch size)",
+            setting: patch_size
+                .map_or_else(|| "default patches".into(), |p| format!("--patch-size {p}")),
+            settings: Settings::wong_tsang93(),
+            patch_size,
+        });
+    }
+    let tolerances: &[f64] = if quick {
+        &[1e-2]
+    } else {
+        &[1e-2, 3e-3, 1e-3, 3e-4]
+    };
+    for (series, converge) in [
+        ("adaptive, --converge 1e-2 (tolerance)", 1e-2),
+        ("adaptive, --converge 1e-3 (tolerance)", 1e-3),
+    ] {
+        for &tolerance in tolerances {
+            list.push(Ours {
+                series,
+                setting: format!("--tolerance {tolerance:e} --converge {converge:e}"),
+                settings: Settings {
+                    tolerance,
+                    converge,
+                    ..Settings::adaptive()
+                },
+                patch_size: None,
+            });
+        }
+    }
+    list
+}
+
+/// Radiance's runs: (series, name, rtrace options after `-I`).
+fn radiance_runs(quick: bool) -> Vec<(&'static str, String, String)> {
+    let mut runs = vec![(
+        "rtrace -ab 8 -aa 0 (no cache)",
+        "-ab 8 -aa 0 -ad 1024".to_string(),
+        "-ab 8 -aa 0 -ad 1024".to_string(),
+    )];
+    let divisions: &[u32] = if quick { &[64] } else { &[256, 1024, 4096] };
+    for &ad in divisions {
+        // As the harness's ambient method: Russian roulette rather than a
+        // depth cut-off, -lw small enough never to reduce the divisions,
+        // no ambient super-sampling (documented as biased).
+        runs.push((
+            "rtrace -ab 64 -aa 0 (-ad)",
+            format!("-ab 64 -aa 0 -ad {ad}"),
+            format!(
+                "-ab 64 -aa 0 -ad {ad} -as 0 -lr 0 -lw {:e}",
+                0.05 / f64::from(ad)
+            ),
+        ));
+    }
+    if !quick {
+        runs.push((
+            "rtrace, irradiance cache",
+            "-ab 5 -aa 0.1 -ar 256 -ad 1024 -as 512".to_string(),
+            "-ab 5 -aa 0.1 -ar 256 -ad 1024 -as 512".to_string(),
+        ));
+        runs.push((
+            "rtrace, irradiance cache",
+            "-ab 8 -aa 0.05 -ar 512 -ad 4096 -as 2048".to_string(),
+            "-ab 8 -aa 0.05 -ar 512 -ad 4096 -as 2048".to_string(),
+        ));
+    }
+    runs
+}
+
+/// One point of the curve.
+#[derive(Clone, Debug)]
+struct Measured {
+    series: &'static str,
+    setting: String,
+    seconds: f64,
+    score: reference::Score,
+}
+
+/// `radiosity experiment accuracy-curve`.
+pub fn accuracy_curve(context: &Context) -> Result<Report, Error> {
+    let harness = Harness::find(context)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(THREADS)
+        .build()
+        .map_err(|e| Error::Experiment(format!("cannot start worker threads: {e}")))?;
+    pool.install(|| curve(context, &harness))
+}
+
+fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
+    let accuracy = if context.quick { "medium" } else { "high" };
+    let mut report = Report::default();
+    report.setting("reference harness", harness.dir.display());
+    report.setting(
+        "reference",
+        format!("reference.py --accuracy {accuracy} at the points below"),
+    );
+    report.setting(
+        "timed",
+        "ours: the solve (solver construction and shots; median of 3 when under 2 s); \
+         Radiance: the rtrace call's wall time; both on 2 threads (a pool of 2, rtrace -n 2)",
+    );
+    let cases: &[SceneCase] = if context.quick { &SCENES[..1] } else { &SCENES };
+    for case in cases {
+        let path = validate::scene_file(context, case)?;
+        // The points: score.py's sample of the default preset's vertices.
+        let base = solve(&path, &Settings::adaptive(), None, &[])?;
+        let stem = format!("accuracy-{}", case.name);
+        let base_csv = context.path(&format!("{stem}-vertices.csv"));
+        validate::write_vertices(&base_csv, &base)?;
+        let sampled = harness.score(
+            &path,
+            &base_csv,
+            accuracy,
+            &context.path(&format!("{stem}-vertices.json")),
+        )?;
+        let points: Vec<SensorPoint> = sampled
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| SensorPoint {
+                position: base.mesh.vertices[r].position,
+                normal: base.mesh.vertices[r].normal,
+                line: i + 1,
+            })
+            .collect();
+        let vertex_score = reference::score(
+            &sampled
+                .rows
+                .iter()
+                .map(|&r| base.radiosity[r])
+                .collect::<Vec<_>>(),
+            &sampled.reference,
+        );
+        vertex_score.check_against(&sampled, case.name)?;
+        let mut measured = Vec::new();
+        let mut faces = Vec::new();
+        for (k, config) in ours(context.quick).iter().enumerate() {
+            let mut times = Vec::new();
+            let solved = solve(&path, &config.settings, config.patch_size, &points)?;
+            times.push(solved.solve_seconds);
+            if solved.solve_seconds < 2.0 {
+                for _ in 0..2 {
+                    times.push(
+                        solve(&path, &config.settings, config.patch_size, &points)?.solve_seconds,
+                    );
+                }
+            }
+            faces = solved
+                .receivers
+                .iter()
+                .map(|r| solved.scene.surfaces[r.surface as usize].face)
+                .collect();
+            let rows: Vec<(DVec3, DVec3, u32, DVec3)> = points
+                .iter()
+                .zip(&faces)
+                .zip(&solved.sensor_radiosity)
+                .map(|((p, f), b)| (p.position, p.normal, *f, *b))
+                .collect();
+            let score = score_rows(
+                context,
+                harness,
+                &path,
+                &sampled,
+                &format!("{stem}-ours-{k}"),
+                &rows,
+                accuracy,
+            )?;
+            eprintln!(
+                "  {} {}: L1 {:.2}% in {:.2} s",
+                case.name,
+                config.setting,
+                100.0 * score.l1,
+                median(&mut times.clone())
+            );
+            measured.push(Measured {
+                series: config.series,
+                setting: config.setting.clone(),
+                seconds: median(&mut times),
+                score,
+            });
+        }
+        let located: Vec<(DVec3, DVec3, u32)> = points
+            .iter()
+            .zip(&faces)
+            .map(|(p, f)| (p.position, p.normal, *f))
+            .collect();
+        let runs = radiance_runs(context.quick);
+        let specs: Vec<(String, String)> = runs
+            .iter()
+            .map(|(_, name, options)| (name.clone(), options.clone()))
+            .collect();
+        let results = harness.radiance(
+            &path,
+            &located,
+            &specs,
+            THREADS,
+            &context.path(&format!("{stem}-radiance")),
+        )?;
+        for (k, (run, (series, _, _))) in results.iter().zip(&runs).enumerate() {
+            let rows: Vec<(DVec3, DVec3, u32, DVec3)> = located
+                .iter()
+                .zip(&run.radiosity)
+                .map(|((p, n, f), b)| (*p, *n, *f, *b))
+                .collect();
+            let score = score_rows(
+                context,
+                harness,
+                &path,
+                &sampled,
+                &format!("{stem}-radiance-{k}"),
+                &rows,
+                accuracy,
+            )?;
+            measured.push(Measured {
+                series,
+                setting: format!("`{}`", run.options),
+                seconds: run.seconds,
+                score,
+            });
+        }
+
+        let _ = writeln!(report.body, "## {}\n", case.name);
+        report.paragraph(&format!(
+            "{} points: score.py's sample of the default preset's {} vertices. The default \
+             preset scored at those vertices (as `validate` does): L1 {:.2}%; as sensors at the \
+             same points: the `adaptive, --converge 1e-2` row at tolerance 1e-3. The reference's \
+             own noise floor (score.py's estimate): about {:.2}%.",
+            sampled.points,
+            base.mesh.vertices.len(),
+            100.0 * vertex_score.l1,
+            100.0 * sampled.noise
+        ));
+        let rows: Vec<Vec<String>> = measured
+            .iter()
+            .map(|m| {
+                vec![
+                    m.series.to_string(),
+                    m.setting.clone(),
+                    format!("{:.2}%", 100.0 * m.score.l1),
+                    format!("{:+.2}%", 100.0 * m.score.bias),
+                    format!("{:.2}%", 100.0 * m.score.median),
+                    format!("{:.2}%", 100.0 * m.score.p90),
+                    seconds(m.seconds),
+                ]
+            })
+            .collect();
+        report.body.push_str(&table(
+            &[
+                "method", "setting", "L1", "bias", "median", "p90", "seconds",
+            ],
+            &rows,
+        ));
+        let file = format!("{stem}.svg");
+        let svg = plot_curve(&format!("{}: L1 against time", case.name), &measured)?;
+        let svg_path = context.path(&file);
+        write_file(&svg_path, svg.as_bytes())?;
+        report.files.push(svg_path);
+        let _ = writeln!(
+            report.body,
+            "![{} accuracy against time]({file})\n",
+            case.name
+        );
+    }
+    report.paragraph(
+        "Radiance: rtrace 6.0a from the pyradiance wheel on the scene as the harness's obj2rad.py \
+         converts it, emitters as `light` (Radiance cannot make a source that also reflects: \
+         the Cornell lights' reflectance 0.78 is dropped, about -1% of E in the box according \
+         to the harness's README), at the harness's offset points, `-I -n 2`, other options at \
+         rtrace's defaults. L1 = sum |B - Bref| / sum Bref; bias, median and p90 as score.py \
+         computes them (each checked against its output).",
+    );
+    Ok(report)
+}
+
+/// Writes `rows` as a vertices CSV, scores it with `score.py` (it must
+/// reuse `sampled`'s reference: the same points) and returns the score.
+fn score_rows(
+    context: &Context,
+    harness: &Harness,
+    scene: &std::path::Path,
+    sampled: &Scored,
+    stem: &str,
+    rows: &[(DVec3, DVec3, u32, DVec3)],
+    accuracy: &str,
+) -> Result<reference::Score, Error> {
+    let csv = context.path(&format!("{stem}.csv"));
+    write_rows(&csv, rows)?;
+    let scored = harness.score(
+        scene,
+        &csv,
+        accuracy,
+        &context.path(&format!("{stem}.json")),
+    )?;
+    if scored.rows.len() != rows.len() || scored.reference != sampled.reference {
+        return Err(Error::Experiment(format!(
+            "{}: score.py did not score the sampled points against their reference",
+            csv.display()
+        )));
+    }
+    let b: Vec<DVec3> = rows.iter().map(|r| r.3).collect();
+    let score = reference::score(&b, &scored.reference);
+    score.check_against(&scored, stem)?;
+    Ok(score)
+}
+
+/// Colours of the series, in order of appearance.
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(0x1f, 0x77, 0xb4),
+    RGBColor(0xd6, 0x27, 0x28),
+    RGBColor(0xff, 0x7f, 0x0e),
+    RGBColor(0x2c, 0xa0, 0x2c),
+    RGBColor(0x94, 0x67, 0xbd),
+    RGBColor(0x8c, 0x56, 0x4b),
+];
+
+/// The curve as SVG: L1 (%) against seconds, both logarithmic, one line
+/// per series.
+fn plot_curve(title: &str, measured: &[Measured]) -> Result<String, Error> {
+    let mut series: Vec<&'static str> = Vec::new();
+    for m in measured {
+        if !series.contains(&m.series) {
+            series.push(m.series);
+        }
+    }
+    let xs = measured.iter().map(|m| m.seconds.max(1e-3));
+    let ys = measured.iter().map(|m| (100.0 * m.score.l1).max(1e-3));
+    let (x_lo, x_hi) = xs.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    let (y_lo, y_hi) = ys.fold((f64::INFINITY, 0.0f64), |(lo, hi), y| {
+        (lo.min(y), hi.max(y))
+    });
+    let x_range = (x_lo / 1.5)..(x_hi * 1.5);
+    let y_range = (y_lo / 1.3)..(y_hi * 1.3);
+    let mut svg = String::new();
+    let failed = |e: &dyn std::fmt::Display| Error::Experiment(format!("plot {title}: {e}"));
+    {
+        let root = SVGBackend::with_string(&mut svg, (860, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| failed(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(14)
+            .x_label_area_size(50)
+            .y_label_area_size(64)
+            .build_cartesian_2d(x_range.log_scale(), y_range.log_scale())
+            .map_err(|e| failed(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("seconds on 2 threads (ours: solve; Radiance: rtrace)")
+            .y_desc("L1 against the reference (%)")
+            .draw()
+            .map_err(|e| failed(&e))?;
+        for (i, name) in series.iter().enumerate() {
+            let colour = PALETTE[i % PALETTE.len()];
+            let mut points: Vec<(f64, f64)> = measured
+                .iter()
+                .filter(|m| m.series == *name)
+                .map(|m| (m.seconds.max(1e-3), (100.0 * m.score.l1).max(1e-3)))
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            chart
+                .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
+                .map_err(|e| failed(&e))?
+                .label(*name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
+            chart
+                .draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                .map_err(|e| failed(&e))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| failed(&e))?;
+        root.present().map_err(|e| failed(&e))?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_curve_plots_every_series_on_log_axes() {
+        let score = |l1: f64| reference::Score {
+            l1,
+            bias: 0.0,
+            median: 0.0,
+            p90: 0.0,
+            points: 1,
+            relative: vec![],
+        };
+        let measured = vec![
+            Measured {
+                series: "a",
+                setting: "1".into(),
+                seconds: 0.5,
+                score: score(0.02),
+            },
+            Measured {
+                series: "a",
+                setting: "2".into(),
+                seconds: 5.0,
+                score: score(0.005),
+            },
+            Measured {
+                series: "b",
+                setting: "1".into(),
+                seconds: 50.0,
+                score: score(0.01),
+            },
+        ];
+        let svg = plot_curve("test", &measured).unwrap();
+        assert!(svg.starts_with("<svg"));
+        assert!(svg.contains(">a<") && svg.contains(">b<"), "legend");
+        assert!(svg.contains("L1 against the reference"));
+        assert_eq!(svg.matches("<circle").count(), 3);
+    }
+}
+#[test]
+fn tmp_dump() {
+    let m = vec![Measured{series:"a", setting:"1".into(), seconds: 1.0, score: reference::Score{l1:0.01,bias:0.0,median:0.0,p90:0.0,points:1,relative:vec![]}}, Measured{series:"a", setting:"1".into(), seconds: 10.0, score: reference::Score{l1:0.002,bias:0.0,median:0.0,p90:0.0,points:1,relative:vec![]}}];
+    std::fs::write("/tmp/sens/t.svg", plot_curve("test", &m).unwrap()).unwrap();
+}

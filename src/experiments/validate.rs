@@ -1,0 +1,517 @@
+//! `radiosity experiment validate` (issue 8, item 4): the built-in scenes
+//! and the measured Cornell box, solved with the default preset and the
+//! paper's, each scored against the Radiance reference harness
+//! ([`super::reference`]) as `score.py` scores a vertices CSV: L1, bias,
+//! median and 90th-percentile relative error over 600 sampled vertices,
+//! with the solve's time and the reference's. Each scene gets an error
+//! picture: the relative error `B / Bref - 1` at every sampled vertex the
+//! scene's camera sees, drawn as a dot on the rasterised solution in grey
+//! (blue too dark, red too bright), with a colour bar.
+//!
+//! The reference takes minutes for each new mesh (it is cached by mesh in
+//! `$REFCACHE`, default `/tmp/reference-cache`); the solves take seconds.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::plot::{self, BLACK, Canvas, ColourMap, GREY, Scale, WHITE};
+use super::reference::{self, Harness};
+use super::{Context, Error, Report, table, write_file};
+use crate::accel::{self, Accel};
+use crate::app;
+use crate::export;
+use crate::mesh::{Mesh, MeshSettings};
+use crate::render::{self, Exposure, RenderSettings};
+use crate::scene::{self, Camera, LoadOptions, Scene, builtin};
+use crate::sensors::{self, SensorPoint};
+use crate::solver::{Flow, Receiver, Settings, Solver};
+
+/// A scene of the experiments and where its OBJ comes from.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneCase {
+    /// Name in the tables and file names.
+    pub name: &'static str,
+    /// A built-in scene's name, or a path under the shared scenes' folder.
+    pub source: &'static str,
+    /// Whether `source` is in the shared scenes' folder.
+    pub shared: bool,
+}
+
+/// The scenes `validate` scores.
+pub const SCENES: [SceneCase; 4] = [
+    SceneCase {
+        name: "room",
+        source: "room",
+        shared: false,
+    },
+    SceneCase {
+        name: "cornell",
+        source: "cornell",
+        shared: false,
+    },
+    SceneCase {
+        name: "tworooms",
+        source: "tworooms",
+        shared: false,
+    },
+    SceneCase {
+        name: "cornell_box",
+        source: "cornell_box/cornell_box.obj",
+        shared: true,
+    },
+];
+
+/// The presets compared: the default and the paper's.
+#[must_use]
+pub fn presets() -> [(&'static str, Settings); 2] {
+    [
+        ("adaptive", Settings::adaptive()),
+        ("wong-tsang93", Settings::wong_tsang93()),
+    ]
+}
+
+/// The OBJ file of a scene: a built-in one is written (OBJ and MTL, as
+/// shipped) into `scenes/` of the output folder for the harness to read.
+pub fn scene_file(context: &Context, case: &SceneCase) -> Result<PathBuf, Error> {
+    if case.shared {
+        return reference::shared_scene(context, case.source);
+    }
+    let (obj, mtl_name, mtl) = builtin::files(case.source)
+        .ok_or_else(|| Error::Experiment(format!("no built-in scene {}", case.source)))?;
+    let folder = context.path("scenes");
+    std::fs::create_dir_all(&folder).map_err(|source| Error::Output {
+        path: folder.clone(),
+        source,
+    })?;
+    let path = folder.join(format!("{}.obj", case.source));
+    write_file(&path, obj.as_bytes())?;
+    write_file(&folder.join(mtl_name), mtl.as_bytes())?;
+    Ok(path)
+}
+
+/// The view of a scene's pictures: its own camera; the measured Cornell
+/// box, which brings none, is seen from the built-in box's camera (the same
+/// box, measured by the same lab).
+#[must_use]
+pub fn camera_of(case: &SceneCase, scene: &Scene) -> Camera {
+    if case.name == "cornell_box"
+        && let Some(Ok(cornell)) = builtin::load("cornell")
+        && let Some(camera) = cornell.camera
+    {
+        return camera;
+    }
+    scene.camera_or_framing()
+}
+
+/// A scene solved as `radiosity render` solves it.
+pub struct Solved {
+    /// The scene (coplanar faces merged if the settings say so).
+    pub scene: Scene,
+    /// Its mesh.
+    pub mesh: Mesh,
+    /// `B` per vertex.
+    pub radiosity: Vec<DVec3>,
+    /// What the picture shows per vertex (ambient term included).
+    pub display: Vec<DVec3>,
+    /// The sensors' receivers, in the order given.
+    pub receivers: Vec<Receiver>,
+    /// `B` at each sensor.
+    pub sensor_radiosity: Vec<DVec3>,
+    /// Seconds of the solve: the solver's construction (accelerator build)
+    /// and its shots, as `--stats` reports `solve_seconds`.
+    pub solve_seconds: f64,
+    /// Shots taken.
+    pub shots: u64,
+    /// Unshot fraction at the end.
+    pub unshot: f64,
+}
+
+/// Loads, meshes and solves the scene at `path` with `settings` (mesh sizes
+/// from `patch_size` or the scene's suggestion), gathering at `points` too.
+pub fn solve(
+    path: &Path,
+    settings: &Settings,
+    patch_size: Option<f64>,
+    points: &[SensorPoint],
+) -> Result<Solved, Error> {
+    let name = path.to_string_lossy();
+    let mut scene = scene::load_with(&name, &LoadOptions::default())
+        .map_err(app::Error::from)?
+        .scene;
+    if settings.merge_coplanar {
+        scene::merge::merge_coplanar(&mut scene.surfaces);
+    }
+    let receivers = if points.is_empty() {
+        Vec::new()
+    } else {
+        sensors::receivers(&scene, points, Path::new("sensor points")).map_err(app::Error::from)?
+    };
+    let sizes = scene.default_mesh_sizes();
+    let mesh_settings = MeshSettings {
+        patch_size: patch_size.unwrap_or(sizes.patch_size),
+        element_size: sizes.element_size,
+        ..settings.mesh
+    };
+    let mut settings = settings.clone();
+    settings.mesh = mesh_settings;
+    let mesh = Mesh::build(&scene, &mesh_settings).map_err(|e| Error::App(app::Error::Mesh(e)))?;
+    let start = Instant::now();
+    let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers.clone());
+    solver.run(|_| Flow::Continue);
+    let solve_seconds = start.elapsed().as_secs_f64();
+    let sensor_radiosity = receivers
+        .iter()
+        .zip(solver.sensor_irradiance())
+        .map(|(r, e)| sensors::radiosity(&scene, r, *e))
+        .collect();
+    let radiosity = solver.radiosity().to_vec();
+    let display = solver.display_radiosity(true);
+    let shots = solver.stats().shots;
+    let unshot = solver.unshot_fraction();
+    drop(solver);
+    Ok(Solved {
+        scene,
+        mesh,
+        radiosity,
+        display,
+        receivers,
+        sensor_radiosity,
+        solve_seconds,
+        shots,
+        unshot,
+    })
+}
+
+/// Writes rows of a vertices CSV (`export::VERTEX_CSV_HEADER`): position,
+/// normal, input face and `B`.
+pub fn write_rows(path: &Path, rows: &[(DVec3, DVec3, u32, DVec3)]) -> Result<(), Error> {
+    let mut text = String::from(export::VERTEX_CSV_HEADER);
+    text.push('\n');
+    for (p, n, face, b) in rows {
+        text.push_str(&format!(
+            "{},{},{},{},{},{},{face},{},{},{}\n",
+            p.x, p.y, p.z, n.x, n.y, n.z, b.x, b.y, b.z
+        ));
+    }
+    write_file(path, text.as_bytes())
+}
+
+/// The vertices CSV of a solve, as `--vertices` writes it.
+pub fn write_vertices(path: &Path, solved: &Solved) -> Result<(), Error> {
+    export::Staged::write(path, |w| {
+        export::write_vertices_csv(w, &solved.scene, &solved.mesh, &solved.radiosity)
+    })
+    .and_then(export::Staged::commit)
+    .map_err(|source| Error::Output {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The colour bar of the error pictures spans this relative error either
+/// way; larger errors take the end colours.
+pub const ERROR_RANGE: f64 = 0.2;
+
+/// A point of an error picture.
+#[derive(Clone, Copy, Debug)]
+pub struct ErrorPoint {
+    /// Where (on its surface).
+    pub position: DVec3,
+    /// Its surface's normal.
+    pub normal: DVec3,
+    /// Its surface id, which cannot hide it.
+    pub group: u32,
+    /// `B / Bref - 1`; `None` for points left out of the median (too dark,
+    /// or no reference), drawn grey.
+    pub relative: Option<f64>,
+}
+
+/// Rows above an error picture's view, for its title.
+pub const TITLE_HEIGHT: usize = 24;
+
+/// Draws `points` as dots on the solution, rendered with our rasteriser
+/// from `camera` and shown in light grey, with `title` above; points the
+/// camera does not see (behind a surface, facing away, out of view) are
+/// left out. The dot colour is [`ColourMap::Diverging`] over
+/// `+-ERROR_RANGE`: blue too dark, white right, red too bright.
+#[must_use]
+pub fn error_picture(
+    scene: &Scene,
+    mesh: &Mesh,
+    display: &[DVec3],
+    camera: Camera,
+    points: &[ErrorPoint],
+    title: &str,
+    size: (u32, u32),
+) -> Canvas {
+    let (width, height) = size;
+    let image = render::render(
+        scene,
+        mesh,
+        display,
+        &RenderSettings {
+            width,
+            height,
+            camera,
+            supersampling: 2,
+        },
+    );
+    let srgb = image.to_srgb8(image.exposure_scale(Exposure::Auto { ev: 0.0 }));
+    let title_height = TITLE_HEIGHT;
+    let (w, h) = (width as usize, height as usize);
+    let mut canvas = Canvas::new(w, h + title_height, WHITE);
+    let font = if plot::text_width(title, 2) + 8 <= w {
+        2
+    } else {
+        1
+    };
+    canvas.text(4, 5, title, font, BLACK);
+    for y in 0..h {
+        for x in 0..w {
+            let i = 3 * (y * w + x);
+            let luma = 0.2126 * f64::from(srgb[i])
+                + 0.7152 * f64::from(srgb[i + 1])
+                + 0.0722 * f64::from(srgb[i + 2]);
+            // Lightened grey, so the dots' colours stand out.
+            let g = (110.0 + 0.55 * luma).round() as u8;
+            canvas.set(x as i64, (y + title_height) as i64, [g, g, g]);
+        }
+    }
+    let occluder = Accel::Bvh.build(&scene.surfaces);
+    let forward = (camera.target - camera.eye).normalize();
+    let right = forward.cross(camera.up).normalize();
+    let up = right.cross(forward);
+    let scale = 0.5 * f64::from(height) / (0.5 * camera.fov_degrees.to_radians()).tan();
+    let scale_map = Scale::Linear {
+        min: -ERROR_RANGE,
+        max: ERROR_RANGE,
+    };
+    let mut visible: Vec<(f64, f64, f64, plot::Rgb)> = Vec::new();
+    for point in points {
+        let d = point.position - camera.eye;
+        let depth = d.dot(forward);
+        if depth <= 0.0 || point.normal.dot(-d) <= 0.0 {
+            continue;
+        }
+        let (from, to) = accel::shorten(camera.eye, point.position);
+        if occluder.occluded(from, to, [point.group, point.group]) {
+            continue;
+        }
+        let x = 0.5 * f64::from(width) + scale * d.dot(right) / depth;
+        let y = 0.5 * f64::from(height) - scale * d.dot(up) / depth;
+        if !(0.0..f64::from(width)).contains(&x) || !(0.0..f64::from(height)).contains(&y) {
+            continue;
+        }
+        let colour = match point.relative {
+            Some(r) => ColourMap::Diverging.colour(scale_map.position(r)),
+            None => GREY,
+        };
+        visible.push((depth, x, y, colour));
+    }
+    // Far dots first, so near ones are drawn over them.
+    visible.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let radius = (f64::from(width) / 160.0).max(2.0);
+    for (_, x, y, colour) in visible {
+        disc(&mut canvas, x, y + title_height as f64, radius + 1.0, BLACK);
+        disc(&mut canvas, x, y + title_height as f64, radius, colour);
+    }
+    canvas
+}
+
+/// Fills a disc of `radius` pixels centred at `(x, y)`.
+fn disc(canvas: &mut Canvas, x: f64, y: f64, radius: f64, colour: plot::Rgb) {
+    let r = radius.ceil() as i64;
+    let (cx, cy) = (x.floor() as i64, y.floor() as i64);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let (px, py) = (cx + dx, cy + dy);
+            let (fx, fy) = (px as f64 + 0.5 - x, py as f64 + 0.5 - y);
+            if fx * fx + fy * fy <= radius * radius {
+                canvas.set(px, py, colour);
+            }
+        }
+    }
+}
+
+/// The colour bar of the error pictures, `height` pixels tall.
+#[must_use]
+pub fn error_bar(height: usize) -> Canvas {
+    let ticks: Vec<plot::Tick> = [-1.0, -0.5, 0.0, 0.5, 1.0]
+        .iter()
+        .map(|&f| {
+            let v = f * ERROR_RANGE;
+            let label = if v == 0.0 {
+                "0".to_string()
+            } else {
+                format!("{:+.0}%", 100.0 * v)
+            };
+            (v, label)
+        })
+        .collect();
+    plot::colour_bar(
+        ColourMap::Diverging,
+        Scale::Linear {
+            min: -ERROR_RANGE,
+            max: ERROR_RANGE,
+        },
+        &ticks,
+        height,
+    )
+}
+
+/// Percent with two decimals.
+fn percent(x: f64) -> String {
+    format!("{:.2}%", 100.0 * x)
+}
+
+/// Signed percent with two decimals.
+fn signed_percent(x: f64) -> String {
+    format!("{:+.2}%", 100.0 * x)
+}
+
+/// Seconds, readable.
+pub fn seconds(s: f64) -> String {
+    if s < 10.0 {
+        format!("{s:.2}")
+    } else {
+        format!("{s:.0}")
+    }
+}
+
+/// `radiosity experiment validate`.
+pub fn validate(context: &Context) -> Result<Report, Error> {
+    let harness = Harness::find(context)?;
+    let accuracy = if context.quick { "medium" } else { "high" };
+    let cases: &[SceneCase] = if context.quick {
+        &SCENES[1..2]
+    } else {
+        &SCENES
+    };
+    let mut report = Report::default();
+    report.setting("reference harness", harness.dir.display());
+    report.setting(
+        "reference",
+        format!(
+            "reference.py --accuracy {accuracy} at the 600 vertices score.py samples, cached in \
+             $REFCACHE (default /tmp/reference-cache)"
+        ),
+    );
+    report.setting(
+        "presets",
+        "adaptive (the default) and wong-tsang93 (the paper's), each at its default settings",
+    );
+    report.setting("threads", rayon::current_num_threads());
+    let mut rows = Vec::new();
+    let mut pictures = Vec::new();
+    for case in cases {
+        let path = scene_file(context, case)?;
+        let mut panels = Vec::new();
+        for (preset, settings) in presets() {
+            let solved = solve(&path, &settings, None, &[])?;
+            let stem = format!("validate-{}-{preset}", case.name);
+            let csv = context.path(&format!("{stem}.csv"));
+            write_vertices(&csv, &solved)?;
+            let scored = harness.score(
+                &path,
+                &csv,
+                accuracy,
+                &context.path(&format!("{stem}.json")),
+            )?;
+            let b: Vec<DVec3> = scored.rows.iter().map(|&r| solved.radiosity[r]).collect();
+            let ours = reference::score(&b, &scored.reference);
+            ours.check_against(&scored, &format!("{} {preset}", case.name))?;
+            rows.push(vec![
+                case.name.to_string(),
+                preset.to_string(),
+                solved.mesh.vertices.len().to_string(),
+                percent(ours.l1),
+                signed_percent(ours.bias),
+                percent(ours.median),
+                percent(ours.p90),
+                format!("{} / {:.2}%", solved.shots, 100.0 * solved.unshot),
+                seconds(solved.solve_seconds),
+                scored.reference_seconds.map_or_else(|| "-".into(), seconds),
+            ]);
+            let points: Vec<ErrorPoint> = scored
+                .rows
+                .iter()
+                .zip(&ours.relative)
+                .map(|(&r, relative)| {
+                    let v = &solved.mesh.vertices[r];
+                    ErrorPoint {
+                        position: v.position,
+                        normal: v.normal,
+                        group: v.group,
+                        relative: *relative,
+                    }
+                })
+                .collect();
+            let title = format!("{} {preset}: L1 {}", case.name, percent(ours.l1));
+            panels.push(error_picture(
+                &solved.scene,
+                &solved.mesh,
+                &solved.display,
+                camera_of(case, &solved.scene),
+                &points,
+                &title,
+                if context.quick {
+                    (240, 180)
+                } else {
+                    (480, 360)
+                },
+            ));
+        }
+        let bar = error_bar(panels[0].height - 40);
+        let cells: Vec<Option<&Canvas>> = panels.iter().map(Some).collect();
+        let grid = Canvas::grid(&cells, cells.len(), 6, WHITE);
+        let mut picture = Canvas::new(grid.width + bar.width + 12, grid.height, WHITE);
+        picture.draw(&grid, 0, 0);
+        picture.draw(&bar, (grid.width + 6) as i64, 20);
+        let file = format!("validate-{}.png", case.name);
+        let picture_path = context.path(&file);
+        picture
+            .write_png(&picture_path)
+            .map_err(|source| Error::Output {
+                path: picture_path.clone(),
+                source,
+            })?;
+        report.files.push(picture_path);
+        pictures.push((case.name, file));
+    }
+    report.body.push_str(&table(
+        &[
+            "scene",
+            "preset",
+            "vertices",
+            "L1",
+            "bias",
+            "median",
+            "p90",
+            "shots / unshot",
+            "solve s",
+            "reference s",
+        ],
+        &rows,
+    ));
+    report.paragraph(
+        "L1 = sum |B - Bref| / sum Bref over the sampled vertices (channel means); bias = sum B / \
+         sum Bref - 1; median and p90: of |B / Bref - 1| over the points brighter than 2% of the \
+         95th percentile of Bref. These are score.py's numbers (every score is checked against \
+         its own output). Solve seconds: the solver's construction (accelerator build) and its \
+         shots, not loading and meshing. Reference seconds: when the reference was computed \
+         (2 cores), read from its cache.",
+    );
+    report.paragraph(
+        "Error pictures: each sampled vertex the scene's camera sees, as a dot coloured by B / \
+         Bref - 1 (blue: too dark, white: right, red: too bright; the bar spans -20% to +20%, \
+         beyond which the end colours stay), on the solution in grey. Grey dots: vertices \
+         darker than 2% of the 95th percentile, which score.py leaves out of the median and \
+         p90. The measured Cornell box is seen from the built-in box's camera.",
+    );
+    for (name, file) in pictures {
+        report.body.push_str(&format!("![{name}]({file})\n\n"));
+    }
+    Ok(report)
+}
