@@ -911,6 +911,7 @@ fn job(scene: &str, dir: &Path, bake: Option<(&str, BakeMode)>, image: &str) -> 
             mode,
         }),
         ply: Some(dir.join("mesh.ply")),
+        max_memory: None,
     }
 }
 

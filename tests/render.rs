@@ -42,6 +42,7 @@ fn cornell_box_red_wall_is_redder_and_exposure_is_sane() {
         load: Default::default(),
         bake: None,
         ply: None,
+        max_memory: None,
     };
     app::run(&job, &mut ()).unwrap();
     let (w, h, rgb) = decode(&path);
