@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use crate::export::gltf::{Bake, BakeMode};
 use crate::export::{self, Staged};
+use crate::memory;
 use crate::mesh::{Mesh, MeshError};
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, Camera, LoadOptions, MeshHint, Scene, SceneError};
@@ -60,6 +61,9 @@ pub struct Job {
     pub bake: Option<BakeJob>,
     /// `--ply FILE.ply`.
     pub ply: Option<PathBuf>,
+    /// `--max-memory`: the memory the run may use, bytes; `None` takes what
+    /// the machine has available ([`memory::check`]).
+    pub max_memory: Option<u64>,
     /// `--sensors POINTS.txt --sensors-out FILE.csv`.
     pub sensors: Option<SensorJob>,
 }
@@ -97,6 +101,9 @@ pub enum Error {
     /// A setting is out of range.
     #[error("{0}")]
     Settings(String),
+    /// The run would need more memory than it may use.
+    #[error("{0}")]
+    Memory(memory::TooLarge),
     /// An output file could not be written.
     #[error("{path}: cannot write: {source}", path = path.display())]
     Output {
@@ -264,6 +271,11 @@ pub struct Outcome {
     pub written: Vec<PathBuf>,
     /// Warnings from loading.
     pub warnings: Vec<String>,
+    /// The most memory the process held resident, bytes, when the outputs
+    /// were written (`None` where the system does not say).
+    pub peak_memory_bytes: Option<u64>,
+    /// The estimate the run was checked against before its solve.
+    pub memory_estimate: memory::Estimate,
 }
 
 /// Sizes of a meshed scene.
@@ -421,6 +433,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let mesh = Mesh::build(&scene, &settings.mesh)
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     let mut counts = Counts::of(&scene, &mesh);
+    let memory_estimate = memory::estimate(&memory_sizes(job, &scene, &mesh), &settings);
+    memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
     observer.started(&scene, &mesh);
 
     let solve_start = Instant::now();
@@ -542,7 +556,10 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         accel_statistics: solver.accel_statistics(),
         written: Vec::new(),
         warnings: scene.warnings.clone(),
+        peak_memory_bytes: None,
+        memory_estimate,
     };
+    outcome.peak_memory_bytes = memory::peak_resident_bytes();
     if let Some(path) = &job.stats_json {
         outcome.total_time = start.elapsed();
         let json = stats_json(&settings, &outcome);
@@ -553,7 +570,39 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     }
     outcome.written = commit_all(staged)?;
     outcome.total_time = start.elapsed();
+    outcome.peak_memory_bytes = memory::peak_resident_bytes();
     Ok(outcome)
+}
+
+/// The counts a run's memory estimate takes: the meshed scene's, and the
+/// picture drawn for the image, bake or PLY (800 x 600 when none is asked
+/// for, as [`run`] draws it).
+fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
+    let drawn = job.image.is_some() || job.bake.is_some() || job.ply.is_some();
+    let (width, height, supersampling, camera) = match &job.image {
+        Some(image) => (
+            image.width,
+            image.height,
+            image.supersampling,
+            image.camera.is_some(),
+        ),
+        None => (800, 600, 1, false),
+    };
+    let pixels = if drawn {
+        u64::from(width) * u64::from(height)
+    } else {
+        0
+    };
+    memory::Sizes {
+        surfaces: scene.surfaces.len() as u64,
+        patches: mesh.patches.len() as u64,
+        elements: mesh.elements.len() as u64,
+        vertices: mesh.vertices.len() as u64,
+        samples: pixels * u64::from(supersampling).pow(2),
+        pixels,
+        view: drawn && !camera && scene.camera.is_none(),
+        bake: job.bake.is_some(),
+    }
 }
 
 /// The `COLOR_0` values of a bake and the metadata recorded beside them
@@ -762,6 +811,8 @@ fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
         "form_factor_thread_seconds": s.form_factor_time.as_secs_f64(),
         "bookkeeping_seconds": s.bookkeeping_time.as_secs_f64(),
         "total_seconds": outcome.total_time.as_secs_f64(),
+        "peak_memory_bytes": outcome.peak_memory_bytes,
+        "estimated_memory_bytes": outcome.memory_estimate.total(),
         "threads": outcome.threads,
         "accel_build": outcome
             .accel_statistics

@@ -14,6 +14,7 @@ pub mod export;
 pub mod form_factor;
 pub mod geometry;
 pub mod hemicube;
+pub mod memory;
 pub mod mesh;
 pub mod render;
 pub mod scene;

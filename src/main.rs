@@ -383,6 +383,18 @@ struct RenderArgs {
     #[arg(long, value_name = "N", help_heading = LIMITS, allow_negative_numbers = true,
           value_parser = positive::<usize>("--max-sensors"))]
     max_sensors: Option<usize>,
+    /// Memory the run may use, e.g. 8G, 1.5GiB or 512M (a bare number is
+    /// MiB). A run whose estimated peak exceeds it is refused before its
+    /// solve, naming the setting to change [default: the machine's
+    /// available memory].
+    #[arg(long, value_name = "SIZE", help_heading = LIMITS, allow_hyphen_values = true,
+          value_parser = memory_size)]
+    max_memory: Option<u64>,
+}
+
+/// `--max-memory`'s value.
+fn memory_size(text: &str) -> Result<u64, String> {
+    radiosity::memory::parse_size(text).map_err(|m| format!("--max-memory: {m}"))
 }
 
 /// Help heading of the options that bound a load.
@@ -587,6 +599,7 @@ impl RenderArgs {
                 }),
                 _ => None,
             },
+            max_memory: self.max_memory,
         })
     }
 }
@@ -869,6 +882,13 @@ fn print_summary(o: &Outcome) {
         o.solve_time.as_secs_f64(),
         o.threads
     );
+    if let Some(peak) = o.peak_memory_bytes {
+        println!(
+            "memory: peak {} resident (estimated {})",
+            radiosity::memory::bytes(peak),
+            radiosity::memory::bytes(o.memory_estimate.total())
+        );
+    }
     for path in &o.written {
         println!("wrote {}", path.display());
     }

@@ -912,6 +912,7 @@ fn job(scene: &str, dir: &Path, bake: Option<(&str, BakeMode)>, image: &str) -> 
         }),
         ply: Some(dir.join("mesh.ply")),
         sensors: None,
+        max_memory: None,
     }
 }
 

@@ -43,6 +43,7 @@ fn cornell_box_red_wall_is_redder_and_exposure_is_sane() {
         bake: None,
         ply: None,
         sensors: None,
+        max_memory: None,
     };
     app::run(&job, &mut ()).unwrap();
     let (w, h, rgb) = decode(&path);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the loader fuzzers (fuzz/, libFuzzer through cargo-fuzz).
 #
-#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, ...)
+#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf)
 #   tools/fuzz.sh all SECONDS        every target in fuzz/Cargo.toml in turn
 #   tools/fuzz.sh list               the targets
 #
@@ -48,7 +48,8 @@ if [ "$target" = all ]; then
 fi
 targets | grep -qx "$target" || { echo "no fuzz target '$target' (tools/fuzz.sh list)" >&2; exit 1; }
 
-mkdir -p "corpus/$target" "artifacts/$target" logs generated-seeds/obj generated-seeds/mtl
+mkdir -p "corpus/$target" "artifacts/$target" logs generated-seeds/obj generated-seeds/mtl \
+    generated-seeds/gltf
 # The test scenes as seeds: the built-in ones, and the shared measured
 # Cornell box (beside a clone, or two levels up from a worktree).
 for scene in ../scenes/cornell ../scenes/room \
@@ -59,10 +60,16 @@ for scene in ../scenes/cornell ../scenes/room \
         cp "$scene.mtl" "generated-seeds/mtl/$name.mtl"
     fi
 done
+# The glTF test files: a Blender export (GLB), and a .gltf with its
+# external buffer (JSON, a NUL, the buffer, as the gltf target splits it).
+cp ../tests/data/blender-cornell.glb generated-seeds/gltf/
+{ cat ../tests/data/hierarchy.gltf; printf '\0'; cat ../tests/data/hierarchy.bin; } \
+    > generated-seeds/gltf/hierarchy
 case "$target" in
     # OBJ targets share the OBJ seeds.
     obj | load_mesh) seeds=(seeds/obj generated-seeds/obj) ;;
     mtl) seeds=(generated-seeds/mtl) ;;
+    gltf) seeds=(seeds/gltf generated-seeds/gltf) ;;
     *) seeds=(); [ -d "seeds/$target" ] && seeds=("seeds/$target") ;;
 esac
 # -max_len: inputs up to 64 KiB (the load_mesh target itself skips inputs

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use radiosity::geometry;
-use radiosity::scene::{Limits, Scene, SceneError, obj};
+use radiosity::scene::{Limits, LoadOptions, Scene, SceneError, gltf, obj};
 
 /// Limits small enough that one input runs in milliseconds.
 pub const LIMITS: Limits = Limits {
@@ -81,4 +81,64 @@ pub fn check_error(error: &SceneError) {
     let text = error.to_string();
     assert!(text.len() < 2_000, "a message of {} bytes", text.len());
     assert!(!text.is_empty());
+}
+
+/// An input as a glTF file and the one external file every URI resolves
+/// to: a GLB (starting with the `glTF` magic) is the whole input and has no
+/// external file; otherwise the bytes before the first NUL are the JSON
+/// document and the rest the external file (a buffer or an image), as for
+/// the OBJ targets.
+#[must_use]
+pub fn split_gltf(data: &[u8]) -> (&[u8], Option<&[u8]>) {
+    if data.starts_with(b"glTF") {
+        return (data, None);
+    }
+    match data.iter().position(|&b| b == 0) {
+        Some(i) => (&data[..i], Some(&data[i + 1..])),
+        None => (data, None),
+    }
+}
+
+/// Loads an input through the glTF loader's from-bytes entry
+/// (`gltf::load_slice`) under [`LIMITS`]; every URI that is not a `data:`
+/// URI resolves to the external part, or is missing.
+pub fn load_gltf(data: &[u8]) -> Result<(Scene, gltf::Appearance), SceneError> {
+    let (document, external) = split_gltf(data);
+    let options = LoadOptions {
+        limits: LIMITS,
+        ..LoadOptions::default()
+    };
+    gltf::load_slice(
+        "fuzz",
+        Path::new("fuzz.gltf"),
+        document,
+        &mut |_uri: &str| match external {
+            Some(bytes) => Ok(bytes.to_vec()),
+            None => Err(std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "no such file",
+            )),
+        },
+        &options,
+    )
+}
+
+/// What a glTF load guarantees beyond [`check_scene`]: the appearance kept
+/// for the bake has one material and one set of texture coordinates per
+/// surface, each with one entry per corner, and one image per image of the
+/// document.
+pub fn check_appearance(scene: &Scene, appearance: &gltf::Appearance) {
+    assert_eq!(appearance.material.len(), scene.surfaces.len());
+    assert_eq!(appearance.uvs.len(), scene.surfaces.len());
+    for (surface, sets) in scene.surfaces.iter().zip(&appearance.uvs) {
+        assert!(sets.len() <= appearance.texcoord_sets);
+        for set in sets {
+            assert_eq!(set.len(), surface.polygon.len());
+            assert!(set.iter().all(|uv| uv[0].is_finite() && uv[1].is_finite()));
+        }
+    }
+    for m in appearance.material.iter().flatten() {
+        assert!(*m < appearance.json.materials.len());
+    }
+    assert_eq!(appearance.images.len(), appearance.json.images.len());
 }

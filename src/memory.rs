@@ -1,0 +1,521 @@
+//! Memory (issue 9, item 5; beyond the paper): the peak resident set of
+//! this process, what the machine has available, and an estimate of a run's
+//! peak from the counts known once the scene is meshed, so a run that would
+//! exhaust the machine is refused before its solve, naming the setting to
+//! change.
+//!
+//! The model adds, for each kind of item, its count times a cost in bytes
+//! measured on the shared scenes with a counting allocator
+//! (`examples/memory_costs.rs`; the measurements are in EXPERIMENTS.md,
+//! "Memory"):
+//!
+//! | part | cost |
+//! | --- | --- |
+//! | process | [`BASE`]: the binary, libraries, thread stacks |
+//! | scene | [`SURFACE`] a surface (polygon, plane, material) |
+//! | mesh | [`ELEMENT`] an element, [`VERTEX`] a vertex, [`PATCH`] a patch (the structures with their vectors' growth slack) |
+//! | accelerator | [`ACCEL`] a surface, BVH or BSP alike |
+//! | solver | per vertex (receiver, radiosity, irradiance; patch shooting keeps more per receiver), per element (adaptive shooting's unshot radiosity and cluster hierarchy), per surface (the prepared surfaces of the segment test): [`SolverCosts`] |
+//! | item buffers | the hemicube pre-test's buffers, [`crate::solver::item_buffer_bytes`] |
+//! | last stage | the largest of: a shot's buffers ([`SHOT_VERTEX`] a vertex), the picture (samples at [`SAMPLE`], pixels at [`PIXEL`], [`SCREEN_ELEMENT`] an element projected), the default view's BVH ([`VIEW_SURFACE`] a surface, when the scene brings no camera), the glTF bake ([`BAKE_VERTEX`], [`BAKE_ELEMENT`]) |
+//!
+//! Everything but the last stage lives until the outputs are written, so
+//! the peak is their sum plus the largest last stage. On the shared scenes
+//! the estimate is within a factor of 1.5 of the measured peak (tested on
+//! the built-in scenes and Sponza in `tests/memory.rs`).
+
+use std::fmt;
+
+use crate::solver::{Settings, Shooting, Visibility, item_buffer_bytes};
+
+/// The process before any scene: binary, libraries, thread stacks.
+pub const BASE: u64 = 12 << 20;
+/// A loaded surface.
+pub const SURFACE: f64 = 310.0;
+/// A mesh element.
+pub const ELEMENT: f64 = 60.0;
+/// A mesh vertex.
+pub const VERTEX: f64 = 84.0;
+/// A mesh patch.
+pub const PATCH: f64 = 180.0;
+/// The shadow-ray accelerator, per surface.
+pub const ACCEL: f64 = 135.0;
+/// A shot's buffers, per vertex.
+pub const SHOT_VERTEX: f64 = 64.0;
+/// The displayed radiosity, per vertex.
+pub const DISPLAY_VERTEX: f64 = 24.0;
+/// A picture sample (colour and coverage).
+pub const SAMPLE: f64 = 13.0;
+/// A picture pixel (colour and coverage).
+pub const PIXEL: f64 = 16.0;
+/// An element projected for the picture (two screen triangles).
+pub const SCREEN_ELEMENT: f64 = 160.0;
+/// The default view's BVH while it is built, per surface
+/// ([`crate::scene::interior`]).
+pub const VIEW_SURFACE: f64 = 625.0;
+/// The glTF bake, per vertex (position, normal, colour; built, then
+/// staged).
+pub const BAKE_VERTEX: f64 = 80.0;
+/// The glTF bake, per element (indices).
+pub const BAKE_ELEMENT: f64 = 48.0;
+
+/// The solver's own memory per item, for one way of shooting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverCosts {
+    /// Per vertex.
+    pub vertex: f64,
+    /// Per element.
+    pub element: f64,
+    /// Per surface.
+    pub surface: f64,
+}
+
+impl SolverCosts {
+    /// Measured costs of a way of shooting.
+    #[must_use]
+    pub fn of(shooting: Shooting) -> SolverCosts {
+        match shooting {
+            Shooting::Adaptive => SolverCosts {
+                vertex: 104.0,
+                element: 270.0,
+                surface: 400.0,
+            },
+            Shooting::Patches => SolverCosts {
+                vertex: 264.0,
+                element: 0.0,
+                surface: 260.0,
+            },
+        }
+    }
+}
+
+/// What a run holds, for the estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sizes {
+    /// Input surfaces.
+    pub surfaces: u64,
+    /// Mesh patches.
+    pub patches: u64,
+    /// Mesh elements.
+    pub elements: u64,
+    /// Mesh vertices.
+    pub vertices: u64,
+    /// Picture samples (pixels times supersampling squared); 0 for none.
+    pub samples: u64,
+    /// Picture pixels; 0 for none.
+    pub pixels: u64,
+    /// Whether the default view is computed (no camera given).
+    pub view: bool,
+    /// Whether a glTF bake is written.
+    pub bake: bool,
+}
+
+/// One part of an estimate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    /// What it is, e.g. `elements`.
+    pub name: &'static str,
+    /// How many items (1 for a lump).
+    pub count: u64,
+    /// Bytes each.
+    pub each: f64,
+    /// The setting that changes it, for messages.
+    pub remedy: &'static str,
+}
+
+impl Part {
+    /// The part's bytes.
+    #[must_use]
+    pub fn bytes(&self) -> f64 {
+        self.count as f64 * self.each
+    }
+}
+
+/// An estimate of a run's peak resident memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Parts that live until the outputs are written.
+    pub kept: Vec<Part>,
+    /// Alternatives of the last stage; the largest counts.
+    pub last: Vec<Part>,
+}
+
+impl Estimate {
+    /// The estimated peak, bytes.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        let kept: f64 = self.kept.iter().map(Part::bytes).sum();
+        let last = self.last.iter().map(Part::bytes).fold(0.0, f64::max);
+        (kept + last).ceil() as u64
+    }
+
+    /// The parts that count, largest first.
+    #[must_use]
+    pub fn parts(&self) -> Vec<&Part> {
+        let mut parts: Vec<&Part> = self.kept.iter().collect();
+        if let Some(last) = self
+            .last
+            .iter()
+            .max_by(|a, b| a.bytes().total_cmp(&b.bytes()))
+        {
+            parts.push(last);
+        }
+        parts.sort_by(|a, b| b.bytes().total_cmp(&a.bytes()));
+        parts
+    }
+}
+
+impl fmt::Display for Estimate {
+    /// `about 31.2 GiB (elements 120M at 180 B each, ...)`: the four
+    /// largest parts.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let parts: Vec<String> = self
+            .parts()
+            .iter()
+            .take(4)
+            .map(|p| {
+                if p.count == 1 {
+                    format!("{} {}", p.name, bytes(p.bytes() as u64))
+                } else {
+                    format!("{} {} at {:.0} B each", p.name, count(p.count), p.each)
+                }
+            })
+            .collect();
+        write!(f, "about {} ({})", bytes(self.total()), parts.join(", "))
+    }
+}
+
+/// Estimates a run's peak from its sizes and settings.
+#[must_use]
+pub fn estimate(sizes: &Sizes, settings: &Settings) -> Estimate {
+    let solver = SolverCosts::of(settings.shooting);
+    let element_remedy = "raise --element-size";
+    let mut kept = vec![
+        Part {
+            name: "process",
+            count: 1,
+            each: BASE as f64,
+            remedy: "",
+        },
+        Part {
+            name: "surfaces",
+            count: sizes.surfaces,
+            each: SURFACE + ACCEL + solver.surface,
+            remedy: "simplify the scene",
+        },
+        Part {
+            name: "elements",
+            count: sizes.elements,
+            each: ELEMENT + solver.element,
+            remedy: element_remedy,
+        },
+        Part {
+            name: "vertices",
+            count: sizes.vertices,
+            each: VERTEX + solver.vertex + DISPLAY_VERTEX,
+            remedy: element_remedy,
+        },
+        Part {
+            name: "patches",
+            count: sizes.patches,
+            each: PATCH,
+            remedy: "raise --patch-size",
+        },
+    ];
+    if settings.visibility == Visibility::HemicubePretest {
+        kept.push(Part {
+            name: "item buffers",
+            count: 1,
+            each: item_buffer_bytes(settings.subsources, settings.hemicube_resolution) as f64,
+            remedy: "lower --hemicube-resolution or --subsources",
+        });
+    }
+    let mut last = vec![Part {
+        name: "shot buffers",
+        count: sizes.vertices,
+        each: SHOT_VERTEX,
+        remedy: element_remedy,
+    }];
+    if sizes.samples > 0 {
+        last.push(Part {
+            name: "picture",
+            count: 1,
+            each: sizes.samples as f64 * SAMPLE
+                + sizes.pixels as f64 * PIXEL
+                + sizes.elements as f64 * SCREEN_ELEMENT,
+            remedy: "lower --width, --height or --supersampling",
+        });
+    }
+    if sizes.view {
+        last.push(Part {
+            name: "default view",
+            count: sizes.surfaces,
+            each: VIEW_SURFACE,
+            remedy: "give --camera",
+        });
+    }
+    if sizes.bake {
+        last.push(Part {
+            name: "bake",
+            count: 1,
+            each: sizes.vertices as f64 * BAKE_VERTEX + sizes.elements as f64 * BAKE_ELEMENT,
+            remedy: element_remedy,
+        });
+    }
+    Estimate { kept, last }
+}
+
+/// Why a run is refused.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TooLarge {
+    /// The estimate.
+    pub estimate: Estimate,
+    /// What the run may use, bytes.
+    pub limit: u64,
+    /// Where the limit came from.
+    pub source: LimitSource,
+}
+
+/// Where a memory limit came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitSource {
+    /// `--max-memory`.
+    Option,
+    /// The machine's available memory (MemAvailable) plus what this
+    /// process already holds.
+    Machine,
+}
+
+impl fmt::Display for TooLarge {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut remedies: Vec<&str> = Vec::new();
+        for p in self.estimate.parts() {
+            if !p.remedy.is_empty() && !remedies.contains(&p.remedy) {
+                remedies.push(p.remedy);
+            }
+            if remedies.len() == 2 {
+                break;
+            }
+        }
+        let has = match self.source {
+            LimitSource::Option => format!("--max-memory allows {}", bytes(self.limit)),
+            LimitSource::Machine => format!("the machine has {} available", bytes(self.limit)),
+        };
+        let escape = match self.source {
+            LimitSource::Option => "raise --max-memory",
+            LimitSource::Machine => "give a larger --max-memory to try anyway",
+        };
+        remedies.push(escape);
+        write!(
+            f,
+            "this run needs {}; {has}: {}",
+            self.estimate,
+            remedies.join(", or ")
+        )
+    }
+}
+
+/// Checks an estimate against a limit: `limit` if given, else what the
+/// machine has available plus what this process already holds (the scene
+/// and mesh are resident and counted by the estimate). No limit is known
+/// on a system without `/proc/meminfo`: the check passes.
+pub fn check(estimate: &Estimate, limit: Option<u64>) -> Result<(), TooLarge> {
+    let (limit, source) = match limit {
+        Some(limit) => (limit, LimitSource::Option),
+        None => match available_bytes() {
+            Some(available) => (
+                available.saturating_add(resident_bytes().unwrap_or(0)),
+                LimitSource::Machine,
+            ),
+            None => return Ok(()),
+        },
+    };
+    if estimate.total() > limit {
+        return Err(TooLarge {
+            estimate: estimate.clone(),
+            limit,
+            source,
+        });
+    }
+    Ok(())
+}
+
+/// A field of `/proc/self/status` or `/proc/meminfo` in bytes (the files
+/// give KiB).
+fn proc_field(path: &str, field: &str) -> Option<u64> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let line = text.lines().find(|l| l.starts_with(field))?;
+    let kib: u64 = line[field.len()..]
+        .trim_start_matches(':')
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    Some(kib.saturating_mul(1024))
+}
+
+/// The most memory this process has held resident so far (Linux: `VmHWM`;
+/// elsewhere `getrusage`'s `ru_maxrss`).
+#[must_use]
+pub fn peak_resident_bytes() -> Option<u64> {
+    proc_field("/proc/self/status", "VmHWM").or_else(rusage_max_rss)
+}
+
+/// The memory this process holds resident now (Linux only).
+#[must_use]
+pub fn resident_bytes() -> Option<u64> {
+    proc_field("/proc/self/status", "VmRSS")
+}
+
+/// The memory the machine can give without swapping (Linux:
+/// `MemAvailable`).
+#[must_use]
+pub fn available_bytes() -> Option<u64> {
+    proc_field("/proc/meminfo", "MemAvailable")
+}
+
+#[cfg(unix)]
+fn rusage_max_rss() -> Option<u64> {
+    // SAFETY: getrusage writes into the zeroed struct we own.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+        return None;
+    }
+    let max = u64::try_from(usage.ru_maxrss).ok()?;
+    // Bytes on macOS, KiB elsewhere.
+    Some(if cfg!(target_os = "macos") {
+        max
+    } else {
+        max * 1024
+    })
+}
+
+#[cfg(not(unix))]
+fn rusage_max_rss() -> Option<u64> {
+    None
+}
+
+/// Resets this process's peak resident set to its current one, so a later
+/// [`peak_resident_bytes`] measures what came after (Linux 4.0 and later:
+/// `/proc/self/clear_refs`); freed heap is first given back to the system
+/// where the allocator allows. Returns false where this is not possible.
+pub fn reset_peak() -> bool {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only releases free memory of glibc's heap.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// `1.5 GiB`, `300 MiB`, `12 KiB`.
+#[must_use]
+pub fn bytes(n: u64) -> String {
+    let n = n as f64;
+    if n >= (1u64 << 30) as f64 {
+        format!("{:.1} GiB", n / (1u64 << 30) as f64)
+    } else if n >= (1u64 << 20) as f64 {
+        format!("{:.0} MiB", n / (1u64 << 20) as f64)
+    } else {
+        format!("{:.0} KiB", n / 1024.0)
+    }
+}
+
+/// `120M`, `4.5k`, `17`.
+fn count(n: u64) -> String {
+    if n >= 10_000_000 {
+        format!("{:.0}M", n as f64 / 1e6)
+    } else if n >= 1_000_000 {
+        format!("{:.1}M", n as f64 / 1e6)
+    } else if n >= 10_000 {
+        format!("{:.0}k", n as f64 / 1e3)
+    } else {
+        n.to_string()
+    }
+}
+
+/// Parses a memory size: a number with an optional unit, `K`, `M`, `G` or
+/// `T` (powers of 1024, optionally followed by `iB` or `B`); a bare number
+/// is MiB, as `--max-file-size` takes it. `24G`, `1.5GiB`, `512`.
+pub fn parse_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| c.is_ascii_alphabetic())
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let value: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size such as 512M, 24G or 1.5GiB"))?;
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "m" | "mb" | "mib" => 20,
+        "k" | "kb" | "kib" => 10,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        "b" => 0,
+        _ => {
+            return Err(format!(
+                "'{text}': unknown unit '{unit}' (use K, M, G or T)"
+            ));
+        }
+    };
+    let bytes = value * (1u64 << shift) as f64;
+    if !(bytes.is_finite() && bytes >= 1.0 && bytes < 1e19) {
+        return Err(format!("'{text}' is not a positive size"));
+    }
+    Ok(bytes as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse() {
+        assert_eq!(parse_size("512"), Ok(512 << 20));
+        assert_eq!(parse_size("24G"), Ok(24 << 30));
+        assert_eq!(parse_size("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_size("100 kB"), Ok(100 << 10));
+        assert!(parse_size("-1G").is_err());
+        assert!(parse_size("lots").is_err());
+        assert!(parse_size("3X").unwrap_err().contains("unknown unit"));
+    }
+
+    #[test]
+    fn the_estimate_names_its_largest_parts() {
+        let sizes = Sizes {
+            surfaces: 1_000,
+            patches: 1_000,
+            elements: 120_000_000,
+            vertices: 100_000_000,
+            samples: 0,
+            pixels: 0,
+            view: false,
+            bake: false,
+        };
+        let e = estimate(&sizes, &Settings::adaptive());
+        // The shot's buffers are the largest last stage.
+        let expected = 120e6 * (ELEMENT + 270.0)
+            + 100e6 * (VERTEX + 104.0 + DISPLAY_VERTEX + SHOT_VERTEX);
+        assert!((e.total() as f64 - expected).abs() / expected < 0.01);
+        let text = e.to_string();
+        let gib = expected / f64::from(1u32 << 30);
+        assert!(
+            text.starts_with(&format!("about {gib:.1} GiB (elements 120M at 330 B each, ")),
+            "{text}"
+        );
+        let refusal = check(&e, Some(1 << 30)).unwrap_err().to_string();
+        assert!(refusal.contains("--max-memory allows 1.0 GiB"), "{refusal}");
+        assert!(refusal.contains("raise --element-size"), "{refusal}");
+        assert!(check(&e, Some(1 << 40)).is_ok());
+    }
+
+    #[test]
+    fn this_process_has_a_peak() {
+        let peak = peak_resident_bytes().unwrap();
+        assert!(peak > 1 << 20);
+        if let Some(now) = resident_bytes() {
+            assert!(now <= peak);
+        }
+    }
+}
