@@ -213,16 +213,21 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
                     );
                 }
             }
-            faces = solved
-                .receivers
+            // Each point is scored as the vertex it was sampled from: on
+            // that vertex's own surface (a vertex on the edge between a
+            // light and the ceiling is the light's, as in the vertices CSV,
+            // wherever the sensor was placed), with B = Ke + Kd E of it.
+            let own: Vec<&crate::scene::Surface> = sampled
+                .rows
                 .iter()
-                .map(|r| solved.scene.surfaces[r.surface as usize].face)
+                .map(|&r| &solved.scene.surfaces[base.mesh.vertices[r].surface as usize])
                 .collect();
+            faces = own.iter().map(|s| s.face).collect();
             let rows: Vec<(DVec3, DVec3, u32, DVec3)> = points
                 .iter()
-                .zip(&faces)
-                .zip(&solved.sensor_radiosity)
-                .map(|((p, f), b)| (p.position, p.normal, *f, *b))
+                .zip(&own)
+                .zip(&solved.sensor_irradiance)
+                .map(|((p, s), e)| (p.position, p.normal, s.face, s.emission + s.rho * *e))
                 .collect();
             let score = score_rows(
                 context,

@@ -119,6 +119,8 @@ pub struct Solved {
     pub receivers: Vec<Receiver>,
     /// `B` at each sensor.
     pub sensor_radiosity: Vec<DVec3>,
+    /// `E` at each sensor.
+    pub sensor_irradiance: Vec<DVec3>,
     /// Seconds of the solve: the solver's construction (accelerator build)
     /// and its shots, as `--stats` reports `solve_seconds`.
     pub solve_seconds: f64,
@@ -161,9 +163,10 @@ pub fn solve(
     let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers.clone());
     solver.run(|_| Flow::Continue);
     let solve_seconds = start.elapsed().as_secs_f64();
+    let sensor_irradiance = solver.sensor_irradiance().to_vec();
     let sensor_radiosity = receivers
         .iter()
-        .zip(solver.sensor_irradiance())
+        .zip(&sensor_irradiance)
         .map(|(r, e)| sensors::radiosity(&scene, r, *e))
         .collect();
     let radiosity = solver.radiosity().to_vec();
@@ -178,6 +181,7 @@ pub fn solve(
         display,
         receivers,
         sensor_radiosity,
+        sensor_irradiance,
         solve_seconds,
         shots,
         unshot,
