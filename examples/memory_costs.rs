@@ -87,7 +87,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let shots: u64 = shots.parse()?;
     let mut scene = stage("load", || scene::load(scene_name))?;
     if settings.merge_coplanar {
-        stage("merge", || scene::merge::merge_coplanar(&mut scene.surfaces));
+        stage("merge", || {
+            scene::merge::merge_coplanar(&mut scene.surfaces)
+        });
     }
     let sizes = scene.default_mesh_sizes();
     settings.mesh.patch_size = sizes.patch_size;

@@ -259,8 +259,18 @@ pub struct Outcome {
     pub stop: StopReason,
     /// Unshot fraction at the end.
     pub unshot_fraction: f64,
-    /// Time of the solve alone.
+    /// Time to read the scene and merge its coplanar faces.
+    pub load_time: Duration,
+    /// Time to build the element mesh.
+    pub mesh_time: Duration,
+    /// Time of the solve alone: building the accelerator, setting up the
+    /// solver and shooting.
     pub solve_time: Duration,
+    /// Time to build the shadow-ray accelerator (part of `solve_time`).
+    pub accel_build_time: Duration,
+    /// Time to draw the picture and write the outputs, the statistics file
+    /// excepted (it cannot time its own writing).
+    pub write_time: Duration,
     /// Time of the whole run.
     pub total_time: Duration,
     /// Worker threads.
@@ -417,11 +427,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         Some(s) => sensors::read(&s.points, &job.load.limits, s.max_points)?,
         None => Vec::new(),
     };
+    let load_start = Instant::now();
     let loaded = scene::load_with(&job.scene, &job.load)?;
     let mut scene = loaded.scene;
     if job.settings.merge_coplanar {
         scene::merge::merge_coplanar(&mut scene.surfaces);
     }
+    let load_time = load_start.elapsed();
     let sensor_receivers = match &job.sensors {
         Some(s) => sensors::receivers(&scene, &sensor_points, &s.points)?,
         None => Vec::new(),
@@ -430,16 +442,25 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let suggested = scene.default_mesh_sizes();
     settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
     settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
+    let mesh_start = Instant::now();
     let mesh = Mesh::build(&scene, &settings.mesh)
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
+    let mesh_time = mesh_start.elapsed();
     let mut counts = Counts::of(&scene, &mesh);
     let memory_estimate = memory::estimate(&memory_sizes(job, &scene, &mesh), &settings);
     memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
     observer.started(&scene, &mesh);
 
     let solve_start = Instant::now();
-    let mut solver =
-        Solver::with_sensors(&scene, &mesh, settings.clone(), sensor_receivers.clone());
+    let occluder = settings.accel.build(&scene.surfaces);
+    let accel_build_time = solve_start.elapsed();
+    let mut solver = Solver::with_sensors_and_occluder(
+        &scene,
+        &mesh,
+        settings.clone(),
+        sensor_receivers.clone(),
+        occluder,
+    );
     if let Some(flag) = observer.interrupt() {
         solver.interrupt_on(flag);
     }
@@ -448,6 +469,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let solve_time = solve_start.elapsed();
     observer.finished(&solver, stop);
 
+    let write_start = Instant::now();
     let mut staged = Vec::new();
     let stage = |path: &Path,
                  write: &mut dyn FnMut(
@@ -550,7 +572,11 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         stats: solver.stats().clone(),
         stop,
         unshot_fraction: solver.unshot_fraction(),
+        load_time,
+        mesh_time,
         solve_time,
+        accel_build_time,
+        write_time: Duration::ZERO,
         total_time: Duration::ZERO,
         threads,
         accel_statistics: solver.accel_statistics(),
@@ -560,6 +586,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         memory_estimate,
     };
     outcome.peak_memory_bytes = memory::peak_resident_bytes();
+    outcome.write_time = write_start.elapsed();
     if let Some(path) = &job.stats_json {
         outcome.total_time = start.elapsed();
         let json = stats_json(&settings, &outcome);
@@ -785,8 +812,25 @@ pub fn progress_of(solver: &Solver<'_>) -> Progress {
     }
 }
 
-/// The `--stats` object of design.md section 6.
+/// The `--stats` object of design.md section 6, with the time of each
+/// phase: `load_seconds`, `mesh_seconds`, `solve_seconds` (of which
+/// `accel_build_seconds`), `write_seconds`, within `total_seconds`.
 fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
+    let mut json = stats_json_counters(settings, outcome);
+    for (key, time) in [
+        ("load_seconds", outcome.load_time),
+        ("mesh_seconds", outcome.mesh_time),
+        ("accel_build_seconds", outcome.accel_build_time),
+        ("write_seconds", outcome.write_time),
+    ] {
+        json[key] = serde_json::Value::from(time.as_secs_f64());
+    }
+    json
+}
+
+/// The `--stats` object but the phases' times (one `json!` call of them
+/// all would exceed the macro's recursion limit).
+fn stats_json_counters(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
     let s = &outcome.stats;
     serde_json::json!({
         "scene": outcome.scene,

@@ -132,8 +132,9 @@ impl LoadArgs {
 struct ExperimentArgs {
     /// Experiments to run, or `all` (the paper's): fig2-1, fig4-2, fig4-3,
     /// formula-timing, fig5-1, fig5-2; and, by name only, rays (the shared
-    /// real scenes), validate (against the Radiance reference harness) and
-    /// accuracy-curve (L1 against time, ours and Radiance's).
+    /// real scenes), validate (against the Radiance reference harness),
+    /// accuracy-curve (L1 against time, ours and Radiance's) and scale (a
+    /// whole render job on scenes up to the shared conference room).
     #[arg(required = true, value_name = "NAME")]
     names: Vec<String>,
 
@@ -151,8 +152,8 @@ struct ExperimentArgs {
           value_parser = positive::<usize>("--threads"))]
     threads: Option<usize>,
 
-    /// Folder holding the shared real scenes, for `rays` (default:
-    /// ../shared/scenes).
+    /// Folder holding the shared real scenes, for `rays` and `scale`
+    /// (default: ../shared/scenes).
     #[arg(long, value_name = "DIR")]
     scenes: Option<PathBuf>,
 

@@ -439,9 +439,7 @@ fn count(n: u64) -> String {
 /// is MiB, as `--max-file-size` takes it. `24G`, `1.5GiB`, `512`.
 pub fn parse_size(text: &str) -> Result<u64, String> {
     let t = text.trim();
-    let split = t
-        .find(|c: char| c.is_ascii_alphabetic())
-        .unwrap_or(t.len());
+    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
     let (number, unit) = t.split_at(split);
     let value: f64 = number
         .trim()
@@ -460,7 +458,7 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
         }
     };
     let bytes = value * (1u64 << shift) as f64;
-    if !(bytes.is_finite() && bytes >= 1.0 && bytes < 1e19) {
+    if !(bytes.is_finite() && (1.0..1e19).contains(&bytes)) {
         return Err(format!("'{text}' is not a positive size"));
     }
     Ok(bytes as u64)
@@ -495,13 +493,15 @@ mod tests {
         };
         let e = estimate(&sizes, &Settings::adaptive());
         // The shot's buffers are the largest last stage.
-        let expected = 120e6 * (ELEMENT + 270.0)
-            + 100e6 * (VERTEX + 104.0 + DISPLAY_VERTEX + SHOT_VERTEX);
+        let expected =
+            120e6 * (ELEMENT + 270.0) + 100e6 * (VERTEX + 104.0 + DISPLAY_VERTEX + SHOT_VERTEX);
         assert!((e.total() as f64 - expected).abs() / expected < 0.01);
         let text = e.to_string();
         let gib = expected / f64::from(1u32 << 30);
         assert!(
-            text.starts_with(&format!("about {gib:.1} GiB (elements 120M at 330 B each, ")),
+            text.starts_with(&format!(
+                "about {gib:.1} GiB (elements 120M at 330 B each, "
+            )),
             "{text}"
         );
         let refusal = check(&e, Some(1 << 30)).unwrap_err().to_string();

@@ -29,7 +29,11 @@ fn stats(scene: &str, extra: &[&str]) -> serde_json::Value {
     ];
     args.extend_from_slice(extra);
     let out = run(&args);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let summary = String::from_utf8_lossy(&out.stdout);
     assert!(
         summary.contains("memory: peak ") && summary.contains(" resident (estimated "),
@@ -55,7 +59,14 @@ fn estimates_are_within_a_factor_of_the_measured_peak() {
         (sponza, &["--max-shots", "1"]),
         (
             sponza,
-            &["--preset", "wong-tsang93", "--accel", "bvh", "--max-shots", "1"],
+            &[
+                "--preset",
+                "wong-tsang93",
+                "--accel",
+                "bvh",
+                "--max-shots",
+                "1",
+            ],
         ),
     ];
     for (scene, extra) in cases {
@@ -89,8 +100,10 @@ fn a_run_over_the_limit_is_refused_before_its_solve() {
     // The picture's 800 x 600 x 9 samples are the largest part.
     assert!(
         line.contains("(picture ")
-            && line.contains("; --max-memory allows 20 MiB: lower --width, --height or \
-                 --supersampling, or ")
+            && line.contains(
+                "; --max-memory allows 20 MiB: lower --width, --height or \
+                 --supersampling, or "
+            )
             && line.ends_with(", or raise --max-memory"),
         "{line}"
     );
@@ -108,7 +121,11 @@ fn a_run_over_the_limit_is_refused_before_its_solve() {
         "--max-shots",
         "1",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]

@@ -14,6 +14,7 @@
 //! | `rays` | section 3 | BSP, BVH, brute force and Embree on real scenes' shadow segments (by name only, not in `all`) |
 //! | `validate` | beyond the paper | L1, bias, median and p90 against the Radiance reference per scene and preset, error pictures (by name only) |
 //! | `accuracy-curve` | beyond the paper | L1 against solve time for both presets and `rtrace` on the Cornell boxes (by name only) |
+//! | `scale` | section 3, issue 9 | a whole render job's phases, memory and rays from the built-in scenes to the conference room, default preset with either accelerator (by name only) |
 
 pub mod accuracy;
 pub mod form_factors;
@@ -21,6 +22,7 @@ pub mod plot;
 pub mod rays;
 pub mod reference;
 pub mod report;
+pub mod scale;
 pub mod solves;
 pub mod validate;
 
@@ -39,7 +41,7 @@ pub struct Context {
     pub quick: bool,
     /// The command line that ran the experiments, for the record.
     pub command: String,
-    /// The folder holding the shared real scenes (`rays`); `None` looks
+    /// The folder holding the shared real scenes (`rays`, `scale`); `None` looks
     /// for `../shared/scenes`.
     pub scenes: Option<PathBuf>,
     /// A Python interpreter with the `embreex` package, to time Embree
@@ -154,6 +156,12 @@ pub const EXPERIMENTS: &[Experiment] = &[
         name: "accuracy-curve",
         title: "Accuracy against time: our presets and Radiance",
         run: accuracy::accuracy_curve,
+        in_all: false,
+    },
+    Experiment {
+        name: "scale",
+        title: "Scale: a whole render job from the built-in scenes to 277k triangles",
+        run: scale::scale,
         in_all: false,
     },
 ];

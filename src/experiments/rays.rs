@@ -140,7 +140,7 @@ const BLOCK: usize = 256;
 
 /// The folder holding the shared scenes: the context's, or
 /// [`DEFAULT_SCENES`] from the working directory or the source tree.
-fn scenes_folder(context: &Context, wanted: &[SceneSpec]) -> Result<PathBuf, Error> {
+pub(crate) fn scenes_folder(context: &Context, wanted: &[SceneSpec]) -> Result<PathBuf, Error> {
     let candidates: Vec<PathBuf> = match &context.scenes {
         Some(dir) => vec![dir.clone()],
         None => vec![

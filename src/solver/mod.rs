@@ -465,6 +465,20 @@ impl<'a> Solver<'a> {
         Solver::assemble(scene, mesh, settings, Vec::new(), occluder)
     }
 
+    /// [`Solver::with_sensors`] with an accelerator built beforehand (so
+    /// its build can be timed on its own) or an instrument in its place, as
+    /// in [`Solver::with_occluder`].
+    #[must_use]
+    pub fn with_sensors_and_occluder(
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: Settings,
+        sensors: Vec<Receiver>,
+        occluder: Box<dyn Occluder + 'a>,
+    ) -> Solver<'a> {
+        Solver::assemble(scene, mesh, settings, sensors, occluder)
+    }
+
     fn assemble(
         scene: &'a Scene,
         mesh: &'a Mesh,
