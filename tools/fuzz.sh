@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the loader fuzzers (fuzz/, libFuzzer through cargo-fuzz).
 #
-#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf)
+#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf, sensors)
 #   tools/fuzz.sh all SECONDS        every target in fuzz/Cargo.toml in turn
 #   tools/fuzz.sh list               the targets
 #
@@ -21,7 +21,9 @@
 # each run into fuzz/generated-seeds/ (the built-in scenes of scenes/ and
 # the measured Cornell box of shared/scenes, which is read from there, not
 # copied into the project). For OBJ targets a seed is OBJ bytes, a NUL,
-# then MTL bytes. A crash is saved in
+# then MTL bytes; for gltf a GLB, or glTF JSON, a NUL, then the one file
+# its URIs name (no target reads or writes files); for sensors a points
+# file (rtrace -I: x y z nx ny nz a line). A crash is saved in
 # fuzz/artifacts/TARGET/; turn it into a regression test in
 # tests/fuzz_regressions.rs and fix it. Each run's closing statistics go to
 # fuzz/logs/TARGET.log (executions: the `stat::number_of_executed_units`

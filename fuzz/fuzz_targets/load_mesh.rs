@@ -23,7 +23,7 @@ fuzz_target!(|data: &[u8]| {
         patch_size: sizes.patch_size,
         element_size: sizes.element_size,
         max_elements: 20_000,
-            bisect_triangles: true,
+        bisect_triangles: true,
     };
     let Ok(mesh) = Mesh::build(&scene, &settings) else {
         return;

@@ -5,8 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
-use radiosity::geometry;
 use radiosity::scene::{Limits, LoadOptions, Scene, SceneError, gltf, obj};
+use radiosity::{geometry, sensors};
 
 /// Limits small enough that one input runs in milliseconds.
 pub const LIMITS: Limits = Limits {
@@ -141,4 +141,69 @@ pub fn check_appearance(scene: &Scene, appearance: &gltf::Appearance) {
         assert!(*m < appearance.json.materials.len());
     }
     assert_eq!(appearance.images.len(), appearance.json.images.len());
+}
+
+/// Most points a fuzzed points file may hold: each is placed in the scene.
+pub const MAX_SENSORS: usize = 1_000;
+
+/// Parses an input as a points file (`sensors::parse`, under [`LIMITS`]
+/// and [`MAX_SENSORS`]) and places the points in the built-in Cornell box
+/// (`sensors::receivers`).
+pub fn check_sensors(data: &[u8]) {
+    use std::sync::OnceLock;
+    static CORNELL: OnceLock<Scene> = OnceLock::new();
+    let scene = CORNELL.get_or_init(|| {
+        // `receivers` places points on rayon's pool: one worker, so the
+        // fuzzer stays on one core.
+        // SAFETY: set once, before any thread of this process reads the
+        // environment (rayon's pool starts on first use, after this).
+        unsafe { std::env::set_var("RAYON_NUM_THREADS", "1") };
+        radiosity::scene::builtin::load("cornell")
+            .expect("a built-in scene")
+            .expect("it loads")
+    });
+    let path = Path::new("fuzz.pts");
+    let points = match sensors::parse(path, data, &LIMITS, MAX_SENSORS) {
+        Ok(points) => points,
+        Err(error) => {
+            check_error(&error);
+            assert!(error.to_string().starts_with("fuzz.pts"));
+            return;
+        }
+    };
+    assert!(!points.is_empty() && points.len() <= MAX_SENSORS);
+    for pair in points.windows(2) {
+        assert!(pair[0].line < pair[1].line);
+    }
+    for p in &points {
+        assert!(p.line >= 1);
+        assert!(p.position.is_finite());
+        assert!(
+            (p.normal.length() - 1.0).abs() < 1e-12,
+            "normal {}",
+            p.normal
+        );
+    }
+    match sensors::receivers(scene, &points, path) {
+        Ok(receivers) => {
+            assert_eq!(receivers.len(), points.len());
+            let index = sensors::SurfaceIndex::new(&scene.surfaces);
+            for (point, r) in points.iter().zip(&receivers) {
+                let surface = &scene.surfaces[r.surface as usize];
+                assert_eq!(r.normal, surface.normal);
+                assert!(surface.normal.dot(point.normal) > sensors::NORMAL_AGREEMENT);
+                assert!(r.point.is_finite());
+                let off = (surface.normal.dot(r.point) - surface.offset).abs();
+                assert!(off <= 1e-9, "receiver {off} off its surface");
+                assert!(
+                    sensors::closest_point(surface, point.position).distance(point.position)
+                        <= index.tolerance()
+                );
+            }
+        }
+        Err(error) => {
+            check_error(&error);
+            assert!(error.to_string().starts_with("fuzz.pts:"));
+        }
+    }
 }

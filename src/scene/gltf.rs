@@ -162,6 +162,7 @@ pub fn load_slice(
         uvs: Vec::new(),
         texcoord_sets: 0,
         faces: 0,
+        triangles: 0,
         degenerate: 0,
         camera: None,
         lights: Vec::new(),
@@ -290,6 +291,10 @@ struct Loader<'a> {
     uvs: Vec<Vec<Vec<[f64; 2]>>>,
     texcoord_sets: usize,
     faces: u32,
+    /// Triangles read so far, over every instance of every mesh: bounded
+    /// by `limits.max_faces` (`--max-faces`), since a mesh a few bytes long
+    /// may hold millions of triangles and be instanced by many nodes.
+    triangles: usize,
     degenerate: usize,
     camera: Option<Camera>,
     lights: Vec<String>,
@@ -1150,6 +1155,18 @@ impl<'a> Loader<'a> {
             self.texcoord_sets = self.texcoord_sets.max(uv_sets.len());
             let material_index = primitive.material.map(|m| m.value());
             let material = self.material(material_index, images)?;
+            let count = match mode {
+                Mode::Triangles => indices.len() / 3,
+                _ => indices.len().saturating_sub(2),
+            };
+            let limit = self.options.limits.max_faces;
+            self.triangles = self.triangles.saturating_add(count);
+            if self.triangles > limit {
+                return Err(self.error(format!(
+                    "{what}: more than {limit} triangles in the scene, the limit (raise it with \
+                     --max-faces)"
+                )));
+            }
             let triangles = assemble(mode, &indices);
             if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
                 self.warnings.push(format!(

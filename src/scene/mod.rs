@@ -327,7 +327,8 @@ pub struct Limits {
     pub max_line_bytes: usize,
     /// Most corners of one face; `--max-corners`.
     pub max_corners: usize,
-    /// Most faces (`f` statements); `--max-faces`.
+    /// Most faces (`f` statements; glTF triangles, counted once per node
+    /// that instances their mesh); `--max-faces`.
     pub max_faces: usize,
     /// Most vertices (`v` statements); `--max-vertices`.
     pub max_vertices: usize,
