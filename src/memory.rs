@@ -29,7 +29,7 @@ use std::fmt;
 use crate::solver::{Settings, Shooting, Visibility, item_buffer_bytes};
 
 /// The process before any scene: binary, libraries, thread stacks.
-pub const BASE: u64 = 12 << 20;
+pub const BASE: u64 = 6 << 20;
 /// A loaded surface.
 pub const SURFACE: f64 = 310.0;
 /// A mesh element.

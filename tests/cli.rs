@@ -648,6 +648,34 @@ fn inputs_that_are_not_regular_files_are_refused_before_reading() {
     std::fs::remove_file(&link).unwrap();
     assert_refused_exactly(&case, &out, &format!("{{dir}}/random.obj: {not_regular}"));
 
+    // glTF alike: the file itself, and a buffer its JSON names.
+    let case = Case::new(&obj(""), MTL);
+    let link = case.dir.path().join("zero.glb");
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    let out = render_with(&case, link.to_str().unwrap(), &[]);
+    std::fs::remove_file(&link).unwrap();
+    assert_refused_exactly(&case, &out, &format!("{{dir}}/zero.glb: {not_regular}"));
+
+    let case = Case::new(&obj(""), MTL);
+    let gltf = case.dir.path().join("scene.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"zero.bin","byteLength":36}]}"#,
+    )
+    .unwrap();
+    let link = case.dir.path().join("zero.bin");
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    let out = render_with(&case, gltf.to_str().unwrap(), &[]);
+    std::fs::remove_file(&link).unwrap();
+    std::fs::remove_file(&gltf).unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("zero.bin") && stderr.contains(not_regular),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+
     let case = Case::new(&obj(""), MTL);
     let fifo = case.dir.path().join("fifo.obj");
     assert!(

@@ -113,10 +113,10 @@ pub struct Appearance {
 /// Loads a `.gltf` (reading its buffers and images relative to its folder)
 /// or a `.glb` file.
 pub fn load_file(path: &Path, options: &LoadOptions) -> Result<(Scene, Appearance), SceneError> {
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
-        location: Location::file(path),
-        source,
-    })?;
+    // As every input: a regular file within --max-file-size, checked
+    // before it is read (a `.glb` linked to /dev/zero is refused, not read
+    // until memory runs out); the buffers and images it names likewise.
+    let bytes = super::read_input(path, &options.limits)?;
     let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let name = path
         .file_stem()
@@ -126,7 +126,12 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> Result<(Scene, Appearanc
         &name,
         path,
         &bytes,
-        &mut |uri: &str| std::fs::read(folder.join(uri)),
+        &mut |uri: &str| {
+            super::read_input(&folder.join(uri), &options.limits).map_err(|e| match e {
+                SceneError::Io { source, .. } => source,
+                other => std::io::Error::other(other.to_string()),
+            })
+        },
         options,
     )
 }
