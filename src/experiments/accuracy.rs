@@ -126,11 +126,9 @@ fn radiance_runs(quick: bool) -> Vec<(&'static str, String, String)> {
             "-ab 5 -aa 0.1 -ar 256 -ad 1024 -as 512".to_string(),
             "-ab 5 -aa 0.1 -ar 256 -ad 1024 -as 512".to_string(),
         ));
-        runs.push((
-            "rtrace, irradiance cache",
-            "-ab 8 -aa 0.05 -ar 512 -ad 4096 -as 2048".to_string(),
-            "-ab 8 -aa 0.05 -ar 512 -ad 4096 -as 2048".to_string(),
-        ));
+        // A finer cached run (-ab 8 -aa 0.05 -ar 512 -ad 4096 -as 2048)
+        // was tried and dropped: on the Cornell box's 600 points it had not
+        // finished after 25 minutes on two cores.
     }
     runs
 }
