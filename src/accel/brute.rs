@@ -27,6 +27,25 @@ impl Occluder for BruteForce {
         (0..self.prepared.len() as u32)
             .any(|i| !self.prepared.skips(i, skip) && self.prepared.crosses(i, from, to))
     }
+
+    /// Surfaces are tested in input order up to the first blocker; there
+    /// are no nodes.
+    fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
+        let mut tested = 0u32;
+        let blocked = (0..self.prepared.len() as u32).any(|i| {
+            if self.prepared.skips(i, skip) {
+                return false;
+            }
+            tested += 1;
+            self.prepared.crosses(i, from, to)
+        });
+        (blocked, tested, 0)
+    }
+
+    /// A flat list has no invariants beyond its construction.
+    fn validate(&self) -> Result<(), String> {
+        Ok(())
+    }
 }
 
 #[cfg(test)]

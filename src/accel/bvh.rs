@@ -1170,6 +1170,14 @@ impl Occluder for Bvh<'_> {
         self.occluded_counting(from, to, skip).0
     }
 
+    fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
+        Bvh::occluded_counting(self, from, to, skip)
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        Bvh::validate(self)
+    }
+
     fn build_statistics(&self) -> Vec<(&'static str, usize)> {
         let s = self.stats;
         vec![

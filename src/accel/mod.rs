@@ -69,6 +69,18 @@ pub trait Occluder: Sync {
     /// them makes the test immune to round-off at both ends.
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool;
 
+    /// Like [`Occluder::occluded`], also returning how many surfaces were
+    /// tested with [`segment_crosses`] and how many nodes (or child boxes)
+    /// were visited: `(blocked, tested, visited)`, for benchmarks and for
+    /// the tests that check an accelerator tests fewer surfaces than brute
+    /// force.
+    fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32);
+
+    /// Checks the structure's invariants (see each accelerator's own
+    /// `validate`); the accelerator tests call it on every structure they
+    /// build.
+    fn validate(&self) -> Result<(), String>;
+
     /// Build statistics worth reporting (name, value), e.g. a tree's node
     /// count and depth; none by default.
     fn build_statistics(&self) -> Vec<(&'static str, usize)> {

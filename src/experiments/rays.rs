@@ -80,6 +80,15 @@ impl Occluder for Recorder<'_> {
         }
         self.inner.occluded(from, to, skip)
     }
+
+    /// Not logged: only [`Occluder::occluded`] is what the solver calls.
+    fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
+        self.inner.occluded_counting(from, to, skip)
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        self.inner.validate()
+    }
 }
 
 /// A scene of the experiment and where it comes from.

@@ -3,6 +3,8 @@
 //! query points that land exactly on corners, edges and grid planes.
 
 use glam::DVec3;
+use radiosity::accel::bsp::BspSettings;
+use radiosity::accel::bvh::BvhSettings;
 use radiosity::scene::{Scene, Surface};
 
 /// SplitMix64: a small, fixed-seed generator, so failures reproduce.
@@ -267,4 +269,223 @@ pub fn real_file_soup(rng: &mut Rng, offset: DVec3) -> Vec<Surface> {
     push(vec![table, table + u, table + u + v, table + v]);
     push(vec![table, table + v, table + u + v, table + u]);
     out
+}
+
+/// A random triangle or planar convex quad somewhere in the box `[0, 4]^3`,
+/// of size 0.2 to 2 (the BSP tests' first soups).
+pub fn random_polygon(rng: &mut Rng) -> Option<Surface> {
+    let a = rng.point_in(DVec3::ZERO, DVec3::splat(4.0));
+    let size = rng.range(0.2, 2.0);
+    let (u, v) = (rng.direction() * size, rng.direction() * size);
+    if rng.chance(0.5) {
+        surface(vec![a, a + u, a + v])
+    } else {
+        // A parallelogram, or a kite made convex by construction.
+        let (u, v) = if u.cross(v).length() > 0.0 {
+            (u, v)
+        } else {
+            (v, u)
+        };
+        let far = if rng.chance(0.5) {
+            a + u + v
+        } else {
+            a + (u + v) * rng.range(0.6, 1.5)
+        };
+        surface(vec![a, a + u, far, a + v])
+    }
+}
+
+/// A random triangle or planar convex quad of size about `size` somewhere
+/// in the box `[0, 4]^3`.
+pub fn random_polygon_of_size(rng: &mut Rng, size: f64) -> Option<Surface> {
+    let a = rng.point_in(DVec3::ZERO, DVec3::splat(4.0));
+    let (u, v) = (rng.direction() * size, rng.direction() * size);
+    if rng.chance(0.5) {
+        surface(vec![a, a + u, a + v])
+    } else {
+        // A parallelogram, or a kite made convex by construction.
+        let far = if rng.chance(0.5) {
+            a + u + v
+        } else {
+            a + (u + v) * rng.range(0.6, 1.5)
+        };
+        surface(vec![a, a + u, far, a + v])
+    }
+}
+
+/// A needle: a long edge and a tip angle down to 1e-6 radians.
+pub fn needle(rng: &mut Rng, sharpness: i32) -> Option<Surface> {
+    let a = rng.point_in(DVec3::ZERO, DVec3::splat(4.0));
+    let u = rng.direction();
+    let w = u.any_orthonormal_vector() * u.length() * 10f64.powi(-sharpness);
+    surface(vec![a, a + u * 3.0, a + u * 3.0 + w])
+}
+
+/// Polygon sizes from tiny (1e-6) to large (2).
+pub fn random_size(rng: &mut Rng) -> f64 {
+    if rng.chance(0.2) {
+        10f64.powi(-(2 + rng.below(5) as i32))
+    } else {
+        rng.range(0.2, 2.0)
+    }
+}
+
+/// A soup of random polygons, grid rectangles and edge-sharing groups.
+pub fn soup(seed: u64, count: usize) -> Vec<Surface> {
+    let mut rng = Rng(seed);
+    let mut surfaces = Vec::new();
+    while surfaces.len() < count {
+        match rng.below(4) {
+            0 | 1 => surfaces.extend(random_polygon(&mut rng)),
+            2 => surfaces.extend(grid_rectangle(&mut rng)),
+            _ => shared_edge_group(&mut rng, &mut surfaces),
+        }
+    }
+    surfaces
+}
+
+/// A soup of polygons from tiny to large, grid rectangles, needles and
+/// edge-sharing groups.
+pub fn varied_soup(seed: u64, count: usize) -> Vec<Surface> {
+    let mut rng = Rng(seed);
+    let mut surfaces = Vec::new();
+    while surfaces.len() < count {
+        match rng.below(7) {
+            0 | 1 => {
+                let size = random_size(&mut rng);
+                surfaces.extend(random_polygon_of_size(&mut rng, size));
+            }
+            2 | 3 => surfaces.extend(grid_rectangle(&mut rng)),
+            4 => {
+                let sharpness = 1 + rng.below(6) as i32;
+                surfaces.extend(needle(&mut rng, sharpness));
+            }
+            _ => shared_edge_group(&mut rng, &mut surfaces),
+        }
+    }
+    surfaces
+}
+
+/// The surfaces moved by `offset` (those still with an area).
+pub fn offset(surfaces: Vec<Surface>, offset: DVec3) -> Vec<Surface> {
+    surfaces
+        .into_iter()
+        .filter_map(|s| surface(s.polygon.iter().map(|p| *p + offset).collect()))
+        .collect()
+}
+
+/// One triangle in the plane z = 0.
+pub fn one_triangle() -> Vec<Surface> {
+    vec![surface(vec![DVec3::ZERO, DVec3::X, DVec3::Y]).unwrap()]
+}
+
+/// A 6 x 6 grid of unit squares sharing edges (the first 36 surfaces),
+/// plus 20 random triangles, all in the plane z = 1, facing both ways.
+pub fn coplanar_grid(rng: &mut Rng) -> Vec<Surface> {
+    let mut surfaces = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            let (x, y) = (f64::from(i), f64::from(j));
+            let mut p = vec![
+                DVec3::new(x, y, 1.0),
+                DVec3::new(x + 1.0, y, 1.0),
+                DVec3::new(x + 1.0, y + 1.0, 1.0),
+                DVec3::new(x, y + 1.0, 1.0),
+            ];
+            if (i + j) % 2 == 1 {
+                p.reverse();
+            }
+            surfaces.push(surface(p).unwrap());
+        }
+    }
+    for _ in 0..20 {
+        let mut corner = || DVec3::new(rng.range(0.0, 6.0), rng.range(0.0, 6.0), 1.0);
+        surfaces.extend(surface(vec![corner(), corner(), corner()]));
+    }
+    surfaces
+}
+
+/// 300 unit squares at z = 0, 0.01, ..., 2.99, randomly shifted and
+/// facing both ways (seed 13).
+pub fn parallel_squares() -> Vec<Surface> {
+    let mut rng = Rng(13);
+    let mut surfaces = Vec::new();
+    for k in 0..300 {
+        let z = 0.01 * f64::from(k);
+        let (x, y) = (rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        let mut p = vec![
+            DVec3::new(x, y, z),
+            DVec3::new(x + 1.0, y, z),
+            DVec3::new(x + 1.0, y + 1.0, z),
+            DVec3::new(x, y + 1.0, z),
+        ];
+        if rng.chance(0.5) {
+            p.reverse();
+        }
+        surfaces.push(surface(p).unwrap());
+    }
+    surfaces
+}
+
+/// A geometric series of 400 unit squares, `z = 1 - 0.97^k`, which a
+/// surface-area split cuts into a lopsided tree.
+pub fn geometric_stack() -> Vec<Surface> {
+    (0..400)
+        .map(|k| {
+            let z = 1.0 - 0.97f64.powi(k);
+            surface(vec![
+                DVec3::new(0.0, 0.0, z),
+                DVec3::new(1.0, 0.0, z),
+                DVec3::new(1.0, 1.0, z),
+                DVec3::new(0.0, 1.0, z),
+            ])
+            .unwrap()
+        })
+        .collect()
+}
+
+/// The BSP's presets, plus a shallow tree that has to use leaf buckets and
+/// one whose fragment budget refuses splits.
+pub fn bsp_settings() -> Vec<(&'static str, BspSettings)> {
+    let mut all = BspSettings::presets().to_vec();
+    all.push((
+        "depth-4",
+        BspSettings {
+            max_depth: 4,
+            ..BspSettings::sah()
+        },
+    ));
+    // A tight fragment budget: splits refused, large leaves.
+    all.push((
+        "growth-1.1",
+        BspSettings {
+            max_growth: 1.1,
+            ..BspSettings::sah()
+        },
+    ));
+    all
+}
+
+/// The BVH's presets, plus variants that exercise leaf-size and bin limits.
+pub fn bvh_settings() -> Vec<(&'static str, BvhSettings)> {
+    let mut all = BvhSettings::presets().to_vec();
+    all.push((
+        "sah-2-bins-leaf-1",
+        BvhSettings {
+            bins: 2,
+            leaf_size: 1,
+            max_leaf_size: 1,
+            ..BvhSettings::sah()
+        },
+    ));
+    all.push((
+        "sah-big-leaves",
+        BvhSettings {
+            leaf_size: 4,
+            max_leaf_size: 32,
+            primitive_cost: 0.1,
+            ..BvhSettings::sah()
+        },
+    ));
+    all
 }
