@@ -89,12 +89,7 @@ fn room() -> &'static Room {
     static ROOM: OnceLock<Room> = OnceLock::new();
     ROOM.get_or_init(|| {
         let scene = scene::load("room").expect("the built-in room loads");
-        let sizes = scene.default_mesh_sizes();
-        let mesh_settings = MeshSettings {
-            patch_size: sizes.patch_size,
-            element_size: sizes.element_size,
-            ..MeshSettings::default()
-        };
+        let mesh_settings = MeshSettings::default().sized_for(&scene);
         let mesh = Mesh::build(&scene, &mesh_settings).expect("the room meshes");
         let centroids: Vec<DVec3> = scene
             .surfaces

@@ -30,12 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         scene.surfaces.len(),
         loaded.as_secs_f64()
     );
-    let sizes = scene.default_mesh_sizes();
-    let settings = MeshSettings {
-        patch_size: sizes.patch_size,
-        element_size: sizes.element_size,
-        ..MeshSettings::default()
-    };
+    let settings = MeshSettings::default().sized_for(&scene);
     let start = Instant::now();
     let mesh = Mesh::build(&scene, &settings)?;
     println!(

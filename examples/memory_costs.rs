@@ -91,9 +91,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             scene::merge::merge_coplanar(&mut scene.surfaces)
         });
     }
-    let sizes = scene.default_mesh_sizes();
-    settings.mesh.patch_size = sizes.patch_size;
-    settings.mesh.element_size = sizes.element_size;
+    settings.mesh = settings.mesh.sized_for(&scene);
     let mesh = stage("mesh", || Mesh::build(&scene, &settings.mesh))?;
     let mut solver = stage("solver", || Solver::new(&scene, &mesh, settings.clone()));
     for shot in 0..shots {

@@ -48,6 +48,21 @@ impl Default for MeshSettings {
     }
 }
 
+impl MeshSettings {
+    /// These settings with the patch and element sizes `scene` suggests
+    /// ([`Scene::default_mesh_sizes`]: its `#@mesh` hint, else sizes from
+    /// its extent).
+    #[must_use]
+    pub fn sized_for(self, scene: &Scene) -> MeshSettings {
+        let hint = scene.default_mesh_sizes();
+        MeshSettings {
+            patch_size: hint.patch_size,
+            element_size: hint.element_size,
+            ..self
+        }
+    }
+}
+
 /// Default `--patch-size`: the built-in room then has about the paper's 181
 /// patches.
 pub const DEFAULT_PATCH_SIZE: f64 = 2.5;

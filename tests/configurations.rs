@@ -34,16 +34,7 @@ fn load(name: &str) -> (Scene, Mesh) {
 }
 
 fn load_scene(scene: Scene) -> (Scene, Mesh) {
-    let sizes = scene.default_mesh_sizes();
-    let mesh = Mesh::build(
-        &scene,
-        &MeshSettings {
-            patch_size: sizes.patch_size,
-            element_size: sizes.element_size,
-            ..MeshSettings::default()
-        },
-    )
-    .unwrap();
+    let mesh = Mesh::build(&scene, &MeshSettings::default().sized_for(&scene)).unwrap();
     (scene, mesh)
 }
 
@@ -191,27 +182,29 @@ fn every_combination_on_the_room() {
     check_scene("room");
 }
 
+/// 27 subsources of the paper's method on a pool of `threads` threads.
+fn solve_on_threads(scene: &Scene, mesh: &Mesh, threads: usize) -> Run {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| {
+            solve(
+                scene,
+                mesh,
+                Settings {
+                    max_subsources: Some(27),
+                    ..Settings::wong_tsang93()
+                },
+            )
+        })
+}
+
 #[test]
 fn the_thread_count_does_not_change_the_answer() {
     let (scene, mesh) = load("room");
-    let solve_with = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                solve(
-                    &scene,
-                    &mesh,
-                    Settings {
-                        max_subsources: Some(27),
-                        ..Settings::wong_tsang93()
-                    },
-                )
-            })
-    };
-    let one = solve_with(1);
-    let three = solve_with(3);
+    let one = solve_on_threads(&scene, &mesh, 1);
+    let three = solve_on_threads(&scene, &mesh, 3);
     assert!(one.radiosity == three.radiosity);
     assert_eq!(one.stats.rays_cast, three.stats.rays_cast);
 }
@@ -224,24 +217,8 @@ fn the_thread_count_does_not_change_the_measured_cornell_box() {
     let path = common::shared_scene("cornell_box/cornell_box.obj");
     let (scene, mesh) = load_scene(scene::obj::load_file(&path).unwrap());
     assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
-    let solve_with = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                solve(
-                    &scene,
-                    &mesh,
-                    Settings {
-                        max_subsources: Some(27),
-                        ..Settings::wong_tsang93()
-                    },
-                )
-            })
-    };
-    let one = solve_with(1);
-    let two = solve_with(2);
+    let one = solve_on_threads(&scene, &mesh, 1);
+    let two = solve_on_threads(&scene, &mesh, 2);
     assert!(one.radiosity == two.radiosity);
     assert_eq!(one.stats.rays_cast, two.stats.rays_cast);
 }

@@ -31,15 +31,14 @@ fn replay(name: &str) -> Result<usize, String> {
         &mut |lib: &str| Ok((PathBuf::from(lib), mtl_bytes.to_vec())),
     )
     .map_err(|e| e.to_string())?;
-    let sizes = scene.default_mesh_sizes();
     let mesh = Mesh::build(
         &scene,
         &MeshSettings {
-            patch_size: sizes.patch_size,
-            element_size: sizes.element_size,
             max_elements: 20_000,
             bisect_triangles: true,
-        },
+            ..MeshSettings::default()
+        }
+        .sized_for(&scene),
     )
     .map_err(|e| e.to_string())?;
     Ok(mesh.elements.len())

@@ -311,16 +311,7 @@ fn sensor_values_do_not_depend_on_the_thread_count() {
         converge: 0.05,
         ..Settings::adaptive()
     };
-    let sizes = scene.default_mesh_sizes();
-    let mesh = Mesh::build(
-        &scene,
-        &MeshSettings {
-            patch_size: sizes.patch_size,
-            element_size: sizes.element_size,
-            ..settings.mesh
-        },
-    )
-    .unwrap();
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
     let solve = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

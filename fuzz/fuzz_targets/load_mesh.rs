@@ -18,13 +18,12 @@ fuzz_target!(|data: &[u8]| {
         Err(error) => return radiosity_fuzz::check_error(&error),
     };
     radiosity_fuzz::check_scene(&scene);
-    let sizes = scene.default_mesh_sizes();
     let settings = MeshSettings {
-        patch_size: sizes.patch_size,
-        element_size: sizes.element_size,
         max_elements: 20_000,
         bisect_triangles: true,
-    };
+        ..MeshSettings::default()
+    }
+    .sized_for(&scene);
     let Ok(mesh) = Mesh::build(&scene, &settings) else {
         return;
     };

@@ -23,6 +23,7 @@ use std::fmt::Write as _;
 use glam::DVec3;
 use plotters::prelude::*;
 
+use super::charts;
 use super::reference::{self, Harness, Scored};
 use super::validate::{self, SceneCase, seconds, solve, write_rows};
 use super::{Context, Error, Report, median, table, write_file};
@@ -198,8 +199,17 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
             &sampled.reference,
         );
         vertex_score.check_against(&sampled, case.name)?;
+        // Each point is scored as the vertex it was sampled from: on that
+        // vertex's own surface (a vertex on the edge between a light and the
+        // ceiling is the light's, as in the vertices CSV, wherever the
+        // sensor was placed), with B = Ke + Kd E of it.
+        let own: Vec<&crate::scene::Surface> = sampled
+            .rows
+            .iter()
+            .map(|&r| &base.scene.surfaces[base.mesh.vertices[r].surface as usize])
+            .collect();
+        let faces: Vec<u32> = own.iter().map(|s| s.face).collect();
         let mut measured = Vec::new();
-        let mut faces = Vec::new();
         for (k, config) in ours(context.quick).iter().enumerate() {
             let mut times = Vec::new();
             let solved = solve(&path, &config.settings, config.patch_size, &points)?;
@@ -211,16 +221,6 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
                     );
                 }
             }
-            // Each point is scored as the vertex it was sampled from: on
-            // that vertex's own surface (a vertex on the edge between a
-            // light and the ceiling is the light's, as in the vertices CSV,
-            // wherever the sensor was placed), with B = Ke + Kd E of it.
-            let own: Vec<&crate::scene::Surface> = sampled
-                .rows
-                .iter()
-                .map(|&r| &solved.scene.surfaces[base.mesh.vertices[r].surface as usize])
-                .collect();
-            faces = own.iter().map(|s| s.face).collect();
             let rows: Vec<(DVec3, DVec3, u32, DVec3)> = points
                 .iter()
                 .zip(&own)
@@ -408,19 +408,17 @@ fn plot_curve(title: &str, measured: &[Measured]) -> Result<String, Error> {
     {
         let root = SVGBackend::with_string(&mut svg, (860, 560)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| failed(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(14)
-            .x_label_area_size(50)
-            .y_label_area_size(64)
-            .build_cartesian_2d(x_range.log_scale(), y_range.log_scale())
-            .map_err(|e| failed(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("seconds on 2 threads (ours: solve; Radiance: rtrace)")
-            .y_desc("L1 against the reference (%)")
-            .draw()
-            .map_err(|e| failed(&e))?;
+        let mut chart = charts::log_log(
+            &root,
+            title,
+            22,
+            (
+                x_range,
+                "seconds on 2 threads (ours: solve; Radiance: rtrace)",
+            ),
+            (y_range, "L1 against the reference (%)"),
+        )
+        .map_err(|e| failed(&e))?;
         for (i, name) in series.iter().enumerate() {
             let colour = PALETTE[i % PALETTE.len()];
             let mut points: Vec<(f64, f64)> = measured
@@ -429,24 +427,12 @@ fn plot_curve(title: &str, measured: &[Measured]) -> Result<String, Error> {
                 .map(|m| (m.seconds.max(1e-3), (100.0 * m.score.l1).max(1e-3)))
                 .collect();
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            chart
-                .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
-                .map_err(|e| failed(&e))?
-                .label(*name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
+            charts::line(&mut chart, name, colour, points.clone()).map_err(|e| failed(&e))?;
             chart
                 .draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))
                 .map_err(|e| failed(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| failed(&e))?;
+        charts::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| failed(&e))?;
         root.present().map_err(|e| failed(&e))?;
     }
     Ok(svg)

@@ -17,6 +17,7 @@
 //! | `scale` | section 3, issue 9 | a whole render job's phases, memory and rays from the built-in scenes to the conference room, default preset with either accelerator (by name only) |
 
 pub mod accuracy;
+pub mod charts;
 pub mod form_factors;
 pub mod plot;
 pub mod rays;

@@ -292,16 +292,8 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
             _ => spec.source.to_string(),
         };
         let scene = scene::load(&path).map_err(app::Error::from)?;
-        let sizes = scene.default_mesh_sizes();
-        let mesh = Mesh::build(
-            &scene,
-            &MeshSettings {
-                patch_size: sizes.patch_size,
-                element_size: sizes.element_size,
-                ..MeshSettings::default()
-            },
-        )
-        .map_err(|e| Error::App(app::Error::Mesh(e)))?;
+        let mesh = Mesh::build(&scene, &MeshSettings::default().sized_for(&scene))
+            .map_err(|e| Error::App(app::Error::Mesh(e)))?;
         let recorded = record(&scene, &mesh, recorded_shots(context.quick));
         let segments = sample(&recorded, segment_budget(context.quick));
         drop(mesh);

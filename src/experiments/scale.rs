@@ -30,6 +30,7 @@ use std::time::{Duration, Instant};
 
 use plotters::prelude::*;
 
+use super::charts;
 use super::rays::{SceneSpec, scenes_folder};
 use super::{Context, Error, Report, table, write_file};
 use crate::accel::Accel;
@@ -653,19 +654,14 @@ pub fn plot(cases: &[Case]) -> Result<String, Error> {
         root.fill(&WHITE).map_err(|e| failed(&e))?;
         for (area, (title, label, value)) in root.split_evenly((1, 2)).iter().zip(panels) {
             let y_range = range(&mut runs.iter().map(|(_, r)| value(r)));
-            let mut chart = ChartBuilder::on(area)
-                .caption(format!("{title} against scene size"), ("sans-serif", 20))
-                .margin(14)
-                .x_label_area_size(50)
-                .y_label_area_size(64)
-                .build_cartesian_2d(x_range.clone().log_scale(), y_range.log_scale())
-                .map_err(|e| failed(&e))?;
-            chart
-                .configure_mesh()
-                .x_desc("input faces")
-                .y_desc(label)
-                .draw()
-                .map_err(|e| failed(&e))?;
+            let mut chart = charts::log_log(
+                area,
+                &format!("{title} against scene size"),
+                20,
+                (x_range.clone(), "input faces"),
+                (y_range, label),
+            )
+            .map_err(|e| failed(&e))?;
             for (i, name) in series.iter().enumerate() {
                 let colour = PALETTE[i % PALETTE.len()];
                 let mut points: Vec<(f64, f64, bool)> = runs
@@ -674,16 +670,8 @@ pub fn plot(cases: &[Case]) -> Result<String, Error> {
                     .map(|(_, r)| (r.faces as f64, value(r), r.converged()))
                     .collect();
                 points.sort_by(|a, b| a.0.total_cmp(&b.0));
-                chart
-                    .draw_series(LineSeries::new(
-                        points.iter().map(|p| (p.0, p.1)),
-                        colour.stroke_width(2),
-                    ))
-                    .map_err(|e| failed(&e))?
-                    .label(*name)
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                    });
+                charts::line(&mut chart, name, colour, points.iter().map(|p| (p.0, p.1)))
+                    .map_err(|e| failed(&e))?;
                 chart
                     .draw_series(points.iter().map(|&(x, y, converged)| {
                         let style = if converged {
@@ -695,13 +683,7 @@ pub fn plot(cases: &[Case]) -> Result<String, Error> {
                     }))
                     .map_err(|e| failed(&e))?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperLeft)
-                .draw()
-                .map_err(|e| failed(&e))?;
+            charts::legend(&mut chart, SeriesLabelPosition::UpperLeft).map_err(|e| failed(&e))?;
         }
         root.present().map_err(|e| failed(&e))?;
     }

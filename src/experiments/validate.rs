@@ -26,7 +26,7 @@ use crate::mesh::{Mesh, MeshSettings};
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, Camera, LoadOptions, Scene, builtin};
 use crate::sensors::{self, SensorPoint};
-use crate::solver::{Flow, Receiver, Settings, Solver};
+use crate::solver::{Flow, Settings, Solver};
 
 /// A scene of the experiments and where its OBJ comes from.
 #[derive(Clone, Copy, Debug)]
@@ -115,10 +115,6 @@ pub struct Solved {
     pub radiosity: Vec<DVec3>,
     /// What the picture shows per vertex (ambient term included).
     pub display: Vec<DVec3>,
-    /// The sensors' receivers, in the order given.
-    pub receivers: Vec<Receiver>,
-    /// `B` at each sensor.
-    pub sensor_radiosity: Vec<DVec3>,
     /// `E` at each sensor.
     pub sensor_irradiance: Vec<DVec3>,
     /// Seconds of the solve: the solver's construction (accelerator build)
@@ -150,25 +146,18 @@ pub fn solve(
     } else {
         sensors::receivers(&scene, points, Path::new("sensor points")).map_err(app::Error::from)?
     };
-    let sizes = scene.default_mesh_sizes();
-    let mesh_settings = MeshSettings {
-        patch_size: patch_size.unwrap_or(sizes.patch_size),
-        element_size: sizes.element_size,
-        ..settings.mesh
-    };
     let mut settings = settings.clone();
-    settings.mesh = mesh_settings;
-    let mesh = Mesh::build(&scene, &mesh_settings).map_err(|e| Error::App(app::Error::Mesh(e)))?;
+    let sized = settings.mesh.sized_for(&scene);
+    settings.mesh = MeshSettings {
+        patch_size: patch_size.unwrap_or(sized.patch_size),
+        ..sized
+    };
+    let mesh = Mesh::build(&scene, &settings.mesh).map_err(|e| Error::App(app::Error::Mesh(e)))?;
     let start = Instant::now();
-    let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers.clone());
+    let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers);
     solver.run(|_| Flow::Continue);
     let solve_seconds = start.elapsed().as_secs_f64();
     let sensor_irradiance = solver.sensor_irradiance().to_vec();
-    let sensor_radiosity = receivers
-        .iter()
-        .zip(&sensor_irradiance)
-        .map(|(r, e)| sensors::radiosity(&scene, r, *e))
-        .collect();
     let radiosity = solver.radiosity().to_vec();
     let display = solver.display_radiosity(true);
     let shots = solver.stats().shots;
@@ -179,8 +168,6 @@ pub fn solve(
         mesh,
         radiosity,
         display,
-        receivers,
-        sensor_radiosity,
         sensor_irradiance,
         solve_seconds,
         shots,

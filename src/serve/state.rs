@@ -518,11 +518,10 @@ mod tests {
     fn initial_ambient_is_the_solvers() {
         for name in ["cornell", "room"] {
             let scene = crate::scene::load(name).unwrap();
-            let hint = scene.default_mesh_sizes();
+            let sized = MeshSettings::default().sized_for(&scene);
             let settings = MeshSettings {
-                patch_size: hint.patch_size,
-                element_size: hint.element_size * 4.0,
-                ..MeshSettings::default()
+                element_size: 4.0 * sized.element_size,
+                ..sized
             };
             let mesh = Mesh::build(&scene, &settings).unwrap();
             let solver = Solver::new(&scene, &mesh, Settings::wong_tsang93());

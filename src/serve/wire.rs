@@ -271,11 +271,10 @@ mod tests {
     #[test]
     fn mesh_message_layout_and_winding() {
         let scene = crate::scene::load("cornell").unwrap();
-        let hint = scene.default_mesh_sizes();
+        let sized = MeshSettings::default().sized_for(&scene);
         let settings = MeshSettings {
-            patch_size: hint.patch_size,
-            element_size: hint.element_size * 4.0,
-            ..MeshSettings::default()
+            element_size: 4.0 * sized.element_size,
+            ..sized
         };
         let mesh = Mesh::build(&scene, &settings).unwrap();
         let m = mesh_message(&scene, &mesh);

@@ -402,6 +402,13 @@ impl AdaptiveShooting {
     }
 }
 
+/// The answer every vote gives, `None` when there are none or two differ;
+/// stops drawing votes (shadow rays) at the first that differs.
+fn unanimous(mut votes: impl Iterator<Item = bool>) -> Option<bool> {
+    let first = votes.next()?;
+    votes.all(|v| v == first).then_some(first)
+}
+
 /// The bin of a normal: the axis and sign of its largest component.
 fn axis_of(normal: DVec3) -> u8 {
     let a = normal.abs();
@@ -682,23 +689,14 @@ impl Gatherer<'_> {
         let sources = self.samples(&self.hierarchy.tree, s);
         let receivers = self.samples(self.receiver_tree, r);
         let (ns, nr) = (sources.1, receivers.1);
-        let mut seen = None;
-        for i in 0..ns.max(nr) {
-            let Some(e) = self.representative(sources.0[i % ns]) else {
-                continue;
-            };
+        unanimous((0..ns.max(nr)).filter_map(|i| {
+            let e = self.representative(sources.0[i % ns])?;
             let receiver = &self.receivers[self.receiver_tree.items
                 [self.receiver_tree.nodes[receivers.0[i % nr] as usize].first as usize]
                 as usize];
             counters.pairs += 1;
-            let visible = self.visible_from(e, receiver, counters);
-            match seen {
-                None => seen = Some(visible),
-                Some(v) if v != visible => return None,
-                Some(_) => {}
-            }
-        }
-        seen
+            Some(self.visible_from(e, receiver, counters))
+        }))
     }
 
     /// Up to four nodes spread over node `n`: its grandchildren, or children
@@ -878,20 +876,11 @@ impl Gatherer<'_> {
     /// costs four rays.
     fn uniform_visibility(&self, n: u32, r: &Receiver, counters: &mut Counters) -> Option<bool> {
         let (samples, count) = self.samples(&self.hierarchy.tree, n);
-        let mut seen = None;
-        for &piece in &samples[..count] {
-            let Some(e) = self.representative(piece) else {
-                continue;
-            };
+        unanimous(samples[..count].iter().filter_map(|&piece| {
+            let e = self.representative(piece)?;
             counters.pairs += 1;
-            let visible = self.visible_from(e, r, counters);
-            match seen {
-                None => seen = Some(visible),
-                Some(v) if v != visible => return None,
-                Some(_) => {}
-            }
-        }
-        seen
+            Some(self.visible_from(e, r, counters))
+        }))
     }
 
     /// The irradiance each of a node's bins sends to the receiver, ignoring

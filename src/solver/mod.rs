@@ -449,7 +449,7 @@ impl<'a> Solver<'a> {
         sensors: Vec<Receiver>,
     ) -> Solver<'a> {
         let occluder = settings.accel.build(&scene.surfaces);
-        Solver::assemble(scene, mesh, settings, sensors, occluder)
+        Solver::with_sensors_and_occluder(scene, mesh, settings, sensors, occluder)
     }
 
     /// Like [`Solver::new`], answering visibility with `occluder` instead of
@@ -462,7 +462,7 @@ impl<'a> Solver<'a> {
         settings: Settings,
         occluder: Box<dyn Occluder + 'a>,
     ) -> Solver<'a> {
-        Solver::assemble(scene, mesh, settings, Vec::new(), occluder)
+        Solver::with_sensors_and_occluder(scene, mesh, settings, Vec::new(), occluder)
     }
 
     /// [`Solver::with_sensors`] with an accelerator built beforehand (so
@@ -470,16 +470,6 @@ impl<'a> Solver<'a> {
     /// in [`Solver::with_occluder`].
     #[must_use]
     pub fn with_sensors_and_occluder(
-        scene: &'a Scene,
-        mesh: &'a Mesh,
-        settings: Settings,
-        sensors: Vec<Receiver>,
-        occluder: Box<dyn Occluder + 'a>,
-    ) -> Solver<'a> {
-        Solver::assemble(scene, mesh, settings, sensors, occluder)
-    }
-
-    fn assemble(
         scene: &'a Scene,
         mesh: &'a Mesh,
         settings: Settings,
