@@ -14,9 +14,11 @@ use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
+mod serve;
+mod viewer;
+
 use radiosity::accel::Accel;
 use radiosity::app::{self, BakeJob, ImageJob, Job, Outcome, SensorJob};
-use radiosity::experiments;
 use radiosity::export::gltf::BakeMode;
 use radiosity::form_factor::FormFactor;
 use radiosity::mesh::Mesh;
@@ -24,8 +26,8 @@ use radiosity::render::Exposure;
 use radiosity::scene::Scene;
 use radiosity::scene::{Camera, DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions, builtin};
 use radiosity::sensors;
-use radiosity::serve;
 use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
+use radiosity_experiments as experiments;
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
 /// visibility (Wallace et al. 1989; Wong & Tsang 1993).
@@ -860,7 +862,7 @@ impl app::Observer for ProgressDisplay {
 }
 
 fn view(args: &ViewArgs) -> Result<()> {
-    let server = radiosity::viewer::Server::bind(&args.file, args.port)?;
+    let server = viewer::Server::bind(&args.file, args.port)?;
     println!("serving {} at {}", args.file.display(), server.url());
     println!("open that address in a browser; Ctrl-C stops");
     server.run()?;

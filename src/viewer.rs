@@ -69,7 +69,7 @@ impl Server {
     /// must be a `.glb` or `.gltf` file; a `.gltf`'s buffers and images are
     /// served from its folder.
     pub fn bind(model: &Path, port: u16) -> io::Result<Server> {
-        if !crate::scene::is_gltf(model) {
+        if !radiosity::scene::is_gltf(model) {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 format!(

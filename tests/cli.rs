@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[path = "../crates/radiosity/tests/common/mod.rs"]
 mod common;
 
 const MTL: &str = "newmtl light\nKd 0.5 0.5 0.5\nKe 10 10 10\nnewmtl white\nKd 0.7 0.7 0.7\n";

@@ -3,6 +3,7 @@
 //! whose estimate exceeds `--max-memory`. Each run is its own process, so
 //! its peak is its own.
 
+#[path = "../crates/radiosity/tests/common/mod.rs"]
 mod common;
 
 use std::process::{Command, Output};

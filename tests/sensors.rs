@@ -4,6 +4,7 @@
 //! refused with its file, line and problem; values do not depend on the
 //! thread count; the CSV has one row per point in input order.
 
+#[path = "../crates/radiosity/tests/common/mod.rs"]
 mod common;
 
 use std::path::{Path, PathBuf};

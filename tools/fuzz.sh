@@ -54,7 +54,7 @@ mkdir -p "corpus/$target" "artifacts/$target" logs generated-seeds/obj generated
     generated-seeds/gltf
 # The test scenes as seeds: the built-in ones, and the shared measured
 # Cornell box (beside a clone, or two levels up from a worktree).
-for scene in ../scenes/cornell ../scenes/room \
+for scene in ../crates/radiosity/scenes/cornell ../crates/radiosity/scenes/room \
     ../../shared/scenes/cornell_box/cornell_box ../../../shared/scenes/cornell_box/cornell_box; do
     if [ -f "$scene.obj" ] && [ -f "$scene.mtl" ]; then
         name=$(basename "$scene")

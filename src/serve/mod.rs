@@ -12,7 +12,7 @@
 //! while on a small machine).
 //!
 //! # Threads
-//! The solve runs on the caller's thread through [`crate::app::run`] with
+//! The solve runs on the caller's thread through [`radiosity::app::run`] with
 //! the [`Server::observer`], at full speed whether or not a page is open:
 //! after a shot it copies the vertex radiosities into shared state at most
 //! every [`SNAPSHOT_INTERVAL`] (250 ms) and never waits on the network; it
@@ -88,7 +88,7 @@
 //! Each vertex's displayed radiosity is `B + rho ambient` with the ambient
 //! term of Cohen et al. (1988) on, `B` with it off, Gouraud-interpolated in
 //! linear light and tone-mapped per pixel like the pictures of
-//! [`crate::render`]: scaled so the 90th percentile of the luminance of the
+//! [`radiosity::render`]: scaled so the 90th percentile of the luminance of the
 //! covered pixels maps to 0.8, then by the slider's stops, then clamped and
 //! sRGB-encoded. The percentile is taken (on the GPU, at reduced size, from
 //! the current view, again whenever the view stops moving) from the
@@ -114,9 +114,9 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
-pub use state::{Display, LiveObserver, Phase, SNAPSHOT_INTERVAL, Status};
+pub use state::{Display, LiveObserver};
 
-use crate::app::Outcome;
+use radiosity::app::Outcome;
 
 /// The default `--port`.
 pub const DEFAULT_PORT: u16 = 7788;
@@ -195,19 +195,13 @@ impl Server {
         })
     }
 
-    /// The address listened on.
-    #[must_use]
-    pub fn local_addr(&self) -> SocketAddr {
-        self.local
-    }
-
     /// The page's address, `http://ADDRESS:PORT/`.
     #[must_use]
     pub fn url(&self) -> String {
         format!("http://{}/", self.local)
     }
 
-    /// The observer to pass to [`crate::app::run`].
+    /// The observer to pass to [`radiosity::app::run`].
     #[must_use]
     pub fn observer(&self) -> LiveObserver {
         LiveObserver::new(self.shared.clone())

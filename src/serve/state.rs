@@ -14,10 +14,10 @@ use serde::Serialize;
 use tokio::sync::watch;
 
 use super::wire::{self, Rgbe};
-use crate::app::{Counts, Observer, Outcome};
-use crate::mesh::Mesh;
-use crate::scene::{Camera, Scene};
-use crate::solver::{Flow, Solver, StopReason};
+use radiosity::app::{Counts, Observer, Outcome};
+use radiosity::mesh::Mesh;
+use radiosity::scene::{Camera, Scene};
+use radiosity::solver::{Flow, Solver, StopReason};
 
 /// Shortest time between two snapshots of the solution: clients are sent
 /// at most this many updates, and copying the radiosities costs the solve
@@ -509,15 +509,15 @@ impl Observer for LiveObserver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::MeshSettings;
-    use crate::solver::Settings;
+    use radiosity::mesh::MeshSettings;
+    use radiosity::solver::Settings;
 
     /// The ambient term shown before the first shot is the solver's own at
     /// the start.
     #[test]
     fn initial_ambient_is_the_solvers() {
         for name in ["cornell", "room"] {
-            let scene = crate::scene::load(name).unwrap();
+            let scene = radiosity::scene::load(name).unwrap();
             let sized = MeshSettings::default().sized_for(&scene);
             let settings = MeshSettings {
                 element_size: 4.0 * sized.element_size,

@@ -33,8 +33,8 @@ use plotters::prelude::*;
 use super::charts;
 use super::rays::{SceneSpec, scenes_folder};
 use super::{Context, Error, Report, table, write_file};
-use crate::accel::Accel;
-use crate::solver::{DEFAULT_CONVERGE, Settings};
+use radiosity::accel::Accel;
+use radiosity::solver::{DEFAULT_CONVERGE, Settings};
 
 /// A scene of the experiment and the time its solve may take.
 #[derive(Clone, Debug)]
@@ -315,8 +315,8 @@ pub fn measure(
             threads.to_string(),
         ];
         if context.quick {
-            let element_size = crate::scene::load(&source)
-                .map_err(crate::app::Error::from)?
+            let element_size = radiosity::scene::load(&source)
+                .map_err(radiosity::app::Error::from)?
                 .default_mesh_sizes()
                 .element_size;
             common.extend([

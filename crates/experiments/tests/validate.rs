@@ -3,18 +3,19 @@
 //! error picture (colours, occlusion, the side a point faces) and the
 //! message when the harness's Python environment is missing.
 
+#[path = "../../radiosity/tests/common/mod.rs"]
 mod common;
 
 use std::path::Path;
 
 use common::{quad, scene_of};
 use glam::DVec3;
-use radiosity::experiments::Context;
-use radiosity::experiments::plot::{ColourMap, GREY};
-use radiosity::experiments::reference::{self, Harness, Scored};
-use radiosity::experiments::validate::{ERROR_RANGE, ErrorPoint, TITLE_HEIGHT, error_picture};
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::Camera;
+use radiosity_experiments::Context;
+use radiosity_experiments::plot::{ColourMap, GREY};
+use radiosity_experiments::reference::{self, Harness, Scored};
+use radiosity_experiments::validate::{ERROR_RANGE, ErrorPoint, TITLE_HEIGHT, error_picture};
 
 /// Four points with a reference and one without (the harness matched no
 /// face). Channel means: reference 1, 2, 4, 0.01; ours 1.1, 1.7, 4.2,

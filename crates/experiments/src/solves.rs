@@ -8,14 +8,14 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 
 use super::{Context, Error, Report, median, table};
-use crate::accel::Accel;
-use crate::export::{self, Staged};
-use crate::form_factor::FormFactor;
-use crate::mesh::{Mesh, MeshSettings};
-use crate::render::{self, Exposure, Image, RenderSettings};
-use crate::scene::{self, Scene};
-use crate::solver::{Flow, Settings, Solver, Stats, Visibility};
-use crate::{app, luminance};
+use radiosity::accel::Accel;
+use radiosity::export::{self, Staged};
+use radiosity::form_factor::FormFactor;
+use radiosity::mesh::{Mesh, MeshSettings};
+use radiosity::render::{self, Exposure, Image, RenderSettings};
+use radiosity::scene::{self, Scene};
+use radiosity::solver::{Flow, Settings, Solver, Stats, Visibility};
+use radiosity::{app, luminance};
 
 /// A scene meshed with its suggested sizes, or with an element size chosen
 /// to give about `target_vertices` vertices.
@@ -159,7 +159,10 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
         }
     }
     report.setting("shot", "the first shot (the brightest light), 3 x 3 subsources, analytic form factor; time per subsource = median shot time / 9, hemicube rasterisation included, accelerator build excluded (it is done once per solve)");
-    report.setting("hemicube resolution", crate::hemicube::DEFAULT_RESOLUTION);
+    report.setting(
+        "hemicube resolution",
+        radiosity::hemicube::DEFAULT_RESOLUTION,
+    );
     report.setting("repetitions", context.repetitions());
     report.body.push_str(&table(
         &[

@@ -23,9 +23,9 @@ use rayon::prelude::*;
 
 use super::plot::{self, Canvas, ColourMap, Panel, Scale, Tick};
 use super::{Context, Error, Report, table};
-use crate::form_factor::accuracy::{DiskStudy, ErrorStats, Tilt};
-use crate::form_factor::{FormFactor, Source, analytic, closed_form, disk, wallace};
-use crate::mesh::subsources;
+use crate::form_factor_accuracy::{DiskStudy, ErrorStats, Tilt};
+use radiosity::form_factor::{FormFactor, Source, analytic, closed_form, disk, wallace};
+use radiosity::mesh::subsources;
 
 /// The distances of Figures 4.2 and 4.6, in disk radii.
 pub const PAPER_DISTANCES: [f64; 3] = [1.0, 5.0, 10.0];

@@ -9,7 +9,6 @@
 
 pub mod accel;
 pub mod app;
-pub mod experiments;
 pub mod export;
 pub mod form_factor;
 pub mod geometry;
@@ -19,9 +18,7 @@ pub mod mesh;
 pub mod render;
 pub mod scene;
 pub mod sensors;
-pub mod serve;
 pub mod solver;
-pub mod viewer;
 
 use glam::DVec3;
 

@@ -35,17 +35,17 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::{Context, Error, Report, median, table};
-use crate::accel::Occluder;
-use crate::accel::brute::BruteForce;
-use crate::accel::bsp::{Bsp, BspSettings};
-use crate::accel::bvh::Bvh;
-use crate::app;
-use crate::mesh::{Mesh, MeshSettings};
-use crate::scene::{self, Scene, Surface};
-use crate::solver::{Flow, Settings, Solver};
+use radiosity::accel::Occluder;
+use radiosity::accel::brute::BruteForce;
+use radiosity::accel::bsp::{Bsp, BspSettings};
+use radiosity::accel::bvh::Bvh;
+use radiosity::app;
+use radiosity::mesh::{Mesh, MeshSettings};
+use radiosity::scene::{self, Scene, Surface};
+use radiosity::solver::{Flow, Settings, Solver};
 
 /// The Embree benchmark script, written next to its data when it is run.
-const EMBREE_SCRIPT: &str = include_str!("../../tools/embree_rays.py");
+const EMBREE_SCRIPT: &str = include_str!("../../../tools/embree_rays.py");
 
 /// Where the shared scenes are looked for when no folder is given, relative
 /// to the working directory and to the source tree.
@@ -154,7 +154,7 @@ pub(crate) fn scenes_folder(context: &Context, wanted: &[SceneSpec]) -> Result<P
         Some(dir) => vec![dir.clone()],
         None => vec![
             PathBuf::from(DEFAULT_SCENES),
-            Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENES),
+            crate::reference::source_root().join(DEFAULT_SCENES),
         ],
     };
     let needed: Vec<&str> = wanted

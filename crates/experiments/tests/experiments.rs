@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use radiosity::experiments::form_factors::{self, CrossSection};
-use radiosity::experiments::{Context, Report, plot};
+use radiosity_experiments::form_factors::{self, CrossSection};
+use radiosity_experiments::{Context, Report, plot};
 
 fn context(dir: &Path) -> Context {
     Context {
@@ -162,7 +162,7 @@ fn rays_fails_clearly_without_the_real_scenes() {
         scenes: Some(missing.clone()),
         ..context(dir.path())
     };
-    let error = radiosity::experiments::rays::rays(&context).unwrap_err();
+    let error = radiosity_experiments::rays::rays(&context).unwrap_err();
     let message = error.to_string();
     for part in [
         "sponza_dabrovic/sponza_dabrovic.obj",
@@ -180,7 +180,7 @@ fn rays_fails_clearly_without_the_real_scenes() {
 /// force (the experiment fails otherwise), and the three tables.
 #[test]
 fn rays_on_the_room_tables_every_accelerator() {
-    use radiosity::experiments::rays::{self, SCENES};
+    use radiosity_experiments::rays::{self, SCENES};
     let dir = tempfile::tempdir().unwrap();
     let room = SCENES.iter().find(|s| s.name == "room").unwrap();
     let report = rays::rays_on(&context(dir.path()), std::slice::from_ref(room)).unwrap();
@@ -215,7 +215,7 @@ fn rays_on_the_room_tables_every_accelerator() {
 #[test]
 fn rays_file_layout() {
     use glam::DVec3;
-    use radiosity::experiments::rays::{Segment, write_rays};
+    use radiosity_experiments::rays::{Segment, write_rays};
     let scene = radiosity::scene::load("room").unwrap();
     let triangles: usize = scene.surfaces.iter().map(|s| s.polygon.len() - 2).sum();
     let segments = [
@@ -255,7 +255,7 @@ fn scale_fails_clearly_without_the_real_scenes() {
         scenes: Some(missing.clone()),
         ..context(dir.path())
     };
-    let error = radiosity::experiments::scale::scale(&context).unwrap_err();
+    let error = radiosity_experiments::scale::scale(&context).unwrap_err();
     let message = error.to_string();
     for part in [
         "cornell_box/cornell_box.obj",
@@ -266,111 +266,4 @@ fn scale_fails_clearly_without_the_real_scenes() {
         assert!(message.contains(part), "{part:?} not in {message:?}");
     }
     assert!(std::fs::read_dir(dir.path()).unwrap().count() == 0);
-}
-
-/// The scale experiment on the built-in scenes (quick: coarser meshes),
-/// each case a child `radiosity render`: every case has its rows, shot,
-/// converged on the room, measured its peak memory, and its phases fit in
-/// its total; the pictures, statistics and plot are written and the
-/// vertices CSVs removed.
-#[test]
-fn scale_on_the_builtin_scenes_measures_every_case() {
-    use radiosity::experiments::scale::{self, configurations};
-    let dir = tempfile::tempdir().unwrap();
-    let context = context(dir.path());
-    let scenes = scale::builtin_scenes();
-    assert_eq!(
-        scenes.iter().map(|s| s.spec.name).collect::<Vec<_>>(),
-        ["cornell", "room"]
-    );
-    let cases = scale::measure(
-        &context,
-        &scenes,
-        Path::new(env!("CARGO_BIN_EXE_radiosity")),
-    )
-    .unwrap();
-    let report = scale::report(&context, &scenes, &cases).unwrap();
-    assert_table(
-        &report,
-        "| scene | configuration | faces | surfaces | elements | vertices | load s |",
-    );
-    assert_table(
-        &report,
-        "| scene | configuration | shots | unshot | stopped | rays | rays/s/thread |",
-    );
-    let expected: usize = scenes.iter().map(|s| configurations(s, true).len()).sum();
-    assert!(
-        expected >= 4,
-        "the default and another accelerator per scene"
-    );
-    assert_eq!(cases.len(), expected);
-    for scene in &scenes {
-        for configuration in configurations(scene, true) {
-            let row = format!("| {} | {} | ", scene.spec.name, configuration.name);
-            assert_eq!(
-                report.body.matches(&row).count(),
-                2,
-                "{row} twice (one a table) in:\n{}",
-                report.body
-            );
-        }
-    }
-    for case in &cases {
-        let run = case
-            .result
-            .as_ref()
-            .unwrap_or_else(|e| panic!("{} {}: {e}", case.scene, case.configuration));
-        let name = format!("{} {}", case.scene, case.configuration);
-        assert!(run.shots > 0 && run.rays > 0, "{name}: {run:?}");
-        assert!(run.faces > 0 && run.surfaces > 0 && run.surfaces <= run.faces);
-        assert!(run.elements > 0 && run.vertices > 0);
-        assert!(run.peak_memory_bytes.is_some_and(|b| b > 0), "{name}");
-        let phases = [
-            run.load_seconds,
-            run.mesh_seconds,
-            run.accel_build_seconds,
-            run.solve_seconds,
-            run.write_seconds,
-        ];
-        assert!(phases.iter().all(|&t| t >= 0.0), "{name}: {phases:?}");
-        let sum: f64 = phases.iter().sum();
-        assert!(
-            sum <= run.total_seconds && run.total_seconds <= case.wall_seconds,
-            "{name}: phases {sum} s, total {} s, wall {} s",
-            run.total_seconds,
-            case.wall_seconds
-        );
-        assert!(run.rays_per_second_per_thread() > 0.0);
-        if case.scene == "room" {
-            assert!(run.converged(), "{name}: unshot {}", run.unshot_fraction);
-            assert!(run.unshot_fraction <= 0.01 && run.stop_reason == "converged");
-        }
-    }
-    // The same scene meshes alike whatever the accelerator.
-    for scene in ["cornell", "room"] {
-        let sizes: Vec<(u64, u64)> = cases
-            .iter()
-            .filter(|c| c.scene == scene)
-            .map(|c| {
-                let r = c.result.as_ref().unwrap();
-                (r.faces, r.vertices)
-            })
-            .collect();
-        assert!(sizes.windows(2).all(|w| w[0] == w[1]), "{scene}: {sizes:?}");
-    }
-    let svg = std::fs::read_to_string(dir.path().join("scale.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("input faces"));
-    for case in &cases {
-        assert!(svg.contains(&case.configuration), "no legend for {case:?}");
-    }
-    assert_eq!(svg.matches("<circle").count(), 2 * cases.len());
-    for path in &report.files {
-        assert!(path.is_file(), "{}", path.display());
-    }
-    let left: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".csv") || n.ends_with(".log"))
-        .collect();
-    assert!(left.is_empty(), "{left:?}");
 }

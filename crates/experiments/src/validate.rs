@@ -19,14 +19,14 @@ use glam::DVec3;
 use super::plot::{self, BLACK, Canvas, ColourMap, GREY, Scale, WHITE};
 use super::reference::{self, Harness};
 use super::{Context, Error, Report, table, write_file};
-use crate::accel::{self, Accel};
-use crate::app;
-use crate::export;
-use crate::mesh::{Mesh, MeshSettings};
-use crate::render::{self, Exposure, RenderSettings};
-use crate::scene::{self, Camera, LoadOptions, Scene, builtin};
-use crate::sensors::{self, SensorPoint};
-use crate::solver::{Flow, Settings, Solver};
+use radiosity::accel::{self, Accel};
+use radiosity::app;
+use radiosity::export;
+use radiosity::mesh::{Mesh, MeshSettings};
+use radiosity::render::{self, Exposure, RenderSettings};
+use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
+use radiosity::sensors::{self, SensorPoint};
+use radiosity::solver::{Flow, Settings, Solver};
 
 /// A scene of the experiments and where its OBJ comes from.
 #[derive(Clone, Copy, Debug)]

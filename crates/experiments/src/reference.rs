@@ -20,7 +20,7 @@ use glam::DVec3;
 use super::{Context, Error, write_file};
 
 /// The helper script, written next to the outputs when it is run.
-const HELPER: &str = include_str!("../../tools/reference_score.py");
+const HELPER: &str = include_str!("../../../tools/reference_score.py");
 
 /// The harness folder looked for when none is given, relative to the
 /// working directory and to the source tree (beside a clone, or two levels
@@ -183,6 +183,12 @@ impl Score {
     }
 }
 
+/// The repository's root (the workspace), which the default folders
+/// of the shared scenes and the reference are also looked for from.
+pub(crate) fn source_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
 /// The first of `candidates` (relative to the working directory, then to
 /// the source tree) that holds `file`.
 fn find_folder(
@@ -194,12 +200,7 @@ fn find_folder(
         Some(dir) => vec![dir.to_path_buf()],
         None => candidates
             .iter()
-            .flat_map(|c| {
-                [
-                    PathBuf::from(c),
-                    Path::new(env!("CARGO_MANIFEST_DIR")).join(c),
-                ]
-            })
+            .flat_map(|c| [PathBuf::from(c), source_root().join(c)])
             .collect(),
     };
     folders

@@ -10,9 +10,16 @@ use glam::DVec3;
 use radiosity::scene::{Scene, Surface};
 
 /// A file of the shared real scenes (`shared/scenes/`): beside the clone in
-/// CI, two levels up from a worktree under `wt/`.
+/// CI, two levels up from a worktree under `wt/`. The clone's root is two
+/// levels above the core crate (this file is shared with the command's
+/// tests at the root, whose manifest folder is the clone's root).
 pub fn shared_scene(relative: &str) -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = if manifest.join("crates").is_dir() {
+        manifest.to_path_buf()
+    } else {
+        manifest.join("../..")
+    };
     [
         root.join("../shared/scenes"),
         root.join("../../shared/scenes"),

@@ -18,6 +18,7 @@
 
 pub mod accuracy;
 pub mod charts;
+pub mod form_factor_accuracy;
 pub mod form_factors;
 pub mod plot;
 pub mod rays;
@@ -72,7 +73,7 @@ impl Context {
 pub enum Error {
     /// A scene, mesh or setting problem.
     #[error(transparent)]
-    App(#[from] crate::app::Error),
+    App(#[from] radiosity::app::Error),
     /// A file could not be written.
     #[error("{path}: cannot write: {source}", path = path.display())]
     Output {
@@ -214,8 +215,8 @@ pub fn run(
 
 /// Writes a whole file through a temporary name.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    crate::export::Staged::write(path, |w| std::io::Write::write_all(w, bytes))
-        .and_then(crate::export::Staged::commit)
+    radiosity::export::Staged::write(path, |w| std::io::Write::write_all(w, bytes))
+        .and_then(radiosity::export::Staged::commit)
         .map_err(|source| Error::Output {
             path: path.to_path_buf(),
             source,

@@ -9,16 +9,15 @@
 //!   formula), equation (2), used by the `wong-tsang93` preset.
 //!
 //! [`closed_form`] holds the exact answers of the heat-transfer literature
-//! that the tests (and the experiments) compare these against, and
-//! [`accuracy`] the paper's error study of equations (1) and (3)
-//! (Figures 4.2 and 4.6).
+//! that the tests (and the experiments) compare these against; the paper's
+//! error study of equations (1) and (3) (Figures 4.2 and 4.6) is in the
+//! experiments crate (`radiosity_experiments::form_factor_accuracy`).
 //!
 //! The factor returned is always `F_jk`, from the differential area at the
 //! receiver to the finite subsource (design.md section 4); a receiver gathers
 //! `rho_j * dB_i * sum_k delta_kj * F_jk`. A negative cosine means the pair
 //! does not see each other and gives 0.
 
-pub mod accuracy;
 pub mod analytic;
 pub mod closed_form;
 

@@ -8,7 +8,7 @@
 //! Every method is scored at the same points: the 600 vertices `score.py`
 //! samples from the default preset's mesh (so the reference computed for
 //! `validate` serves here too). Our solves gather there as sensors
-//! ([`crate::sensors`]); Radiance evaluates there after the harness's own
+//! ([`radiosity::sensors`]); Radiance evaluates there after the harness's own
 //! point offsets. Each result is written as a vertices CSV of those points
 //! and scored by the harness's `score.py` ([`super::reference`]).
 //!
@@ -27,8 +27,8 @@ use super::charts;
 use super::reference::{self, Harness, Scored};
 use super::validate::{self, SceneCase, seconds, solve, write_rows};
 use super::{Context, Error, Report, median, table, write_file};
-use crate::sensors::SensorPoint;
-use crate::solver::Settings;
+use radiosity::sensors::SensorPoint;
+use radiosity::solver::Settings;
 
 /// The scenes of the curve.
 pub const SCENES: [SceneCase; 2] = [
@@ -203,7 +203,7 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
         // vertex's own surface (a vertex on the edge between a light and the
         // ceiling is the light's, as in the vertices CSV, wherever the
         // sensor was placed), with B = Ke + Kd E of it.
-        let own: Vec<&crate::scene::Surface> = sampled
+        let own: Vec<&radiosity::scene::Surface> = sampled
             .rows
             .iter()
             .map(|&r| &base.scene.surfaces[base.mesh.vertices[r].surface as usize])

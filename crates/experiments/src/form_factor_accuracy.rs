@@ -15,7 +15,7 @@
 
 use glam::DVec3;
 
-use super::{FormFactor, Source, closed_form};
+use radiosity::form_factor::{FormFactor, Source, closed_form};
 
 /// How the receiver's normal is set from `theta_j`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -149,8 +149,10 @@ impl Canvas {
             u32::try_from(self.width).map_err(io::Error::other)?,
             u32::try_from(self.height).map_err(io::Error::other)?,
         );
-        crate::export::Staged::write(path, |out| crate::export::write_png(out, w, h, &self.rgb))?
-            .commit()
+        radiosity::export::Staged::write(path, |out| {
+            radiosity::export::write_png(out, w, h, &self.rgb)
+        })?
+        .commit()
     }
 }
 

@@ -1,0 +1,134 @@
+//! The scale experiment end to end: each case runs the `radiosity` command
+//! as a child, so this test lives with the command (the other experiment
+//! tests are in `crates/experiments/tests`).
+
+use std::path::Path;
+
+use radiosity_experiments::{Context, Report};
+
+fn context(dir: &Path) -> Context {
+    Context {
+        out: dir.to_path_buf(),
+        quick: true,
+        command: "cargo test --test scale".into(),
+        scenes: None,
+        embree_python: None,
+        reference: None,
+    }
+}
+
+fn assert_table(report: &Report, header: &str) {
+    assert!(
+        report.body.contains(header),
+        "no table headed {header:?} in:\n{}",
+        report.body
+    );
+    assert!(report.body.contains("| --- |"), "no Markdown table");
+}
+
+/// The scale experiment on the built-in scenes (quick: coarser meshes),
+/// each case a child `radiosity render`: every case has its rows, shot,
+/// converged on the room, measured its peak memory, and its phases fit in
+/// its total; the pictures, statistics and plot are written and the
+/// vertices CSVs removed.
+#[test]
+fn scale_on_the_builtin_scenes_measures_every_case() {
+    use radiosity_experiments::scale::{self, configurations};
+    let dir = tempfile::tempdir().unwrap();
+    let context = context(dir.path());
+    let scenes = scale::builtin_scenes();
+    assert_eq!(
+        scenes.iter().map(|s| s.spec.name).collect::<Vec<_>>(),
+        ["cornell", "room"]
+    );
+    let cases = scale::measure(
+        &context,
+        &scenes,
+        Path::new(env!("CARGO_BIN_EXE_radiosity")),
+    )
+    .unwrap();
+    let report = scale::report(&context, &scenes, &cases).unwrap();
+    assert_table(
+        &report,
+        "| scene | configuration | faces | surfaces | elements | vertices | load s |",
+    );
+    assert_table(
+        &report,
+        "| scene | configuration | shots | unshot | stopped | rays | rays/s/thread |",
+    );
+    let expected: usize = scenes.iter().map(|s| configurations(s, true).len()).sum();
+    assert!(
+        expected >= 4,
+        "the default and another accelerator per scene"
+    );
+    assert_eq!(cases.len(), expected);
+    for scene in &scenes {
+        for configuration in configurations(scene, true) {
+            let row = format!("| {} | {} | ", scene.spec.name, configuration.name);
+            assert_eq!(
+                report.body.matches(&row).count(),
+                2,
+                "{row} twice (one a table) in:\n{}",
+                report.body
+            );
+        }
+    }
+    for case in &cases {
+        let run = case
+            .result
+            .as_ref()
+            .unwrap_or_else(|e| panic!("{} {}: {e}", case.scene, case.configuration));
+        let name = format!("{} {}", case.scene, case.configuration);
+        assert!(run.shots > 0 && run.rays > 0, "{name}: {run:?}");
+        assert!(run.faces > 0 && run.surfaces > 0 && run.surfaces <= run.faces);
+        assert!(run.elements > 0 && run.vertices > 0);
+        assert!(run.peak_memory_bytes.is_some_and(|b| b > 0), "{name}");
+        let phases = [
+            run.load_seconds,
+            run.mesh_seconds,
+            run.accel_build_seconds,
+            run.solve_seconds,
+            run.write_seconds,
+        ];
+        assert!(phases.iter().all(|&t| t >= 0.0), "{name}: {phases:?}");
+        let sum: f64 = phases.iter().sum();
+        assert!(
+            sum <= run.total_seconds && run.total_seconds <= case.wall_seconds,
+            "{name}: phases {sum} s, total {} s, wall {} s",
+            run.total_seconds,
+            case.wall_seconds
+        );
+        assert!(run.rays_per_second_per_thread() > 0.0);
+        if case.scene == "room" {
+            assert!(run.converged(), "{name}: unshot {}", run.unshot_fraction);
+            assert!(run.unshot_fraction <= 0.01 && run.stop_reason == "converged");
+        }
+    }
+    // The same scene meshes alike whatever the accelerator.
+    for scene in ["cornell", "room"] {
+        let sizes: Vec<(u64, u64)> = cases
+            .iter()
+            .filter(|c| c.scene == scene)
+            .map(|c| {
+                let r = c.result.as_ref().unwrap();
+                (r.faces, r.vertices)
+            })
+            .collect();
+        assert!(sizes.windows(2).all(|w| w[0] == w[1]), "{scene}: {sizes:?}");
+    }
+    let svg = std::fs::read_to_string(dir.path().join("scale.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("input faces"));
+    for case in &cases {
+        assert!(svg.contains(&case.configuration), "no legend for {case:?}");
+    }
+    assert_eq!(svg.matches("<circle").count(), 2 * cases.len());
+    for path in &report.files {
+        assert!(path.is_file(), "{}", path.display());
+    }
+    let left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".csv") || n.ends_with(".log"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
