@@ -4,37 +4,14 @@
 //! The paper's error study of equations (1) and (3) is tested with the
 //! experiments (`crates/experiments/tests/disk_study.rs`).
 
+mod common;
+
 use std::f64::consts::PI;
 
+use common::rng::Rng;
 use glam::DVec3;
 use proptest::prelude::*;
 use radiosity::form_factor::{FormFactor, analytic, closed_form};
-
-/// Deterministic uniform numbers in `[0, 1)` (SplitMix64), so a failure
-/// reproduces.
-struct Sampler(u64);
-
-impl Sampler {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1_u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.uniform()
-    }
-
-    fn unit_vector(&mut self) -> DVec3 {
-        let z = self.range(-1.0, 1.0);
-        let phi = self.range(0.0, 2.0 * PI);
-        let s = (1.0 - z * z).sqrt();
-        DVec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
-}
 
 /// Log-spaced values from `lo` to `hi`.
 fn log_range(lo: f64, hi: f64, count: usize) -> Vec<f64> {
@@ -115,7 +92,7 @@ fn analytic_matches_the_parallel_rectangle_anywhere_below() {
     // The foot of the receiver's normal inside, on the edge line of, and
     // outside the rectangle, in all directions; the closed form is a signed
     // sum of four corner rectangles.
-    let mut sampler = Sampler(11);
+    let mut sampler = Rng(11);
     for _ in 0..2000 {
         let (x0, y0) = (sampler.range(-2.0, 2.0), sampler.range(-2.0, 2.0));
         let (x1, y1) = (x0 + sampler.range(0.05, 3.0), y0 + sampler.range(0.05, 3.0));
@@ -167,7 +144,7 @@ fn analytic_matches_the_perpendicular_rectangle() {
             }
         }
     }
-    let mut sampler = Sampler(12);
+    let mut sampler = Rng(12);
     for _ in 0..2000 {
         let s0 = sampler.range(-2.0, 2.0);
         let s1 = s0 + sampler.range(0.05, 3.0);
@@ -227,7 +204,7 @@ fn exact_disk_matches_a_many_sided_polygon_in_any_orientation() {
     // disk_exact (closed form, including disks cut by the receiver's tangent
     // plane) against analytic on a 2048-gon of equal area. The polygon's
     // error is of order F (pi/N)^4 except within about R/N of the rim.
-    let mut sampler = Sampler(13);
+    let mut sampler = Rng(13);
     let mut cut = 0;
     for _ in 0..1000 {
         let centre = DVec3::new(
@@ -257,7 +234,7 @@ fn exact_disk_matches_a_many_sided_polygon_in_any_orientation() {
 
 #[test]
 fn exact_disk_matches_the_offset_parallel_disk() {
-    let mut sampler = Sampler(14);
+    let mut sampler = Rng(14);
     for _ in 0..1000 {
         let (radius, h, a) = (
             sampler.range(0.1, 2.0),
@@ -313,7 +290,7 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         let normal = radiosity::geometry::normal(face).unwrap();
         assert!((normal - *inward).length() < 1e-15);
     }
-    let mut sampler = Sampler(15);
+    let mut sampler = Rng(15);
     for _ in 0..2000 {
         let receiver = DVec3::new(
             sampler.range(0.0, size.x),
@@ -326,8 +303,8 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
     }
     // Receivers on a face, facing in.
     for _ in 0..500 {
-        let (face, inward) = &faces[(sampler.uniform() * 6.0) as usize];
-        let (u, v) = (sampler.uniform(), sampler.uniform());
+        let (face, inward) = &faces[(sampler.unit() * 6.0) as usize];
+        let (u, v) = (sampler.unit(), sampler.unit());
         let receiver = face[0] + (face[1] - face[0]) * u + (face[3] - face[0]) * v;
         let sum = box_sum(&faces, receiver, *inward);
         assert!((sum - 1.0).abs() < 1e-9, "{receiver} {inward}: {sum}");
