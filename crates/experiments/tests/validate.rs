@@ -8,6 +8,7 @@ mod common;
 
 use std::path::Path;
 
+use approx::abs_diff_eq;
 use common::{quad, scene_of};
 use glam::DVec3;
 use radiosity::mesh::{Mesh, MeshSettings};
@@ -41,7 +42,7 @@ fn scores_follow_score_py_on_a_hand_made_reference() {
         DVec3::new(100.0, 100.0, 100.0),
     ];
     let score = reference::score(&ours, &reference);
-    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12;
+    let close = |a: f64, b: f64| abs_diff_eq!(a, b, epsilon = 1e-12);
     assert!(close(score.l1, 0.61 / 7.01), "{}", score.l1);
     assert!(close(score.bias, 7.02 / 7.01 - 1.0), "{}", score.bias);
     assert!(close(score.median, 0.1), "{}", score.median);

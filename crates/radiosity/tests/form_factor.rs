@@ -8,6 +8,7 @@ mod common;
 
 use std::f64::consts::PI;
 
+use approx::abs_diff_eq;
 use common::rng::Rng;
 use glam::DVec3;
 use proptest::prelude::*;
@@ -48,7 +49,7 @@ fn assert_close(value: f64, exact: f64, terms: f64, what: &str) -> bool {
     let rounding = 32.0 * f64::EPSILON * terms;
     let relative = 1e-9 * exact.abs();
     assert!(
-        (value - exact).abs() <= relative.max(rounding),
+        abs_diff_eq!(value, exact, epsilon = relative.max(rounding)),
         "{what}: {value} vs {exact} (error {:e}, rounding bound {rounding:e})",
         (value - exact).abs()
     );
@@ -225,7 +226,7 @@ fn exact_disk_matches_a_many_sided_polygon_in_any_orientation() {
         let numeric =
             closed_form::disk_numeric(receiver, normal, centre, disk_normal, radius, 2048);
         assert!(
-            (exact - numeric).abs() < 1e-9,
+            abs_diff_eq!(exact, numeric, epsilon = 1e-9),
             "{receiver} {normal}: {exact} vs {numeric}"
         );
     }
@@ -299,7 +300,10 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         );
         let normal = sampler.unit_vector();
         let sum = box_sum(&faces, receiver, normal);
-        assert!((sum - 1.0).abs() < 1e-9, "{receiver} {normal}: {sum}");
+        assert!(
+            abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+            "{receiver} {normal}: {sum}"
+        );
     }
     // Receivers on a face, facing in.
     for _ in 0..500 {
@@ -307,7 +311,10 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         let (u, v) = (sampler.unit(), sampler.unit());
         let receiver = face[0] + (face[1] - face[0]) * u + (face[3] - face[0]) * v;
         let sum = box_sum(&faces, receiver, *inward);
-        assert!((sum - 1.0).abs() < 1e-9, "{receiver} {inward}: {sum}");
+        assert!(
+            abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+            "{receiver} {inward}: {sum}"
+        );
     }
     // Receivers on an edge where two faces meet (a vertex of one of them):
     // the adjacent face's factor is the limit along the receiving face, so
@@ -317,12 +324,18 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         let receiver = DVec3::new(t * size.x, 0.0, 0.0);
         for normal in [DVec3::Y, DVec3::Z] {
             let sum = box_sum(&faces, receiver, normal);
-            assert!((sum - 1.0).abs() < 1e-9, "{receiver} {normal}: {sum}");
+            assert!(
+                abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+                "{receiver} {normal}: {sum}"
+            );
         }
         let receiver = DVec3::new(size.x, size.y, t * size.z);
         for normal in [-DVec3::X, -DVec3::Y] {
             let sum = box_sum(&faces, receiver, normal);
-            assert!((sum - 1.0).abs() < 1e-9, "{receiver} {normal}: {sum}");
+            assert!(
+                abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+                "{receiver} {normal}: {sum}"
+            );
         }
     }
 }
@@ -351,11 +364,11 @@ fn a_receiver_on_a_source_edge_is_finite_and_continuous() {
             assert!(f.is_finite() && (0.0..=1.0).contains(&f), "{f}");
         }
         assert!(
-            (on_edge - near).abs() < 1e-8,
+            abs_diff_eq!(on_edge, near, epsilon = 1e-8),
             "tilt {tilt}: {on_edge} vs {near}"
         );
         assert!(
-            (near - farther).abs() < 1e-5,
+            abs_diff_eq!(near, farther, epsilon = 1e-5),
             "tilt {tilt}: {near} vs {farther}"
         );
     }
@@ -364,7 +377,7 @@ fn a_receiver_on_a_source_edge_is_finite_and_continuous() {
     let f = analytic(base, DVec3::Y, &wall);
     let exact = closed_form::perpendicular_rectangle(-1.3, 1.7, 0.0, 1.5, 0.0);
     assert!(
-        (f - 0.5).abs() < 1e-12 && (exact - 0.5).abs() < 1e-12,
+        abs_diff_eq!(f, 0.5, epsilon = 1e-12) && abs_diff_eq!(exact, 0.5, epsilon = 1e-12),
         "{f} {exact}"
     );
     // Approaching from other directions (off the tangent plane) the values
@@ -378,7 +391,10 @@ fn a_receiver_on_a_source_edge_is_finite_and_continuous() {
         let near = analytic(base + d * 1e-9, DVec3::Y, &wall);
         let farther = analytic(base + d * 1e-6, DVec3::Y, &wall);
         assert!(near.is_finite() && near >= 0.0);
-        assert!((near - farther).abs() < 1e-5, "{d}: {near} vs {farther}");
+        assert!(
+            abs_diff_eq!(near, farther, epsilon = 1e-5),
+            "{d}: {near} vs {farther}"
+        );
     }
 }
 
@@ -398,13 +414,19 @@ fn a_receiver_in_a_corner_is_finite_and_continuous() {
     // the perpendicular-rectangle corner factor as c -> 0, 1/4.
     let (wall, _) = &faces[4];
     let at_corner = analytic(corner, DVec3::Y, wall);
-    assert!((at_corner - 0.25).abs() < 1e-12, "{at_corner}");
+    assert!(
+        abs_diff_eq!(at_corner, 0.25, epsilon = 1e-12),
+        "{at_corner}"
+    );
     for delta in [1e-9, 1e-6] {
         let f = analytic(corner + DVec3::Z * delta, DVec3::Y, wall);
         let exact = closed_form::perpendicular_rectangle_corner(size.y, size.x, delta);
-        assert!((f - exact).abs() < 1e-9, "{delta}: {f} vs {exact}");
         assert!(
-            (f - at_corner).abs() < 2.0 * delta,
+            abs_diff_eq!(f, exact, epsilon = 1e-9),
+            "{delta}: {f} vs {exact}"
+        );
+        assert!(
+            abs_diff_eq!(f, at_corner, epsilon = 2.0 * delta),
             "{delta}: {f} vs {at_corner}"
         );
     }
@@ -414,11 +436,14 @@ fn a_receiver_in_a_corner_is_finite_and_continuous() {
     let diagonal = DVec3::new(1.0, 0.0, 1.0).normalize();
     let near = analytic(corner + diagonal * 1e-9, DVec3::Y, wall);
     let farther = analytic(corner + diagonal * 1e-6, DVec3::Y, wall);
-    assert!((near - 0.375).abs() < 1e-8, "{near}");
-    assert!((near - farther).abs() < 1e-5, "{near} vs {farther}");
+    assert!(abs_diff_eq!(near, 0.375, epsilon = 1e-8), "{near}");
+    assert!(
+        abs_diff_eq!(near, farther, epsilon = 1e-5),
+        "{near} vs {farther}"
+    );
     // And the box still sums to one just inside the corner.
     let sum = box_sum(&faces, corner + diagonal * 1e-9, DVec3::Y);
-    assert!((sum - 1.0).abs() < 1e-9, "{sum}");
+    assert!(abs_diff_eq!(sum, 1.0, epsilon = 1e-9), "{sum}");
 }
 
 /// A convex quadrilateral: four points at increasing angles on a circle,

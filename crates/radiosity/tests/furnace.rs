@@ -5,6 +5,7 @@
 
 mod common;
 
+use approx::abs_diff_eq;
 use radiosity::form_factor::{self, FormFactor, Source};
 use radiosity::mesh::{self, Mesh, MeshSettings};
 use radiosity::solver::{Flow, Settings, Solver};
@@ -140,7 +141,7 @@ fn furnace_with_wallace_eq1_stays_within_the_bounds_its_closure_implies() {
     assert!(!interior.is_empty());
     for &j in &interior {
         assert!(
-            (closure[j] - 1.0).abs() < 0.05,
+            abs_diff_eq!(closure[j], 1.0, epsilon = 0.05),
             "closure {} at {j}",
             closure[j]
         );
