@@ -71,60 +71,105 @@ fn formula_label(formula: FormFactor) -> &'static str {
     }
 }
 
+/// The tilts of the receiver's normal compared in Figure 4.2's second table.
+const TILTS: [Tilt; 3] = [Tilt::DiskAxis, Tilt::InPlane, Tilt::Sideways];
+
+/// The formulas of Figures 4.2 (eq. (1)) and 4.6 (eq. (3)).
+const DISK_FORMULAS: [FormFactor; 2] = [FormFactor::Wallace, FormFactor::Disk];
+
+/// What Figures 4.2 and 4.6 measure: the error statistics of every
+/// (tilt, formula, distance) and the check of the exact factor.
+#[derive(Clone, Debug)]
+pub struct DiskErrors {
+    /// `(tilt, formula, index into PAPER_DISTANCES)` of each entry of
+    /// [`DiskErrors::stats`].
+    pub cases: Vec<(Tilt, FormFactor, usize)>,
+    /// The errors of each case.
+    pub stats: Vec<ErrorStats>,
+    /// Equation (2) on a 2048-gon against the exact factor, per distance
+    /// (over `theta_j = 0` only in quick mode).
+    pub checks: Vec<ErrorStats>,
+    /// Whether the check ran on the reduced grid.
+    pub quick: bool,
+}
+
+impl DiskErrors {
+    /// Computes every case of the study; cheap (75,000 closed forms), so
+    /// quick mode runs the paper's full grid too. The check of the exact
+    /// factor, the contour formula on a 2048-gon of the disk's area, runs
+    /// over `theta_j = 0` only in quick mode, the polygon being costly.
+    #[must_use]
+    pub fn compute(quick: bool) -> DiskErrors {
+        let cases: Vec<(Tilt, FormFactor, usize)> = TILTS
+            .iter()
+            .flat_map(|&t| {
+                DISK_FORMULAS
+                    .iter()
+                    .flat_map(move |&f| (0..3).map(move |i| (t, f, i)))
+            })
+            .collect();
+        let stats = cases
+            .par_iter()
+            .map(|&(tilt, f, i)| {
+                DiskStudy {
+                    tilt,
+                    ..DiskStudy::paper(PAPER_DISTANCES[i])
+                }
+                .errors(f)
+            })
+            .collect();
+        let check_grid = |distance: f64| {
+            if quick {
+                DiskStudy {
+                    max_theta_j: 0,
+                    ..DiskStudy::paper(distance)
+                }
+            } else {
+                DiskStudy::paper(distance)
+            }
+        };
+        let checks = PAPER_DISTANCES
+            .par_iter()
+            .map(|&d| check_grid(d).errors(FormFactor::Analytic))
+            .collect();
+        DiskErrors {
+            cases,
+            stats,
+            checks,
+            quick,
+        }
+    }
+
+    /// The errors of one case.
+    ///
+    /// # Panics
+    ///
+    /// If the case was not computed.
+    #[must_use]
+    pub fn get(&self, tilt: Tilt, formula: FormFactor, distance: usize) -> ErrorStats {
+        let at = self
+            .cases
+            .iter()
+            .position(|c| *c == (tilt, formula, distance))
+            .expect("every case is computed");
+        self.stats[at]
+    }
+}
+
 /// Figures 4.2 and 4.6: the relative errors of equations (1) and (3)
 /// against [`closed_form::disk_exact`] over the paper's 4,140 receiver
 /// positions and orientations at 1, 5 and 10 radii, under the paper's
 /// protocol ([`Tilt::DiskAxis`], root-mean-square "average") beside the
 /// paper's numbers, then under the other plausible protocols.
 pub fn fig4_2(context: &Context) -> Result<Report, Error> {
+    Ok(fig4_2_report(&DiskErrors::compute(context.quick)))
+}
+
+/// The report of Figures 4.2 and 4.6: the protocol, the check of the exact
+/// factor, the paper's table beside ours and every protocol's.
+#[must_use]
+pub fn fig4_2_report(errors: &DiskErrors) -> Report {
     let mut report = Report::default();
-    let tilts = [Tilt::DiskAxis, Tilt::InPlane, Tilt::Sideways];
-    let formulas = [FormFactor::Wallace, FormFactor::Disk];
-    let study = |distance: f64, tilt: Tilt| DiskStudy {
-        tilt,
-        ..DiskStudy::paper(distance)
-    };
-
-    // Every (tilt, formula, distance) of the study; cheap (75,000 closed
-    // forms), so quick mode runs the paper's full grid too.
-    let cases: Vec<(Tilt, FormFactor, usize)> = tilts
-        .iter()
-        .flat_map(|&t| {
-            formulas
-                .iter()
-                .flat_map(move |&f| (0..3).map(move |i| (t, f, i)))
-        })
-        .collect();
-    let stats: Vec<ErrorStats> = cases
-        .par_iter()
-        .map(|&(t, f, i)| study(PAPER_DISTANCES[i], t).errors(f))
-        .collect();
-    let find = |tilt: Tilt, formula: FormFactor, i: usize| {
-        let at = cases
-            .iter()
-            .position(|c| *c == (tilt, formula, i))
-            .expect("every case is computed");
-        stats[at]
-    };
-
-    // The check of the exact factor: the contour formula on a 2048-gon of
-    // the disk's area, over the paper's grid (over theta_j = 0 only in quick
-    // mode, the polygon being costly).
-    let check_grid = |distance: f64| {
-        if context.quick {
-            DiskStudy {
-                max_theta_j: 0,
-                ..DiskStudy::paper(distance)
-            }
-        } else {
-            DiskStudy::paper(distance)
-        }
-    };
-    let checks: Vec<ErrorStats> = PAPER_DISTANCES
-        .par_iter()
-        .map(|&d| check_grid(d).errors(FormFactor::Analytic))
-        .collect();
-
     report.setting("disk", "unit radius R = 1, centre at the origin, normal +z");
     report.setting(
         "grid",
@@ -161,15 +206,15 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
          2048-sided polygon of the disk's area{}: the largest relative \
          difference is {:.1e} at 1R, {:.1e} at 5R and {:.1e} at 10R over {} \
          receivers each.",
-        if context.quick {
+        if errors.quick {
             " (quick mode: theta_j = 0 only)"
         } else {
             ""
         },
-        checks[0].max,
-        checks[1].max,
-        checks[2].max,
-        checks[0].samples,
+        errors.checks[0].max,
+        errors.checks[1].max,
+        errors.checks[2].max,
+        errors.checks[0].samples,
     ));
 
     // Table 1: ours under the paper's protocol beside the paper.
@@ -179,8 +224,8 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
     let mut deviation = 0.0_f64;
     let mut misses = Vec::new();
     for (i, &r) in PAPER_DISTANCES.iter().enumerate() {
-        let e1 = find(Tilt::DiskAxis, FormFactor::Wallace, i);
-        let e3 = find(Tilt::DiskAxis, FormFactor::Disk, i);
+        let e1 = errors.get(Tilt::DiskAxis, FormFactor::Wallace, i);
+        let e3 = errors.get(Tilt::DiskAxis, FormFactor::Disk, i);
         let (p1, p3) = (PAPER_EQ1_TEXT[i], PAPER_EQ3_TEXT[i]);
         let ours = [
             (e1.rms, p1.0),
@@ -237,10 +282,10 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
 
     // Table 2: every protocol.
     let mut rows = Vec::new();
-    for &tilt in &tilts {
-        for &formula in &formulas {
+    for tilt in TILTS {
+        for formula in DISK_FORMULAS {
             for (i, &r) in PAPER_DISTANCES.iter().enumerate() {
-                let e = find(tilt, formula, i);
+                let e = errors.get(tilt, formula, i);
                 let paper = if formula == FormFactor::Wallace {
                     PAPER_EQ1_TEXT[i]
                 } else {
@@ -282,10 +327,10 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
         &rows,
     ));
     let spread = |formula: FormFactor, i: usize, pick: fn(&ErrorStats) -> f64| {
-        let values: Vec<f64> = tilts
+        let values: Vec<f64> = TILTS
             .iter()
             .flat_map(|&t| {
-                let e = find(t, formula, i);
+                let e = errors.get(t, formula, i);
                 [e.mean, pick(&e)]
             })
             .collect();
@@ -307,7 +352,7 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
         100.0 * lo3,
         100.0 * hi3,
     ));
-    Ok(report)
+    report
 }
 
 /// The cross-section of Figures 4.3 and 4.5: the factor from the unit
