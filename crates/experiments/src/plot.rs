@@ -146,11 +146,8 @@ fn fill(
     }
     // The bitmap backend fills up to the far corner, exclusive.
     let style = ShapeStyle::from(rgb_colour(colour)).filled();
-    area.draw(&Rectangle::new(
-        [(x, y), (x + width, y + height)],
-        style,
-    ))
-    .map_err(|e| failed(&e))
+    area.draw(&Rectangle::new([(x, y), (x + width, y + height)], style))
+        .map_err(|e| failed(&e))
 }
 
 /// The one-pixel outline of the rectangle of `width x height` pixels whose
