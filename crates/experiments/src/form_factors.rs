@@ -943,21 +943,12 @@ pub fn fig4_3_report(data: &Fig43) -> Report {
         "Axes of every picture: {}. Colour bar ticks of the signed errors: {}; \
          of the log errors of (b) and (d): {}; of (c): {}.\n",
         figures[0].panel.axes(),
-        labels(&figures[4].panel.bar_ticks),
-        labels(&figures[7].panel.bar_ticks),
-        labels(&figures[8].panel.bar_ticks),
+        plot::labels(&figures[4].panel.bar_ticks),
+        plot::labels(&figures[7].panel.bar_ticks),
+        plot::labels(&figures[8].panel.bar_ticks),
     );
     report.body.push_str(&list);
     report
-}
-
-/// Tick labels in order, `a, b, c`.
-fn labels(ticks: &[Tick]) -> String {
-    ticks
-        .iter()
-        .map(|(_, label)| label.as_str())
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 fn format_error(e: f64) -> String {

@@ -131,8 +131,33 @@ fn blit_rgb(
     area.draw(&element).map_err(|e| failed(&e))
 }
 
-/// Fills the rectangle of `width x height` pixels whose top-left corner is
-/// `(x, y)`; nothing when either side is 0.
+/// Fills (`filled`) or outlines (one pixel wide) the rectangle of
+/// `width x height` pixels whose top-left corner is `(x, y)`; nothing when
+/// either side is 0.
+fn rectangle(
+    area: &Area<'_>,
+    (x, y): (i32, i32),
+    (width, height): (i32, i32),
+    colour: Rgb,
+    filled: bool,
+) -> Result<(), Error> {
+    if width <= 0 || height <= 0 {
+        return Ok(());
+    }
+    let style = ShapeStyle::from(rgb_colour(colour));
+    // The bitmap backend fills up to the far corner exclusive but outlines
+    // it inclusive.
+    let (style, inclusive) = if filled {
+        (style.filled(), 0)
+    } else {
+        (style, 1)
+    };
+    let far = (x + width - inclusive, y + height - inclusive);
+    area.draw(&Rectangle::new([(x, y), far], style))
+        .map_err(|e| failed(&e))
+}
+
+/// Fills the rectangle of `width x height` pixels at `(x, y)`.
 fn fill(
     area: &Area<'_>,
     x: i32,
@@ -141,17 +166,10 @@ fn fill(
     height: i32,
     colour: Rgb,
 ) -> Result<(), Error> {
-    if width <= 0 || height <= 0 {
-        return Ok(());
-    }
-    // The bitmap backend fills up to the far corner, exclusive.
-    let style = ShapeStyle::from(rgb_colour(colour)).filled();
-    area.draw(&Rectangle::new([(x, y), (x + width, y + height)], style))
-        .map_err(|e| failed(&e))
+    rectangle(area, (x, y), (width, height), colour, true)
 }
 
-/// The one-pixel outline of the rectangle of `width x height` pixels whose
-/// top-left corner is `(x, y)`.
+/// Outlines the rectangle of `width x height` pixels at `(x, y)`.
 fn outline(
     area: &Area<'_>,
     x: i32,
@@ -160,12 +178,7 @@ fn outline(
     height: i32,
     colour: Rgb,
 ) -> Result<(), Error> {
-    let style = ShapeStyle::from(rgb_colour(colour));
-    area.draw(&Rectangle::new(
-        [(x, y), (x + width - 1, y + height - 1)],
-        style,
-    ))
-    .map_err(|e| failed(&e))
+    rectangle(area, (x, y), (width, height), colour, false)
 }
 
 fn rgb_colour([r, g, b]: Rgb) -> RGBColor {
@@ -342,7 +355,8 @@ pub fn panel_size(width: usize, height: usize) -> (usize, usize) {
 }
 
 /// Labels of ticks in order, `a, b, c`.
-fn labels(ticks: &[Tick]) -> String {
+#[must_use]
+pub fn labels(ticks: &[Tick]) -> String {
     ticks
         .iter()
         .map(|(_, label)| label.as_str())
