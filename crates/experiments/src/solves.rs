@@ -92,19 +92,57 @@ fn median_first_shot(
     (median(&mut times), stats)
 }
 
-/// Figure 2.1: the time to shoot one subsource, with ray casting for every
-/// pair and with the hemicube pre-test, on scenes of about 796 and 4,311
-/// vertices (the paper's sizes), for every accelerator.
-pub fn fig2_1(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
-    let scenes: [(&str, usize, [&str; 3]); 2] = [
-        ("cornell", 796, ["1.2", "1.2", "5.3"]),
-        ("room", 4311, ["21.6", "6.8", "12.0"]),
-    ];
-    let mut rows = Vec::new();
-    let mut counts = Vec::new();
-    let mut throughput = Vec::new();
-    for (name, target, paper) in scenes {
+/// The scenes of Figure 2.1: name, the paper's vertex count, and the paper's
+/// seconds per subsource (ray casting; pre-test with hardware and with
+/// software rasterisation).
+const FIG2_1_SCENES: [(&str, usize, [&str; 3]); 2] = [
+    ("cornell", 796, ["1.2", "1.2", "5.3"]),
+    ("room", 4311, ["21.6", "6.8", "12.0"]),
+];
+
+/// One measurement of Figure 2.1: the first shot of one scene with one
+/// visibility method and accelerator.
+#[derive(Clone, Debug)]
+pub struct FirstShot {
+    /// Scene name.
+    pub scene: &'static str,
+    /// The scene's surfaces.
+    pub surfaces: usize,
+    /// The mesh's vertices (the paper's size, approximately).
+    pub vertices: usize,
+    /// The paper's seconds per subsource: ray casting, pre-test with
+    /// hardware and with software rasterisation.
+    pub paper: [&'static str; 3],
+    /// Shadow-ray accelerator.
+    pub accel: Accel,
+    /// Visibility method.
+    pub visibility: Visibility,
+    /// Median time of the shot, in seconds.
+    pub seconds: f64,
+    /// The shot's counters (of the last repetition).
+    pub stats: Stats,
+}
+
+/// What Figure 2.1 measures: every scene, accelerator and visibility
+/// method, in that nesting order.
+#[derive(Clone, Debug)]
+pub struct Fig21 {
+    /// Repetitions of each shot (the median is kept).
+    pub repetitions: usize,
+    /// One measurement per scene, accelerator and visibility method.
+    pub shots: Vec<FirstShot>,
+}
+
+/// Times the first shot, with ray casting for every pair and with the
+/// hemicube pre-test, on scenes of about 796 and 4,311 vertices (the
+/// paper's sizes), for every accelerator.
+///
+/// # Errors
+///
+/// If a scene does not load or mesh.
+pub fn fig2_1_compute(repetitions: usize) -> Result<Fig21, Error> {
+    let mut shots = Vec::new();
+    for (name, target, paper) in FIG2_1_SCENES {
         let (scene, mesh) = meshed(name, Some(target))?;
         for accel in Accel::ALL {
             for visibility in Visibility::ALL {
@@ -114,48 +152,85 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
                     form_factor: FormFactor::Analytic,
                     ..Settings::wallace89()
                 };
-                let (time, stats) =
-                    median_first_shot(&scene, &mesh, &settings, context.repetitions());
-                let per_subsource = time / stats.subsources as f64;
-                if visibility == Visibility::Ray {
-                    throughput.push(vec![
-                        format!("{name} ({} surfaces)", scene.surfaces.len()),
-                        accel.name().to_string(),
-                        format!(
-                            "{:.2} M",
-                            stats.rays_cast as f64 / stats.ray_time.as_secs_f64() / 1e6
-                        ),
-                    ]);
-                }
-                let paper_value = match (accel, visibility) {
-                    (Accel::Brute, Visibility::Ray) => paper[0].to_string(),
-                    (Accel::Brute, Visibility::HemicubePretest) => {
-                        format!("{} (hardware), {} (software)", paper[1], paper[2])
-                    }
-                    _ => "-".to_string(),
-                };
-                rows.push(vec![
-                    format!("{name} ({} vertices)", mesh.vertices.len()),
-                    visibility.name().to_string(),
-                    accel.name().to_string(),
-                    seconds(per_subsource),
-                    paper_value,
-                ]);
-                if accel == Accel::Brute {
-                    counts.push(vec![
-                        format!("{name} ({} vertices)", mesh.vertices.len()),
-                        visibility.name().to_string(),
-                        (stats.pairs / stats.subsources).to_string(),
-                        (stats.rays_cast / stats.subsources).to_string(),
-                        (stats.pretest_visible / stats.subsources).to_string(),
-                        (stats.pretest_hidden / stats.subsources).to_string(),
-                        format!(
-                            "{:.1}%",
-                            100.0 * (1.0 - stats.rays_cast as f64 / stats.pairs.max(1) as f64)
-                        ),
-                    ]);
-                }
+                let (seconds, stats) = median_first_shot(&scene, &mesh, &settings, repetitions);
+                shots.push(FirstShot {
+                    scene: name,
+                    surfaces: scene.surfaces.len(),
+                    vertices: mesh.vertices.len(),
+                    paper,
+                    accel,
+                    visibility,
+                    seconds,
+                    stats,
+                });
             }
+        }
+    }
+    Ok(Fig21 { repetitions, shots })
+}
+
+/// Figure 2.1: the time to shoot one subsource, with ray casting for every
+/// pair and with the hemicube pre-test, on scenes of about 796 and 4,311
+/// vertices (the paper's sizes), for every accelerator.
+pub fn fig2_1(context: &Context) -> Result<Report, Error> {
+    Ok(fig2_1_report(&fig2_1_compute(context.repetitions())?))
+}
+
+/// The report of Figure 2.1: time per subsource beside the paper's, the
+/// rays the pre-test avoids, and each accelerator's ray throughput.
+#[must_use]
+pub fn fig2_1_report(data: &Fig21) -> Report {
+    let mut report = Report::default();
+    let mut rows = Vec::new();
+    let mut counts = Vec::new();
+    let mut throughput = Vec::new();
+    for shot in &data.shots {
+        let FirstShot {
+            scene: name,
+            accel,
+            visibility,
+            paper,
+            ref stats,
+            ..
+        } = *shot;
+        let per_subsource = shot.seconds / stats.subsources as f64;
+        if visibility == Visibility::Ray {
+            throughput.push(vec![
+                format!("{name} ({} surfaces)", shot.surfaces),
+                accel.name().to_string(),
+                format!(
+                    "{:.2} M",
+                    stats.rays_cast as f64 / stats.ray_time.as_secs_f64() / 1e6
+                ),
+            ]);
+        }
+        let paper_value = match (accel, visibility) {
+            (Accel::Brute, Visibility::Ray) => paper[0].to_string(),
+            (Accel::Brute, Visibility::HemicubePretest) => {
+                format!("{} (hardware), {} (software)", paper[1], paper[2])
+            }
+            _ => "-".to_string(),
+        };
+        rows.push(vec![
+            format!("{name} ({} vertices)", shot.vertices),
+            visibility.name().to_string(),
+            accel.name().to_string(),
+            seconds(per_subsource),
+            paper_value,
+        ]);
+        if accel == Accel::Brute {
+            counts.push(vec![
+                format!("{name} ({} vertices)", shot.vertices),
+                visibility.name().to_string(),
+                (stats.pairs / stats.subsources).to_string(),
+                (stats.rays_cast / stats.subsources).to_string(),
+                (stats.pretest_visible / stats.subsources).to_string(),
+                (stats.pretest_hidden / stats.subsources).to_string(),
+                format!(
+                    "{:.1}%",
+                    100.0 * (1.0 - stats.rays_cast as f64 / stats.pairs.max(1) as f64)
+                ),
+            ]);
         }
     }
     report.setting("shot", "the first shot (the brightest light), 3 x 3 subsources, analytic form factor; time per subsource = median shot time / 9, hemicube rasterisation included, accelerator build excluded (it is done once per solve)");
@@ -163,7 +238,7 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
         "hemicube resolution",
         radiosity::hemicube::DEFAULT_RESOLUTION,
     );
-    report.setting("repetitions", context.repetitions());
+    report.setting("repetitions", data.repetitions);
     report.body.push_str(&table(
         &[
             "scene",
@@ -195,7 +270,7 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
         &["scene", "accelerator", "rays per second per core"],
         &throughput,
     ));
-    Ok(report)
+    report
 }
 
 /// The subsource counts of Figure 5.1 and the paper's times (Figure 5.2):
