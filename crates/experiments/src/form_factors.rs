@@ -1050,21 +1050,68 @@ fn measure(
         .collect()
 }
 
-/// Section 4's timing: the paper's 4,140 receiver positions and
-/// orientations (the [`DiskStudy::paper`] grid at 5 radii) evaluated with
-/// equation (1) and equation (3) on a disk and with equation (2) on a square
-/// of the same area, on one thread. Reports the median over
-/// [`Context::repetitions`] of the time per evaluation, each repetition
-/// looping over the 4,140 cases for at least 20 ms.
-pub fn formula_timing(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
+/// The rows of the formula timing: formula, source, the paper's time.
+const FORMULA_TIMING_ROWS: [(&str, &str, &str); 5] = [
+    ("eq. (1) Wallace", "disk, R = 1", "0.1 s (1x)"),
+    (
+        "eq. (3) Wong-Tsang",
+        "disk, R = 1",
+        "\"as fast as Wallace's\"",
+    ),
+    (
+        "eq. (2) analytic (Baum)",
+        "square, side sqrt(pi)",
+        "0.9 s (9x)",
+    ),
+    ("exact disk (closed_form::disk_exact)", "disk, R = 1", "-"),
+    ("loop only (no formula)", "-", "-"),
+];
+
+/// The cost of one formula over all the cases.
+#[derive(Clone, Copy, Debug)]
+pub struct FormulaCost {
+    /// Median seconds for one pass over the cases.
+    pub seconds: f64,
+    /// Passes per repetition.
+    pub passes: usize,
+    /// Sum of the factors of the last repetition.
+    pub checksum: f64,
+}
+
+/// What the formula timing measures.
+#[derive(Clone, Debug)]
+pub struct FormulaTiming {
+    /// Distance of the receivers, in disk radii.
+    pub distance: f64,
+    /// Receivers (the paper's 4,140).
+    pub cases: usize,
+    /// Receivers for which part of the square is behind the tangent plane.
+    pub clipped: usize,
+    /// Minimum seconds of one repetition.
+    pub target: f64,
+    /// Repetitions (the median is kept).
+    pub repetitions: usize,
+    /// The 1, 5 and 15 minute load averages at the end, if known.
+    pub load: Option<String>,
+    /// One cost per row of `FORMULA_TIMING_ROWS`: eq. (1), eq. (3),
+    /// eq. (2), the exact disk, the loop alone.
+    pub costs: Vec<FormulaCost>,
+}
+
+/// Times the paper's 4,140 receiver positions and orientations (the
+/// [`DiskStudy::paper`] grid at 5 radii) evaluated with equation (1) and
+/// equation (3) on a disk and with equation (2) on a square of the same
+/// area, on one thread: the median over `repetitions` of the time per
+/// evaluation, each repetition looping over the 4,140 cases for at least
+/// 20 ms (2 ms when `quick`).
+#[must_use]
+pub fn formula_timing_compute(quick: bool, repetitions: usize) -> FormulaTiming {
     let distance = 5.0;
     let study = DiskStudy::paper(distance);
     let cases: Vec<(DVec3, DVec3)> = (0..=study.max_theta_k)
         .flat_map(|k| (0..=study.max_theta_j).map(move |j| (k, j)))
         .map(|(k, j)| study.receiver(f64::from(k), f64::from(j)))
         .collect();
-    let n = cases.len();
 
     // The unit disk for eq. (1) and (3); a square of the same area (side
     // sqrt(pi)), centred on the disk, for eq. (2).
@@ -1088,24 +1135,8 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
         .filter(|(x, nn)| square.iter().any(|p| nn.dot(*p - *x) < 0.0))
         .count();
 
-    let target = if context.quick { 0.002 } else { 0.02 };
-    let repetitions = context.repetitions();
-    let labels = [
-        ("eq. (1) Wallace", "disk, R = 1", "0.1 s (1x)"),
-        (
-            "eq. (3) Wong-Tsang",
-            "disk, R = 1",
-            "\"as fast as Wallace's\"",
-        ),
-        (
-            "eq. (2) analytic (Baum)",
-            "square, side sqrt(pi)",
-            "0.9 s (9x)",
-        ),
-        ("exact disk (closed_form::disk_exact)", "disk, R = 1", "-"),
-        ("loop only (no formula)", "-", "-"),
-    ];
-    let results = measure(
+    let target = if quick { 0.002 } else { 0.02 };
+    let costs = measure(
         &[
             &|p| run_passes(&cases, |x, nn| wallace(x, nn, black_box(&disk_source)), p),
             &|p| run_passes(&cases, |x, nn| disk(x, nn, black_box(&disk_source)), p),
@@ -1121,21 +1152,65 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
         ],
         target,
         repetitions,
-    );
+    )
+    .into_iter()
+    .map(|(seconds, passes, checksum)| FormulaCost {
+        seconds,
+        passes,
+        checksum,
+    })
+    .collect();
+    let load = std::fs::read_to_string("/proc/loadavg").ok().map(|load| {
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(", ")
+    });
+    FormulaTiming {
+        distance,
+        cases: cases.len(),
+        clipped,
+        target,
+        repetitions,
+        load,
+        costs,
+    }
+}
 
+/// Section 4's timing: the paper's 4,140 receiver positions and
+/// orientations (the [`DiskStudy::paper`] grid at 5 radii) evaluated with
+/// equation (1) and equation (3) on a disk and with equation (2) on a square
+/// of the same area, on one thread. Reports the median over
+/// [`Context::repetitions`] of the time per evaluation, each repetition
+/// looping over the 4,140 cases for at least 20 ms.
+pub fn formula_timing(context: &Context) -> Result<Report, Error> {
+    Ok(formula_timing_report(&formula_timing_compute(
+        context.quick,
+        context.repetitions(),
+    )))
+}
+
+/// The report of the formula timing: the paper's protocol and ours, the
+/// table of costs and the ratios that matter.
+#[must_use]
+pub fn formula_timing_report(data: &FormulaTiming) -> Report {
+    let mut report = Report::default();
+    let FormulaTiming {
+        distance,
+        cases: n,
+        clipped,
+        target,
+        repetitions,
+        ..
+    } = *data;
+    let results: Vec<f64> = data.costs.iter().map(|c| c.seconds).collect();
     report.setting(
         "cases",
         format!("{n} (DiskStudy::paper grid at r = {distance}R)"),
     );
     report.setting("threads", "1 (the calling thread)");
-    if let Ok(load) = std::fs::read_to_string("/proc/loadavg") {
-        report.setting(
-            "load average at the end (1, 5, 15 min)",
-            load.split_whitespace()
-                .take(3)
-                .collect::<Vec<_>>()
-                .join(", "),
-        );
+    if let Some(load) = &data.load {
+        report.setting("load average at the end (1, 5, 15 min)", load);
     }
     report.setting("repetitions", repetitions);
     report.setting(
@@ -1159,9 +1234,12 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
          passed through `std::hint::black_box`."
     ));
 
-    let base = results[0].0;
+    let base = results[0];
     let mut rows = Vec::new();
-    for ((label, source, paper), (seconds, passes, _)) in labels.iter().zip(&results) {
+    for ((label, source, paper), cost) in FORMULA_TIMING_ROWS.iter().zip(&data.costs) {
+        let FormulaCost {
+            seconds, passes, ..
+        } = cost;
         rows.push(vec![
             (*label).to_string(),
             (*source).to_string(),
@@ -1184,7 +1262,7 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
         ],
         &rows,
     ));
-    let ratio = results[2].0 / base;
+    let ratio = results[2] / base;
     report.paragraph(&format!(
         "Eq. (2) costs {ratio:.1} times eq. (1) here, against 9 times in the \
          paper (0.9 s / 0.1 s). The 4,140 evaluations take {:.2} ms with eq. (2) \
@@ -1194,19 +1272,19 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
          included in every row; without it the ratio of eq. (2) to eq. (1) is \
          {:.1}. On a shared machine (see the load average) the absolute times \
          vary by tens of percent from run to run; the ratios less.",
-        results[2].0 * 1e3,
-        0.9 / results[2].0,
-        results[1].0 / base,
-        results[4].0 / n as f64 * 1e9,
-        (results[2].0 - results[4].0) / (base - results[4].0),
+        results[2] * 1e3,
+        0.9 / results[2],
+        results[1] / base,
+        results[4] / n as f64 * 1e9,
+        (results[2] - results[4]) / (base - results[4]),
     ));
-    let checks: Vec<String> = results[..4]
+    let checks: Vec<String> = data.costs[..4]
         .iter()
-        .map(|r| format!("{:.6e}", r.2))
+        .map(|c| format!("{:.6e}", c.checksum))
         .collect();
     report.setting(
         "checksums (sum of factors per repetition)",
         checks.join(", "),
     );
-    Ok(report)
+    report
 }
