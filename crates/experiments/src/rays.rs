@@ -167,14 +167,10 @@ pub(crate) fn scenes_folder(context: &Context, wanted: &[SceneSpec]) -> Result<P
             return Ok(dir.clone());
         }
     }
-    let looked: Vec<String> = candidates
-        .iter()
-        .map(|d| format!("{}", d.display()))
-        .collect();
     Err(Error::Experiment(format!(
         "the real scenes ({}) are not in {}: give the folder holding them with --scenes DIR",
         needed.join(", "),
-        looked.join(" nor in ")
+        crate::reference::nor_in(&candidates)
     )))
 }
 
