@@ -1,7 +1,7 @@
 """Export the built-in Cornell box from Blender as glTF, the way a Blender
 user would hand a scene to radiosity: tests/data/blender-cornell.glb.
 
-Imports scenes/cornell.obj with Blender's own OBJ importer, gives every
+Imports crates/radiosity/scenes/cornell.obj with Blender's own OBJ importer, gives every
 material a Principled BSDF (Base Color = the MTL's Kd, metallic 0) and the
 light an Emission of colour (17, 12, 4) / 17 and strength 17 (radiance in
 W/(m^2 sr), the mapping radiosity's README documents: exitance = pi x
@@ -19,7 +19,7 @@ from pathlib import Path
 import bpy
 
 ROOT = Path(__file__).resolve().parent.parent
-OBJ = ROOT / "scenes" / "cornell.obj"
+OBJ = ROOT / "crates" / "radiosity" / "scenes" / "cornell.obj"
 OUT = ROOT / "tests" / "data" / "blender-cornell.glb"
 
 KD = {
