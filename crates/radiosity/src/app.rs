@@ -289,7 +289,7 @@ pub struct Outcome {
 }
 
 /// Sizes of a meshed scene.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Counts {
     /// Planar convex input surfaces.
     pub surfaces: usize,
@@ -589,11 +589,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     outcome.write_time = write_start.elapsed();
     if let Some(path) = &job.stats_json {
         outcome.total_time = start.elapsed();
-        let json = stats_json(&settings, &outcome);
-        staged.push(stage(path, &mut |w| {
-            serde_json::to_writer_pretty(&mut *w, &json)?;
-            std::io::Write::write_all(w, b"\n")
-        })?);
+        let file = StatsFile::of(&settings, &outcome);
+        staged.push(stage(path, &mut |w| file.write(w))?);
     }
     outcome.written = commit_all(staged)?;
     outcome.total_time = start.elapsed();
@@ -812,72 +809,170 @@ pub fn progress_of(solver: &Solver<'_>) -> Progress {
     }
 }
 
-/// The `--stats` object of design.md section 6, with the time of each
-/// phase: `load_seconds`, `mesh_seconds`, `solve_seconds` (of which
-/// `accel_build_seconds`), `write_seconds`, within `total_seconds`.
-fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
-    let mut json = stats_json_counters(settings, outcome);
-    for (key, time) in [
-        ("load_seconds", outcome.load_time),
-        ("mesh_seconds", outcome.mesh_time),
-        ("accel_build_seconds", outcome.accel_build_time),
-        ("write_seconds", outcome.write_time),
-    ] {
-        json[key] = serde_json::Value::from(time.as_secs_f64());
-    }
-    json
+/// The `--stats` file of design.md section 6: one JSON object of the run's
+/// counts, counters, phase times (seconds) and the settings in force. The
+/// keys are written sorted, whatever the order of the fields below.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StatsFile {
+    /// Scene name.
+    pub scene: String,
+    /// `surfaces`, `surface_ids`, `patches` (shooters), `elements`,
+    /// `vertices`.
+    #[serde(flatten)]
+    pub counts: Counts,
+    /// Shooters shot.
+    pub shots: u64,
+    /// Subsources shot.
+    pub subsources: u64,
+    /// Receiver-source pairs considered.
+    pub pairs: u64,
+    /// Shadow segments traced.
+    pub rays_cast: u64,
+    /// Pairs the hemicube pre-test found visible without a ray.
+    pub pretest_visible: u64,
+    /// Pairs the hemicube pre-test found hidden without a ray.
+    pub pretest_hidden: u64,
+    /// Unshot power left over emitted power.
+    pub unshot_fraction: f64,
+    /// Why the solve stopped ([`StopReason::describe`]).
+    pub stop_reason: &'static str,
+    /// Reading the scene and merging its coplanar faces.
+    pub load_seconds: f64,
+    /// Building the element mesh.
+    pub mesh_seconds: f64,
+    /// The solve: accelerator build, solver set-up and shooting.
+    pub solve_seconds: f64,
+    /// Building the shadow-ray accelerator (part of `solve_seconds`).
+    pub accel_build_seconds: f64,
+    /// Rasterising the hemicube item buffers.
+    pub hemicube_seconds: f64,
+    /// Gathering at receivers.
+    pub gather_seconds: f64,
+    /// Thread time pairing receivers with sources (summed over threads).
+    pub pretest_thread_seconds: f64,
+    /// Thread time casting shadow rays (summed over threads).
+    pub ray_thread_seconds: f64,
+    /// Thread time evaluating form factors (summed over threads).
+    pub form_factor_thread_seconds: f64,
+    /// Book-keeping between shots.
+    pub bookkeeping_seconds: f64,
+    /// Drawing the picture and writing the other outputs.
+    pub write_seconds: f64,
+    /// The whole run up to writing this file.
+    pub total_seconds: f64,
+    /// Most memory held resident, bytes (`null` where the system does not
+    /// say).
+    pub peak_memory_bytes: Option<u64>,
+    /// The estimate the run was checked against before its solve, bytes.
+    pub estimated_memory_bytes: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// The accelerator's build statistics by name
+    /// ([`crate::accel::Occluder::build_statistics`]).
+    pub accel_build: std::collections::BTreeMap<&'static str, usize>,
+    /// The settings in force.
+    pub settings: SettingsRecord,
 }
 
-/// The `--stats` object but the phases' times (one `json!` call of them
-/// all would exceed the macro's recursion limit).
-fn stats_json_counters(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
-    let s = &outcome.stats;
-    serde_json::json!({
-        "scene": outcome.scene,
-        "surfaces": outcome.counts.surfaces,
-        "surface_ids": outcome.counts.surface_ids,
-        "patches": outcome.counts.patches,
-        "elements": outcome.counts.elements,
-        "vertices": outcome.counts.vertices,
-        "shots": s.shots,
-        "subsources": s.subsources,
-        "pairs": s.pairs,
-        "rays_cast": s.rays_cast,
-        "pretest_visible": s.pretest_visible,
-        "pretest_hidden": s.pretest_hidden,
-        "unshot_fraction": outcome.unshot_fraction,
-        "stop_reason": outcome.stop.describe(),
-        "solve_seconds": outcome.solve_time.as_secs_f64(),
-        "hemicube_seconds": s.hemicube_time.as_secs_f64(),
-        "gather_seconds": s.gather_time.as_secs_f64(),
-        "pretest_thread_seconds": s.pretest_time.as_secs_f64(),
-        "ray_thread_seconds": s.ray_time.as_secs_f64(),
-        "form_factor_thread_seconds": s.form_factor_time.as_secs_f64(),
-        "bookkeeping_seconds": s.bookkeeping_time.as_secs_f64(),
-        "total_seconds": outcome.total_time.as_secs_f64(),
-        "peak_memory_bytes": outcome.peak_memory_bytes,
-        "estimated_memory_bytes": outcome.memory_estimate.total(),
-        "threads": outcome.threads,
-        "accel_build": outcome
-            .accel_statistics
-            .iter()
-            .map(|(k, v)| (k.to_string(), serde_json::Value::from(*v)))
-            .collect::<serde_json::Map<_, _>>(),
-        "settings": {
-            "shooting": settings.shooting.name(),
-            "merge_coplanar": settings.merge_coplanar,
-            "tolerance": settings.tolerance,
-            "form_factor": settings.form_factor.name(),
-            "accel": settings.accel.name(),
-            "visibility": settings.visibility.name(),
-            "hemicube_resolution": settings.hemicube_resolution,
-            "subsources": settings.subsources,
-            "patch_size": settings.mesh.patch_size,
-            "element_size": settings.mesh.element_size,
-            "converge": settings.converge,
-            "max_shots": settings.max_shots,
-            "max_subsources": settings.max_subsources,
-            "time_limit": settings.time_limit.map(|t| t.as_secs_f64()),
-        },
-    })
+/// The `settings` object of the `--stats` file: the solver settings in
+/// force, the mesh sizes being those the run used.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SettingsRecord {
+    /// [`Settings::shooting`].
+    pub shooting: &'static str,
+    /// [`Settings::merge_coplanar`].
+    pub merge_coplanar: bool,
+    /// [`Settings::tolerance`].
+    pub tolerance: f64,
+    /// [`Settings::form_factor`].
+    pub form_factor: &'static str,
+    /// [`Settings::accel`].
+    pub accel: &'static str,
+    /// [`Settings::visibility`].
+    pub visibility: &'static str,
+    /// [`Settings::hemicube_resolution`].
+    pub hemicube_resolution: u32,
+    /// [`Settings::subsources`].
+    pub subsources: u32,
+    /// Longest patch edge, metres.
+    pub patch_size: f64,
+    /// Longest element edge, metres.
+    pub element_size: f64,
+    /// [`Settings::converge`].
+    pub converge: f64,
+    /// [`Settings::max_shots`].
+    pub max_shots: Option<u64>,
+    /// [`Settings::max_subsources`].
+    pub max_subsources: Option<u64>,
+    /// [`Settings::time_limit`], seconds.
+    pub time_limit: Option<f64>,
+}
+
+impl SettingsRecord {
+    /// The record of `settings`.
+    #[must_use]
+    pub fn of(settings: &Settings) -> SettingsRecord {
+        SettingsRecord {
+            shooting: settings.shooting.name(),
+            merge_coplanar: settings.merge_coplanar,
+            tolerance: settings.tolerance,
+            form_factor: settings.form_factor.name(),
+            accel: settings.accel.name(),
+            visibility: settings.visibility.name(),
+            hemicube_resolution: settings.hemicube_resolution,
+            subsources: settings.subsources,
+            patch_size: settings.mesh.patch_size,
+            element_size: settings.mesh.element_size,
+            converge: settings.converge,
+            max_shots: settings.max_shots,
+            max_subsources: settings.max_subsources,
+            time_limit: settings.time_limit.map(|t| t.as_secs_f64()),
+        }
+    }
+}
+
+impl StatsFile {
+    /// The statistics of a run that used `settings`.
+    #[must_use]
+    pub fn of(settings: &Settings, outcome: &Outcome) -> StatsFile {
+        let s = &outcome.stats;
+        StatsFile {
+            scene: outcome.scene.clone(),
+            counts: outcome.counts,
+            shots: s.shots,
+            subsources: s.subsources,
+            pairs: s.pairs,
+            rays_cast: s.rays_cast,
+            pretest_visible: s.pretest_visible,
+            pretest_hidden: s.pretest_hidden,
+            unshot_fraction: outcome.unshot_fraction,
+            stop_reason: outcome.stop.describe(),
+            load_seconds: outcome.load_time.as_secs_f64(),
+            mesh_seconds: outcome.mesh_time.as_secs_f64(),
+            solve_seconds: outcome.solve_time.as_secs_f64(),
+            accel_build_seconds: outcome.accel_build_time.as_secs_f64(),
+            hemicube_seconds: s.hemicube_time.as_secs_f64(),
+            gather_seconds: s.gather_time.as_secs_f64(),
+            pretest_thread_seconds: s.pretest_time.as_secs_f64(),
+            ray_thread_seconds: s.ray_time.as_secs_f64(),
+            form_factor_thread_seconds: s.form_factor_time.as_secs_f64(),
+            bookkeeping_seconds: s.bookkeeping_time.as_secs_f64(),
+            write_seconds: outcome.write_time.as_secs_f64(),
+            total_seconds: outcome.total_time.as_secs_f64(),
+            peak_memory_bytes: outcome.peak_memory_bytes,
+            estimated_memory_bytes: outcome.memory_estimate.total(),
+            threads: outcome.threads,
+            accel_build: outcome.accel_statistics.iter().copied().collect(),
+            settings: SettingsRecord::of(settings),
+        }
+    }
+
+    /// Writes the file as pretty-printed JSON with its keys sorted, and a
+    /// final newline.
+    pub fn write(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        // Through a `Value`, whose objects keep their keys sorted.
+        let value = serde_json::to_value(self)?;
+        serde_json::to_writer_pretty(&mut *w, &value)?;
+        w.write_all(b"\n")
+    }
 }
