@@ -820,18 +820,12 @@ pub struct StatsFile {
     /// `vertices`.
     #[serde(flatten)]
     pub counts: Counts,
-    /// Shooters shot.
-    pub shots: u64,
-    /// Subsources shot.
-    pub subsources: u64,
-    /// Receiver-source pairs considered.
-    pub pairs: u64,
-    /// Shadow segments traced.
-    pub rays_cast: u64,
-    /// Pairs the hemicube pre-test found visible without a ray.
-    pub pretest_visible: u64,
-    /// Pairs the hemicube pre-test found hidden without a ray.
-    pub pretest_hidden: u64,
+    /// `shots`, `subsources`, `pairs`, `rays_cast`, `pretest_visible`,
+    /// `pretest_hidden` and the solver's times: `hemicube_seconds`,
+    /// `gather_seconds`, `pretest_thread_seconds`, `ray_thread_seconds`,
+    /// `form_factor_thread_seconds`, `bookkeeping_seconds`.
+    #[serde(flatten)]
+    pub solver: Stats,
     /// Unshot power left over emitted power.
     pub unshot_fraction: f64,
     /// Why the solve stopped ([`StopReason::describe`]).
@@ -844,18 +838,6 @@ pub struct StatsFile {
     pub solve_seconds: f64,
     /// Building the shadow-ray accelerator (part of `solve_seconds`).
     pub accel_build_seconds: f64,
-    /// Rasterising the hemicube item buffers.
-    pub hemicube_seconds: f64,
-    /// Gathering at receivers.
-    pub gather_seconds: f64,
-    /// Thread time pairing receivers with sources (summed over threads).
-    pub pretest_thread_seconds: f64,
-    /// Thread time casting shadow rays (summed over threads).
-    pub ray_thread_seconds: f64,
-    /// Thread time evaluating form factors (summed over threads).
-    pub form_factor_thread_seconds: f64,
-    /// Book-keeping between shots.
-    pub bookkeeping_seconds: f64,
     /// Drawing the picture and writing the other outputs.
     pub write_seconds: f64,
     /// The whole run up to writing this file.
@@ -870,100 +852,31 @@ pub struct StatsFile {
     /// The accelerator's build statistics by name
     /// ([`crate::accel::Occluder::build_statistics`]).
     pub accel_build: std::collections::BTreeMap<&'static str, usize>,
-    /// The settings in force.
-    pub settings: SettingsRecord,
-}
-
-/// The `settings` object of the `--stats` file: the solver settings in
-/// force, the mesh sizes being those the run used.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct SettingsRecord {
-    /// [`Settings::shooting`].
-    pub shooting: &'static str,
-    /// [`Settings::merge_coplanar`].
-    pub merge_coplanar: bool,
-    /// [`Settings::tolerance`].
-    pub tolerance: f64,
-    /// [`Settings::form_factor`].
-    pub form_factor: &'static str,
-    /// [`Settings::accel`].
-    pub accel: &'static str,
-    /// [`Settings::visibility`].
-    pub visibility: &'static str,
-    /// [`Settings::hemicube_resolution`].
-    pub hemicube_resolution: u32,
-    /// [`Settings::subsources`].
-    pub subsources: u32,
-    /// Longest patch edge, metres.
-    pub patch_size: f64,
-    /// Longest element edge, metres.
-    pub element_size: f64,
-    /// [`Settings::converge`].
-    pub converge: f64,
-    /// [`Settings::max_shots`].
-    pub max_shots: Option<u64>,
-    /// [`Settings::max_subsources`].
-    pub max_subsources: Option<u64>,
-    /// [`Settings::time_limit`], seconds.
-    pub time_limit: Option<f64>,
-}
-
-impl SettingsRecord {
-    /// The record of `settings`.
-    #[must_use]
-    pub fn of(settings: &Settings) -> SettingsRecord {
-        SettingsRecord {
-            shooting: settings.shooting.name(),
-            merge_coplanar: settings.merge_coplanar,
-            tolerance: settings.tolerance,
-            form_factor: settings.form_factor.name(),
-            accel: settings.accel.name(),
-            visibility: settings.visibility.name(),
-            hemicube_resolution: settings.hemicube_resolution,
-            subsources: settings.subsources,
-            patch_size: settings.mesh.patch_size,
-            element_size: settings.mesh.element_size,
-            converge: settings.converge,
-            max_shots: settings.max_shots,
-            max_subsources: settings.max_subsources,
-            time_limit: settings.time_limit.map(|t| t.as_secs_f64()),
-        }
-    }
+    /// The settings in force, the mesh sizes being those the run used.
+    pub settings: Settings,
 }
 
 impl StatsFile {
     /// The statistics of a run that used `settings`.
     #[must_use]
     pub fn of(settings: &Settings, outcome: &Outcome) -> StatsFile {
-        let s = &outcome.stats;
         StatsFile {
             scene: outcome.scene.clone(),
             counts: outcome.counts,
-            shots: s.shots,
-            subsources: s.subsources,
-            pairs: s.pairs,
-            rays_cast: s.rays_cast,
-            pretest_visible: s.pretest_visible,
-            pretest_hidden: s.pretest_hidden,
+            solver: outcome.stats.clone(),
             unshot_fraction: outcome.unshot_fraction,
             stop_reason: outcome.stop.describe(),
             load_seconds: outcome.load_time.as_secs_f64(),
             mesh_seconds: outcome.mesh_time.as_secs_f64(),
             solve_seconds: outcome.solve_time.as_secs_f64(),
             accel_build_seconds: outcome.accel_build_time.as_secs_f64(),
-            hemicube_seconds: s.hemicube_time.as_secs_f64(),
-            gather_seconds: s.gather_time.as_secs_f64(),
-            pretest_thread_seconds: s.pretest_time.as_secs_f64(),
-            ray_thread_seconds: s.ray_time.as_secs_f64(),
-            form_factor_thread_seconds: s.form_factor_time.as_secs_f64(),
-            bookkeeping_seconds: s.bookkeeping_time.as_secs_f64(),
             write_seconds: outcome.write_time.as_secs_f64(),
             total_seconds: outcome.total_time.as_secs_f64(),
             peak_memory_bytes: outcome.peak_memory_bytes,
             estimated_memory_bytes: outcome.memory_estimate.total(),
             threads: outcome.threads,
             accel_build: outcome.accel_statistics.iter().copied().collect(),
-            settings: SettingsRecord::of(settings),
+            settings: settings.clone(),
         }
     }
 

@@ -36,10 +36,13 @@ use crate::mesh::{Mesh, MeshSettings};
 use crate::scene::Scene;
 
 /// Every setting of a solve, apart from run state. Presets are named
-/// constructors; each field can be overridden on its own.
-#[derive(Clone, Debug, PartialEq)]
+/// constructors; each field can be overridden on its own. Serialised as
+/// the `--stats` file's `settings` object: one flat object, the mesh's
+/// sizes among the others, the time limit in seconds.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Settings {
     /// Patch and element sizes.
+    #[serde(flatten)]
     pub mesh: MeshSettings,
     /// How shooters carry and send their unshot radiosity.
     pub shooting: Shooting,
@@ -70,7 +73,21 @@ pub struct Settings {
     /// Stop once this many subsources have been shot.
     pub max_subsources: Option<u64>,
     /// Stop before a shot once the solve has run this long.
+    #[serde(serialize_with = "optional_seconds")]
     pub time_limit: Option<Duration>,
+}
+
+/// A duration as a number of seconds.
+fn seconds<S: serde::Serializer>(time: &Duration, serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.serialize_f64(time.as_secs_f64())
+}
+
+/// A duration as a number of seconds, `null` for none.
+fn optional_seconds<S: serde::Serializer>(
+    time: &Option<Duration>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&time.map(|t| t.as_secs_f64()), serializer)
 }
 
 /// Default `--converge`.
@@ -196,64 +213,51 @@ impl Settings {
     }
 }
 
-/// How shooters carry and send their unshot radiosity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Shooting {
-    /// The paper's: a patch shoots one uniform unshot radiosity from a fixed
-    /// grid of subsources (Wallace et al. 1989).
-    Patches,
-    /// Unshot radiosity per element, clusters of elements as shooters, the
-    /// source refined per receiver ([`adaptive`]).
-    Adaptive,
+crate::choice::named_choice! {
+    /// How shooters carry and send their unshot radiosity.
+    pub enum Shooting: "shooting" {
+        /// The paper's: a patch shoots one uniform unshot radiosity from a
+        /// fixed grid of subsources (Wallace et al. 1989).
+        Patches = "patches",
+        /// Unshot radiosity per element, clusters of elements as shooters,
+        /// the source refined per receiver ([`adaptive`]).
+        Adaptive = "adaptive",
+    }
 }
 
-impl Shooting {
-    /// Every way, in the order the command line lists them.
-    pub const ALL: [Shooting; 2] = [Shooting::Patches, Shooting::Adaptive];
+crate::choice::named_choice! {
+    /// How a shot decides whether a receiver sees a source.
+    pub enum Visibility: "visibility" {
+        /// A shadow ray for every pair (Wallace et al. 1989).
+        Ray = "ray",
+        /// The hemicube item-buffer pre-test of Wong & Tsang, section 2;
+        /// rays only where it cannot decide.
+        HemicubePretest = "hemicube",
+    }
+}
 
-    /// The name used on the command line and in statistics.
+crate::choice::named_choice! {
+    /// The named settings ([`Settings::adaptive`], [`Settings::wong_tsang93`],
+    /// [`Settings::wallace89`]), in the order the command line lists them.
+    pub enum Preset: "preset" {
+        /// [`Settings::adaptive`], the default.
+        Adaptive = "adaptive",
+        /// [`Settings::wong_tsang93`], the paper's method.
+        WongTsang93 = "wong-tsang93",
+        /// [`Settings::wallace89`], the 1989 baseline.
+        Wallace89 = "wallace89",
+    }
+}
+
+impl Preset {
+    /// The preset's settings.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub fn settings(self) -> Settings {
         match self {
-            Shooting::Patches => "patches",
-            Shooting::Adaptive => "adaptive",
+            Preset::Adaptive => Settings::adaptive(),
+            Preset::WongTsang93 => Settings::wong_tsang93(),
+            Preset::Wallace89 => Settings::wallace89(),
         }
-    }
-
-    /// Parses a command-line name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Shooting> {
-        Shooting::ALL.into_iter().find(|s| s.name() == name)
-    }
-}
-
-/// How a shot decides whether a receiver sees a source.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Visibility {
-    /// A shadow ray for every pair (Wallace et al. 1989).
-    Ray,
-    /// The hemicube item-buffer pre-test of Wong & Tsang, section 2; rays
-    /// only where it cannot decide.
-    HemicubePretest,
-}
-
-impl Visibility {
-    /// Every mode, in the order the command line lists them.
-    pub const ALL: [Visibility; 2] = [Visibility::Ray, Visibility::HemicubePretest];
-
-    /// The name used on the command line and in statistics.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Visibility::Ray => "ray",
-            Visibility::HemicubePretest => "hemicube",
-        }
-    }
-
-    /// Parses a command-line name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Visibility> {
-        Visibility::ALL.into_iter().find(|v| v.name() == name)
     }
 }
 
@@ -274,8 +278,9 @@ pub const MAX_HEMICUBE_RESOLUTION: u32 = 4096;
 /// Largest `--subsources` (per side): 64 x 64 = 4,096 subsources a shot.
 pub const MAX_SUBSOURCES_PER_SIDE: u32 = 64;
 
-/// Counters and timings of a solve.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Counters and timings of a solve. Serialised as the `--stats` file's
+/// counters, the times in seconds under the names given below.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Stats {
     /// Shooters shot.
     pub shots: u64,
@@ -292,18 +297,24 @@ pub struct Stats {
     /// Pairs the hemicube pre-test found hidden without a ray.
     pub pretest_hidden: u64,
     /// Wall time rasterising the hemicube item buffers.
+    #[serde(rename = "hemicube_seconds", serialize_with = "seconds")]
     pub hemicube_time: Duration,
     /// Wall time gathering at receivers (the three phases below, in
     /// parallel).
+    #[serde(rename = "gather_seconds", serialize_with = "seconds")]
     pub gather_time: Duration,
     /// Thread time pairing receivers with sources and applying the pre-test
     /// (summed over threads; adaptive shooting: choosing the sources).
+    #[serde(rename = "pretest_thread_seconds", serialize_with = "seconds")]
     pub pretest_time: Duration,
     /// Thread time casting shadow rays (summed over threads).
+    #[serde(rename = "ray_thread_seconds", serialize_with = "seconds")]
     pub ray_time: Duration,
     /// Thread time evaluating form factors (summed over threads).
+    #[serde(rename = "form_factor_thread_seconds", serialize_with = "seconds")]
     pub form_factor_time: Duration,
     /// Time in book-keeping (selection, element and patch updates).
+    #[serde(rename = "bookkeeping_seconds", serialize_with = "seconds")]
     pub bookkeeping_time: Duration,
 }
 
