@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use crate::export::gltf::{Bake, BakeMode};
 use crate::export::{self, Staged};
 use crate::memory;
-use crate::mesh::{Mesh, MeshError};
+use crate::mesh::{Mesh, MeshError, MeshSettings};
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, Camera, LoadOptions, MeshHint, Scene, SceneError};
 use crate::sensors;
@@ -42,7 +42,10 @@ pub struct ImageJob {
 pub struct Job {
     /// A built-in scene's name or an `.obj` path.
     pub scene: String,
-    /// Solver settings; its mesh sizes are replaced by the two below.
+    /// Solver settings, but for the mesh sizes: the two below give those
+    /// ([`Job::settings_for`]), and a job whose settings hold sizes other
+    /// than [`MeshSettings::default`]'s is refused ([`validate`]) rather
+    /// than have them ignored.
     pub settings: Settings,
     /// `--patch-size`; `None` takes the scene's suggestion.
     pub patch_size: Option<f64>,
@@ -66,6 +69,20 @@ pub struct Job {
     pub max_memory: Option<u64>,
     /// `--sensors POINTS.txt --sensors-out FILE.csv`.
     pub sensors: Option<SensorJob>,
+}
+
+impl Job {
+    /// The settings of a run on a scene that suggests `suggested`:
+    /// [`Job::settings`] with the mesh sizes of [`Job::patch_size`] and
+    /// [`Job::element_size`], each defaulting to the suggestion. The one
+    /// place a run's mesh sizes are decided.
+    #[must_use]
+    pub fn settings_for(&self, suggested: &MeshHint) -> Settings {
+        let mut settings = self.settings.clone();
+        settings.mesh.patch_size = self.patch_size.unwrap_or(suggested.patch_size);
+        settings.mesh.element_size = self.element_size.unwrap_or(suggested.element_size);
+        settings
+    }
 }
 
 /// `--sensors`: values at the points of a Radiance `rtrace -I` points file
@@ -364,6 +381,15 @@ fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Erro
 /// Validates a job's settings and outputs without doing any work.
 pub fn validate(job: &Job) -> Result<(), Error> {
     job.settings.validate().map_err(Error::Settings)?;
+    let defaults = MeshSettings::default();
+    if (job.settings.mesh.patch_size, job.settings.mesh.element_size)
+        != (defaults.patch_size, defaults.element_size)
+    {
+        return Err(Error::Settings(
+            "a job's mesh sizes are its patch_size and element_size, not its settings' mesh sizes"
+                .into(),
+        ));
+    }
     job.load.validate().map_err(Error::Settings)?;
     if let Some(bake) = &job.bake {
         check_output(&bake.path, &["glb", "gltf"], "--bake")?;
@@ -438,10 +464,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         Some(s) => sensors::receivers(&scene, &sensor_points, &s.points)?,
         None => Vec::new(),
     };
-    let mut settings = job.settings.clone();
     let suggested = scene.default_mesh_sizes();
-    settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
-    settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
+    let settings = job.settings_for(&suggested);
     let mesh_start = Instant::now();
     let mesh = Mesh::build(&scene, &settings.mesh)
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
@@ -887,5 +911,51 @@ impl StatsFile {
         let value = serde_json::to_value(self)?;
         serde_json::to_writer_pretty(&mut *w, &value)?;
         w.write_all(b"\n")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(patch_size: Option<f64>, element_size: Option<f64>) -> Job {
+        Job {
+            scene: "room".into(),
+            settings: Settings::adaptive(),
+            patch_size,
+            element_size,
+            image: None,
+            vertices_csv: None,
+            stats_json: None,
+            load: LoadOptions::default(),
+            bake: None,
+            ply: None,
+            max_memory: None,
+            sensors: None,
+        }
+    }
+
+    #[test]
+    fn mesh_sizes_come_from_the_job_else_the_scene() {
+        let suggested = MeshHint {
+            patch_size: 1.0,
+            element_size: 0.1,
+            directive: None,
+        };
+        let mesh = job(None, None).settings_for(&suggested).mesh;
+        assert_eq!((mesh.patch_size, mesh.element_size), (1.0, 0.1));
+        let mesh = job(Some(2.0), None).settings_for(&suggested).mesh;
+        assert_eq!((mesh.patch_size, mesh.element_size), (2.0, 0.1));
+        let mesh = job(None, Some(0.2)).settings_for(&suggested).mesh;
+        assert_eq!((mesh.patch_size, mesh.element_size), (1.0, 0.2));
+    }
+
+    #[test]
+    fn mesh_sizes_in_a_jobs_settings_are_refused_not_ignored() {
+        assert!(validate(&job(None, None)).is_ok());
+        let mut refused = job(None, None);
+        refused.settings.mesh.element_size = 0.05;
+        let message = validate(&refused).unwrap_err().to_string();
+        assert!(message.contains("element_size"), "{message}");
     }
 }
