@@ -14,9 +14,11 @@ use crate::export::{self, Staged};
 use crate::memory;
 use crate::mesh::{Mesh, MeshError, MeshSettings};
 use crate::render::{self, Exposure, RenderSettings};
-use crate::scene::{self, Camera, LoadOptions, MeshHint, Scene, SceneError};
+use crate::scene::{
+    self, Camera, CameraError, LoadOptions, LoadOptionsError, MeshHint, Scene, SceneError,
+};
 use crate::sensors;
-use crate::solver::{Flow, Settings, Solver, Stats, StopReason};
+use crate::solver::{Flow, Settings, SettingsError, Solver, Stats, StopReason};
 
 /// What to draw and where.
 #[derive(Clone, Debug, PartialEq)]
@@ -115,9 +117,70 @@ pub enum Error {
     /// The scene could not be meshed.
     #[error(transparent)]
     Mesh(#[from] MeshError),
-    /// A setting is out of range.
-    #[error("{0}")]
-    Settings(String),
+    /// A solver setting is out of range.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// A load option is out of range.
+    #[error(transparent)]
+    Load(#[from] LoadOptionsError),
+    /// The picture's camera defines no view.
+    #[error("--camera: {0}")]
+    Camera(CameraError),
+    /// An output's file name has none of the extensions it may have.
+    #[error("{flag} {path}: the file name must end in .{}", extensions.join(" or ."), path = path.display())]
+    FileType {
+        /// The flag that named the file.
+        flag: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The extensions it may have.
+        extensions: &'static [&'static str],
+    },
+    /// A picture side outside 1 to [`render::MAX_SIDE`].
+    #[error("{flag} must be between 1 and {}, not {side}", render::MAX_SIDE)]
+    PictureSide {
+        /// `--width` or `--height`.
+        flag: &'static str,
+        /// The side asked for.
+        side: u32,
+    },
+    /// A picture of more than [`MAX_SAMPLES`] samples.
+    #[error(
+        "a {width}x{height} picture with {supersampling}x{supersampling} supersampling needs \
+         {samples} samples, more than {MAX_SAMPLES}: lower --width, --height or --supersampling"
+    )]
+    TooManySamples {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// Supersampling per axis.
+        supersampling: u32,
+        /// The samples it would take.
+        samples: u64,
+    },
+    /// Supersampling outside 1 to 8.
+    #[error("--supersampling must be between 1 and 8, not {0}")]
+    Supersampling(u32),
+    /// `--max-sensors 0`.
+    #[error("--max-sensors must be at least 1")]
+    NoSensors,
+    /// Mesh sizes given in [`Job::settings`], where they are not read.
+    #[error("a job's mesh sizes are its patch_size and element_size, not its settings' mesh sizes")]
+    MeshSizesInSettings,
+    /// The mesh would exceed `--max-elements`.
+    #[error(
+        "meshing would create {elements} elements, more than the limit of {limit}: {remedy}, or \
+         raise --max-elements"
+    )]
+    MeshTooLarge {
+        /// Elements the mesh would have.
+        elements: u128,
+        /// `--max-elements`.
+        limit: usize,
+        /// The size to change and where it came from.
+        remedy: String,
+    },
     /// The run would need more memory than it may use.
     #[error("{0}")]
     Memory(memory::TooLarge),
@@ -343,18 +406,22 @@ pub const MAX_SAMPLES: u64 = 150_000_000;
 
 /// Checks outputs before any work: known picture format, a folder that
 /// exists and can be written to (a file is created there and removed).
-fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Error> {
+fn check_output(
+    path: &Path,
+    extensions: &'static [&'static str],
+    flag: &'static str,
+) -> Result<(), Error> {
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
     if !extensions.contains(&extension.as_str()) {
-        return Err(Error::Settings(format!(
-            "{flag} {}: the file name must end in .{}",
-            path.display(),
-            extensions.join(" or .")
-        )));
+        return Err(Error::FileType {
+            flag,
+            path: path.to_path_buf(),
+            extensions,
+        });
     }
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -380,17 +447,14 @@ fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Erro
 
 /// Validates a job's settings and outputs without doing any work.
 pub fn validate(job: &Job) -> Result<(), Error> {
-    job.settings.validate().map_err(Error::Settings)?;
+    job.settings.validate()?;
     let defaults = MeshSettings::default();
     if (job.settings.mesh.patch_size, job.settings.mesh.element_size)
         != (defaults.patch_size, defaults.element_size)
     {
-        return Err(Error::Settings(
-            "a job's mesh sizes are its patch_size and element_size, not its settings' mesh sizes"
-                .into(),
-        ));
+        return Err(Error::MeshSizesInSettings);
     }
-    job.load.validate().map_err(Error::Settings)?;
+    job.load.validate()?;
     if let Some(bake) = &job.bake {
         check_output(&bake.path, &["glb", "gltf"], "--bake")?;
     }
@@ -399,34 +463,27 @@ pub fn validate(job: &Job) -> Result<(), Error> {
     }
     if let Some(image) = &job.image {
         check_output(&image.path, &["png", "pfm", "exr"], "--output")?;
-        for (name, side) in [("--width", image.width), ("--height", image.height)] {
+        for (flag, side) in [("--width", image.width), ("--height", image.height)] {
             if !(1..=render::MAX_SIDE).contains(&side) {
-                return Err(Error::Settings(format!(
-                    "{name} must be between 1 and {}, not {side}",
-                    render::MAX_SIDE
-                )));
+                return Err(Error::PictureSide { flag, side });
             }
         }
         let samples = u64::from(image.width)
             * u64::from(image.height)
             * u64::from(image.supersampling).pow(2);
         if samples > MAX_SAMPLES {
-            return Err(Error::Settings(format!(
-                "a {}x{} picture with {}x{} supersampling needs {samples} samples, more than \
-                 {MAX_SAMPLES}: lower --width, --height or --supersampling",
-                image.width, image.height, image.supersampling, image.supersampling
-            )));
+            return Err(Error::TooManySamples {
+                width: image.width,
+                height: image.height,
+                supersampling: image.supersampling,
+                samples,
+            });
         }
         if !(1..=8).contains(&image.supersampling) {
-            return Err(Error::Settings(format!(
-                "--supersampling must be between 1 and 8, not {}",
-                image.supersampling
-            )));
+            return Err(Error::Supersampling(image.supersampling));
         }
         if let Some(camera) = &image.camera {
-            camera
-                .validate()
-                .map_err(|m| Error::Settings(format!("--camera: {m}")))?;
+            camera.validate().map_err(Error::Camera)?;
         }
     }
     if let Some(path) = &job.vertices_csv {
@@ -438,7 +495,7 @@ pub fn validate(job: &Job) -> Result<(), Error> {
     if let Some(sensors) = &job.sensors {
         check_output(&sensors.out, &["csv"], "--sensors-out")?;
         if sensors.max_points == 0 {
-            return Err(Error::Settings("--max-sensors must be at least 1".into()));
+            return Err(Error::NoSensors);
         }
     }
     Ok(())
@@ -712,7 +769,7 @@ pub fn bake_colours(
 /// (`.glb`, or `.gltf` with its `.bin`), staged like every output. Returns
 /// the files written.
 pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<PathBuf>, Error> {
-    load.validate().map_err(Error::Settings)?;
+    load.validate()?;
     check_output(out, &["glb", "gltf"], "export-scene")?;
     let loaded = scene::load_with(scene, load)?;
     let files = export::gltf::export_scene(&loaded.scene, out).map_err(|source| Error::Output {
@@ -798,10 +855,11 @@ fn mesh_error(error: MeshError, job: &Job, suggested: &MeshHint, settings: &Sett
             "give a {flag} larger than {size} m (the default: 1/{fraction} of the scene's size)"
         )
     };
-    Error::Settings(format!(
-        "meshing would create {elements} elements, more than the limit of {limit}: {remedy}, or \
-         raise --max-elements"
-    ))
+    Error::MeshTooLarge {
+        elements,
+        limit,
+        remedy,
+    }
 }
 
 /// Progress of a solver, with completion estimated from the nearest

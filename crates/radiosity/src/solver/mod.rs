@@ -152,65 +152,86 @@ impl Settings {
     }
 
     /// Checks the settings a user can get wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SettingsError> {
         if !(1..=MAX_SUBSOURCES_PER_SIDE).contains(&self.subsources) {
-            return Err(format!(
-                "--subsources must be between 1 and {MAX_SUBSOURCES_PER_SIDE}, not {}",
-                self.subsources
-            ));
+            return Err(SettingsError::Subsources(self.subsources));
         }
         if !(8..=MAX_HEMICUBE_RESOLUTION).contains(&self.hemicube_resolution) {
-            return Err(format!(
-                "--hemicube-resolution must be between 8 and {MAX_HEMICUBE_RESOLUTION}, not {}",
-                self.hemicube_resolution
-            ));
+            return Err(SettingsError::HemicubeResolution(self.hemicube_resolution));
         }
         if self.visibility == Visibility::HemicubePretest {
             if self.shooting == Shooting::Adaptive {
-                return Err(
-                    "the hemicube pre-test places a hemicube at each subsource of a \
-                            patch: use it with --shooting patches (adaptive shooting picks \
-                            its sources per receiver)"
-                        .into(),
-                );
+                return Err(SettingsError::PretestWithAdaptiveShooting);
             }
             let bytes = item_buffer_bytes(self.subsources, self.hemicube_resolution);
             if bytes > MAX_ITEM_BUFFER_BYTES {
-                return Err(format!(
-                    "{0} x {0} subsources with hemicubes of {1} pixels need {2:.1} GiB of item \
-                     buffers (limit {3} GiB): lower --subsources or --hemicube-resolution",
-                    self.subsources,
-                    self.hemicube_resolution,
-                    bytes as f64 / (1u64 << 30) as f64,
-                    MAX_ITEM_BUFFER_BYTES >> 30
-                ));
+                return Err(SettingsError::ItemBuffers {
+                    subsources: self.subsources,
+                    resolution: self.hemicube_resolution,
+                    bytes,
+                });
             }
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance <= 1.0) {
-            return Err(format!(
-                "--tolerance must be a fraction in (0, 1], not {}",
-                self.tolerance
-            ));
+            return Err(SettingsError::Tolerance(self.tolerance));
         }
         if !(self.converge.is_finite() && (0.0..1.0).contains(&self.converge)) {
-            return Err(format!(
-                "--converge must be a fraction in [0, 1), not {}",
-                self.converge
-            ));
+            return Err(SettingsError::Converge(self.converge));
         }
         if self.converge == 0.0
             && self.max_shots.is_none()
             && self.max_subsources.is_none()
             && self.time_limit.is_none()
         {
-            return Err(
-                "--converge 0 never stops by itself: give --max-shots, --max-subsources or \
-                 --time-limit"
-                    .into(),
-            );
+            return Err(SettingsError::NeverStops);
         }
         Ok(())
     }
+}
+
+/// Settings a solve cannot run with ([`Settings::validate`]); each message
+/// names the flag to change.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// Subsources per side out of range.
+    #[error("--subsources must be between 1 and {MAX_SUBSOURCES_PER_SIDE}, not {0}")]
+    Subsources(u32),
+    /// Hemicube resolution out of range.
+    #[error("--hemicube-resolution must be between 8 and {MAX_HEMICUBE_RESOLUTION}, not {0}")]
+    HemicubeResolution(u32),
+    /// The hemicube pre-test asked of adaptive shooting.
+    #[error(
+        "the hemicube pre-test places a hemicube at each subsource of a patch: use it with \
+         --shooting patches (adaptive shooting picks its sources per receiver)"
+    )]
+    PretestWithAdaptiveShooting,
+    /// The pre-test's item buffers would exceed [`MAX_ITEM_BUFFER_BYTES`].
+    #[error(
+        "{subsources} x {subsources} subsources with hemicubes of {resolution} pixels need \
+         {gib:.1} GiB of item buffers (limit {limit} GiB): lower --subsources or \
+         --hemicube-resolution",
+        gib = *bytes as f64 / (1u64 << 30) as f64,
+        limit = MAX_ITEM_BUFFER_BYTES >> 30
+    )]
+    ItemBuffers {
+        /// Subsources per side.
+        subsources: u32,
+        /// Hemicube resolution.
+        resolution: u32,
+        /// Bytes the buffers would take.
+        bytes: u64,
+    },
+    /// Tolerance outside (0, 1].
+    #[error("--tolerance must be a fraction in (0, 1], not {0}")]
+    Tolerance(f64),
+    /// Convergence threshold outside [0, 1).
+    #[error("--converge must be a fraction in [0, 1), not {0}")]
+    Converge(f64),
+    /// No stopping rule at all.
+    #[error(
+        "--converge 0 never stops by itself: give --max-shots, --max-subsources or --time-limit"
+    )]
+    NeverStops,
 }
 
 crate::choice::named_choice! {
