@@ -1,6 +1,6 @@
 //! Named choices: the settings a user picks by name (`--accel bvh`,
 //! `--form-factor analytic`, `--preset wong-tsang93`, ...). Each enum states
-//! its names once, in [`named_choice!`], which gives it `ALL`, `name`,
+//! its names once, in `named_choice!`, which gives it `ALL`, `name`,
 //! [`std::fmt::Display`], [`std::str::FromStr`] (failing with
 //! [`UnknownChoice`], which lists the choices), [`serde::Serialize`] (as
 //! its name, for the `--stats` file) and, with this crate's `clap`
@@ -21,7 +21,7 @@ pub struct UnknownChoice {
 
 /// Declares a fieldless enum whose variants are chosen by name:
 ///
-/// ```ignore
+/// ```text
 /// named_choice! {
 ///     /// Doc.
 ///     pub enum Accel: "accelerator" {
