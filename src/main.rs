@@ -26,7 +26,7 @@ use radiosity::render::Exposure;
 use radiosity::scene::Scene;
 use radiosity::scene::{Camera, DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions, builtin};
 use radiosity::sensors;
-use radiosity::solver::{DEFAULT_CONVERGE, Flow, Settings, Shooting, Solver, Visibility};
+use radiosity::solver::{DEFAULT_CONVERGE, Flow, Preset, Shooting, Solver, Visibility};
 use radiosity_experiments as experiments;
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
@@ -200,8 +200,8 @@ struct RenderArgs {
     /// and ambient term included, under an unlit material: opens lit in any
     /// viewer) or irradiance (E/pi, scaled, with the input's materials and
     /// UVs kept, for engines that multiply it with their own base colour).
-    #[arg(long, value_name = "MODE", default_value = "lit", value_parser = names(&BakeMode::ALL.map(BakeMode::name)))]
-    bake_mode: String,
+    #[arg(long, value_name = "MODE", default_value_t = BakeMode::Lit)]
+    bake_mode: BakeMode,
 
     /// Write the element mesh as binary PLY: positions, normals, the
     /// picture's 8-bit sRGB colours and float radiosity (W/m^2).
@@ -233,14 +233,14 @@ struct RenderArgs {
     /// hemicube pre-test, BSP shadow rays, analytic factor). wallace89: the
     /// 1989 baseline (patches, a ray per pair against every surface,
     /// Wallace's disk formula, eq. 1).
-    #[arg(long, default_value = "adaptive", value_parser = ["adaptive", "wong-tsang93", "wallace89"])]
-    preset: String,
+    #[arg(long, default_value_t = Preset::Adaptive)]
+    preset: Preset,
 
     /// How shooters send their unshot radiosity: patches (the paper's: one
     /// uniform radiosity per patch, a fixed grid of subsources) or adaptive
     /// (per element, refined per receiver). Overrides the preset.
-    #[arg(long, value_name = "NAME", value_parser = names(&Shooting::ALL.map(Shooting::name)))]
-    shooting: Option<String>,
+    #[arg(long, value_name = "NAME")]
+    shooting: Option<Shooting>,
 
     /// Adaptive shooting's accuracy: a receiver takes a part of a shooter
     /// as one source when the irradiance it can send is below this fraction
@@ -250,22 +250,22 @@ struct RenderArgs {
 
     /// Give adjacent coplanar faces of one material one surface id (on in
     /// the adaptive preset, off in the paper's). Overrides the preset.
-    #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
-    merge_coplanar: Option<String>,
+    #[arg(long, value_name = "on|off")]
+    merge_coplanar: Option<OnOff>,
 
     /// Point-to-polygon form factor: wallace (eq. 1), disk (eq. 3) or
     /// analytic (eq. 2). Overrides the preset.
-    #[arg(long, value_name = "NAME", value_parser = names(&FormFactor::ALL.map(FormFactor::name)))]
-    form_factor: Option<String>,
+    #[arg(long, value_name = "NAME")]
+    form_factor: Option<FormFactor>,
 
     /// Shadow-ray accelerator. Overrides the preset.
-    #[arg(long, value_name = "NAME", value_parser = names(&Accel::ALL.map(Accel::name)))]
-    accel: Option<String>,
+    #[arg(long, value_name = "NAME")]
+    accel: Option<Accel>,
 
     /// Visibility: a ray for every pair, or the hemicube pre-test with rays
     /// only where it cannot decide. Overrides the preset.
-    #[arg(long, value_name = "NAME", value_parser = names(&Visibility::ALL.map(Visibility::name)))]
-    visibility: Option<String>,
+    #[arg(long, value_name = "NAME")]
+    visibility: Option<Visibility>,
 
     /// Pixels across the top face of the pre-test hemicube.
     #[arg(long, value_name = "N", allow_negative_numbers = true,
@@ -488,37 +488,34 @@ fn fraction(flag: &'static str) -> impl Fn(&str) -> Result<f64, String> + Clone 
     }
 }
 
-fn names(names: &[&'static str]) -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(names.iter().copied())
+/// A switch given as `on` or `off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum OnOff {
+    On,
+    Off,
 }
 
 impl RenderArgs {
     /// The validated job (second stage after clap's raw values).
     fn job(&self) -> Result<Job> {
-        let mut settings = match self.preset.as_str() {
-            "adaptive" => Settings::adaptive(),
-            "wallace89" => Settings::wallace89(),
-            "wong-tsang93" => Settings::wong_tsang93(),
-            other => return Err(anyhow!("unknown preset '{other}'")),
-        };
-        if let Some(name) = &self.shooting {
-            settings.shooting = Shooting::from_name(name).context("shooting")?;
+        let mut settings = self.preset.settings();
+        if let Some(shooting) = self.shooting {
+            settings.shooting = shooting;
         }
         if let Some(t) = self.tolerance {
             settings.tolerance = t;
         }
-        if let Some(m) = &self.merge_coplanar {
-            settings.merge_coplanar = m == "on";
+        if let Some(switch) = self.merge_coplanar {
+            settings.merge_coplanar = switch == OnOff::On;
         }
-        // clap has already checked the names against the lists above.
-        if let Some(name) = &self.form_factor {
-            settings.form_factor = FormFactor::from_name(name).context("form factor")?;
+        if let Some(form_factor) = self.form_factor {
+            settings.form_factor = form_factor;
         }
-        if let Some(name) = &self.accel {
-            settings.accel = Accel::from_name(name).context("accelerator")?;
+        if let Some(accel) = self.accel {
+            settings.accel = accel;
         }
-        if let Some(name) = &self.visibility {
-            settings.visibility = Visibility::from_name(name).context("visibility")?;
+        if let Some(visibility) = self.visibility {
+            settings.visibility = visibility;
         }
         if let Some(n) = self.hemicube_resolution {
             settings.hemicube_resolution = n;
@@ -583,16 +580,10 @@ impl RenderArgs {
             vertices_csv: self.vertices.clone(),
             stats_json: self.stats.clone(),
             load: self.load.options(limits),
-            bake: self
-                .bake
-                .clone()
-                .map(|path| -> Result<BakeJob> {
-                    Ok(BakeJob {
-                        path,
-                        mode: BakeMode::from_name(&self.bake_mode).context("bake mode")?,
-                    })
-                })
-                .transpose()?,
+            bake: self.bake.clone().map(|path| BakeJob {
+                path,
+                mode: self.bake_mode,
+            }),
             ply: self.ply.clone(),
             sensors: match (&self.sensors, &self.sensors_out) {
                 (Some(points), Some(out)) => Some(SensorJob {

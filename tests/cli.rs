@@ -296,6 +296,69 @@ fn cornell_writes_picture_vertices_and_stats() {
     ] {
         assert!(stats.get(key).is_some(), "missing {key}");
     }
+    // The whole key set: design.md's list above and what later issues
+    // added (the phases' times, memory, the accelerator's build).
+    let keys = |value: &serde_json::Value| -> Vec<String> {
+        value.as_object().unwrap().keys().cloned().collect()
+    };
+    assert_eq!(
+        keys(&stats),
+        [
+            "accel_build",
+            "accel_build_seconds",
+            "bookkeeping_seconds",
+            "elements",
+            "estimated_memory_bytes",
+            "form_factor_thread_seconds",
+            "gather_seconds",
+            "hemicube_seconds",
+            "load_seconds",
+            "mesh_seconds",
+            "pairs",
+            "patches",
+            "peak_memory_bytes",
+            "pretest_hidden",
+            "pretest_thread_seconds",
+            "pretest_visible",
+            "ray_thread_seconds",
+            "rays_cast",
+            "scene",
+            "settings",
+            "shots",
+            "solve_seconds",
+            "stop_reason",
+            "subsources",
+            "surface_ids",
+            "surfaces",
+            "threads",
+            "total_seconds",
+            "unshot_fraction",
+            "vertices",
+            "write_seconds",
+        ]
+    );
+    assert_eq!(
+        keys(&stats["settings"]),
+        [
+            "accel",
+            "converge",
+            "element_size",
+            "form_factor",
+            "hemicube_resolution",
+            "max_shots",
+            "max_subsources",
+            "merge_coplanar",
+            "patch_size",
+            "shooting",
+            "subsources",
+            "time_limit",
+            "tolerance",
+            "visibility",
+        ]
+    );
+    assert_eq!(stats["settings"]["accel"], "bvh");
+    assert_eq!(stats["stop_reason"], "converged");
+    assert!(!keys(&stats["accel_build"]).is_empty());
     assert!(stats["unshot_fraction"].as_f64().unwrap() < 0.01);
     let csv = std::fs::read_to_string(p("c.csv")).unwrap();
     let mut lines = csv.lines();

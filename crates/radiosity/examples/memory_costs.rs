@@ -15,7 +15,7 @@ use radiosity::accel::Accel;
 use radiosity::mesh::Mesh;
 use radiosity::render::{self, RenderSettings};
 use radiosity::scene;
-use radiosity::solver::{Settings, Solver};
+use radiosity::solver::{Preset, Solver};
 
 struct Counting;
 
@@ -78,12 +78,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let [_, scene_name, preset, accel, shots] = &args[..] else {
         return Err("usage: memory_costs SCENE PRESET ACCEL SHOTS".into());
     };
-    let mut settings = match preset.as_str() {
-        "adaptive" => Settings::adaptive(),
-        "wong-tsang93" => Settings::wong_tsang93(),
-        other => return Err(format!("unknown preset {other}").into()),
-    };
-    settings.accel = Accel::from_name(accel).ok_or("unknown accelerator")?;
+    let mut settings = preset.parse::<Preset>()?.settings();
+    settings.accel = accel.parse::<Accel>()?;
     let shots: u64 = shots.parse()?;
     let mut scene = stage("load", || scene::load(scene_name))?;
     if settings.merge_coplanar {

@@ -12,11 +12,13 @@ use std::time::{Duration, Instant};
 use crate::export::gltf::{Bake, BakeMode};
 use crate::export::{self, Staged};
 use crate::memory;
-use crate::mesh::{Mesh, MeshError};
+use crate::mesh::{Mesh, MeshError, MeshSettings};
 use crate::render::{self, Exposure, RenderSettings};
-use crate::scene::{self, Camera, LoadOptions, MeshHint, Scene, SceneError};
+use crate::scene::{
+    self, Camera, CameraError, LoadOptions, LoadOptionsError, MeshHint, Scene, SceneError,
+};
 use crate::sensors;
-use crate::solver::{Flow, Settings, Solver, Stats, StopReason};
+use crate::solver::{Flow, Settings, SettingsError, Solver, Stats, StopReason};
 
 /// What to draw and where.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,7 +44,10 @@ pub struct ImageJob {
 pub struct Job {
     /// A built-in scene's name or an `.obj` path.
     pub scene: String,
-    /// Solver settings; its mesh sizes are replaced by the two below.
+    /// Solver settings, but for the mesh sizes: the two below give those
+    /// ([`Job::settings_for`]), and a job whose settings hold sizes other
+    /// than [`MeshSettings::default`]'s is refused ([`validate`]) rather
+    /// than have them ignored.
     pub settings: Settings,
     /// `--patch-size`; `None` takes the scene's suggestion.
     pub patch_size: Option<f64>,
@@ -66,6 +71,20 @@ pub struct Job {
     pub max_memory: Option<u64>,
     /// `--sensors POINTS.txt --sensors-out FILE.csv`.
     pub sensors: Option<SensorJob>,
+}
+
+impl Job {
+    /// The settings of a run on a scene that suggests `suggested`:
+    /// [`Job::settings`] with the mesh sizes of [`Job::patch_size`] and
+    /// [`Job::element_size`], each defaulting to the suggestion. The one
+    /// place a run's mesh sizes are decided.
+    #[must_use]
+    pub fn settings_for(&self, suggested: &MeshHint) -> Settings {
+        let mut settings = self.settings.clone();
+        settings.mesh.patch_size = self.patch_size.unwrap_or(suggested.patch_size);
+        settings.mesh.element_size = self.element_size.unwrap_or(suggested.element_size);
+        settings
+    }
 }
 
 /// `--sensors`: values at the points of a Radiance `rtrace -I` points file
@@ -98,9 +117,70 @@ pub enum Error {
     /// The scene could not be meshed.
     #[error(transparent)]
     Mesh(#[from] MeshError),
-    /// A setting is out of range.
-    #[error("{0}")]
-    Settings(String),
+    /// A solver setting is out of range.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// A load option is out of range.
+    #[error(transparent)]
+    Load(#[from] LoadOptionsError),
+    /// The picture's camera defines no view.
+    #[error("--camera: {0}")]
+    Camera(CameraError),
+    /// An output's file name has none of the extensions it may have.
+    #[error("{flag} {path}: the file name must end in .{}", extensions.join(" or ."), path = path.display())]
+    FileType {
+        /// The flag that named the file.
+        flag: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The extensions it may have.
+        extensions: &'static [&'static str],
+    },
+    /// A picture side outside 1 to [`render::MAX_SIDE`].
+    #[error("{flag} must be between 1 and {}, not {side}", render::MAX_SIDE)]
+    PictureSide {
+        /// `--width` or `--height`.
+        flag: &'static str,
+        /// The side asked for.
+        side: u32,
+    },
+    /// A picture of more than [`MAX_SAMPLES`] samples.
+    #[error(
+        "a {width}x{height} picture with {supersampling}x{supersampling} supersampling needs \
+         {samples} samples, more than {MAX_SAMPLES}: lower --width, --height or --supersampling"
+    )]
+    TooManySamples {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// Supersampling per axis.
+        supersampling: u32,
+        /// The samples it would take.
+        samples: u64,
+    },
+    /// Supersampling outside 1 to 8.
+    #[error("--supersampling must be between 1 and 8, not {0}")]
+    Supersampling(u32),
+    /// `--max-sensors 0`.
+    #[error("--max-sensors must be at least 1")]
+    NoSensors,
+    /// Mesh sizes given in [`Job::settings`], where they are not read.
+    #[error("a job's mesh sizes are its patch_size and element_size, not its settings' mesh sizes")]
+    MeshSizesInSettings,
+    /// The mesh would exceed `--max-elements`.
+    #[error(
+        "meshing would create {elements} elements, more than the limit of {limit}: {remedy}, or \
+         raise --max-elements"
+    )]
+    MeshTooLarge {
+        /// Elements the mesh would have.
+        elements: u128,
+        /// `--max-elements`.
+        limit: usize,
+        /// The size to change and where it came from.
+        remedy: String,
+    },
     /// The run would need more memory than it may use.
     #[error("{0}")]
     Memory(memory::TooLarge),
@@ -289,7 +369,7 @@ pub struct Outcome {
 }
 
 /// Sizes of a meshed scene.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Counts {
     /// Planar convex input surfaces.
     pub surfaces: usize,
@@ -326,18 +406,22 @@ pub const MAX_SAMPLES: u64 = 150_000_000;
 
 /// Checks outputs before any work: known picture format, a folder that
 /// exists and can be written to (a file is created there and removed).
-fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Error> {
+fn check_output(
+    path: &Path,
+    extensions: &'static [&'static str],
+    flag: &'static str,
+) -> Result<(), Error> {
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
     if !extensions.contains(&extension.as_str()) {
-        return Err(Error::Settings(format!(
-            "{flag} {}: the file name must end in .{}",
-            path.display(),
-            extensions.join(" or .")
-        )));
+        return Err(Error::FileType {
+            flag,
+            path: path.to_path_buf(),
+            extensions,
+        });
     }
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -363,8 +447,14 @@ fn check_output(path: &Path, extensions: &[&str], flag: &str) -> Result<(), Erro
 
 /// Validates a job's settings and outputs without doing any work.
 pub fn validate(job: &Job) -> Result<(), Error> {
-    job.settings.validate().map_err(Error::Settings)?;
-    job.load.validate().map_err(Error::Settings)?;
+    job.settings.validate()?;
+    let defaults = MeshSettings::default();
+    if (job.settings.mesh.patch_size, job.settings.mesh.element_size)
+        != (defaults.patch_size, defaults.element_size)
+    {
+        return Err(Error::MeshSizesInSettings);
+    }
+    job.load.validate()?;
     if let Some(bake) = &job.bake {
         check_output(&bake.path, &["glb", "gltf"], "--bake")?;
     }
@@ -373,34 +463,27 @@ pub fn validate(job: &Job) -> Result<(), Error> {
     }
     if let Some(image) = &job.image {
         check_output(&image.path, &["png", "pfm", "exr"], "--output")?;
-        for (name, side) in [("--width", image.width), ("--height", image.height)] {
+        for (flag, side) in [("--width", image.width), ("--height", image.height)] {
             if !(1..=render::MAX_SIDE).contains(&side) {
-                return Err(Error::Settings(format!(
-                    "{name} must be between 1 and {}, not {side}",
-                    render::MAX_SIDE
-                )));
+                return Err(Error::PictureSide { flag, side });
             }
         }
         let samples = u64::from(image.width)
             * u64::from(image.height)
             * u64::from(image.supersampling).pow(2);
         if samples > MAX_SAMPLES {
-            return Err(Error::Settings(format!(
-                "a {}x{} picture with {}x{} supersampling needs {samples} samples, more than \
-                 {MAX_SAMPLES}: lower --width, --height or --supersampling",
-                image.width, image.height, image.supersampling, image.supersampling
-            )));
+            return Err(Error::TooManySamples {
+                width: image.width,
+                height: image.height,
+                supersampling: image.supersampling,
+                samples,
+            });
         }
         if !(1..=8).contains(&image.supersampling) {
-            return Err(Error::Settings(format!(
-                "--supersampling must be between 1 and 8, not {}",
-                image.supersampling
-            )));
+            return Err(Error::Supersampling(image.supersampling));
         }
         if let Some(camera) = &image.camera {
-            camera
-                .validate()
-                .map_err(|m| Error::Settings(format!("--camera: {m}")))?;
+            camera.validate().map_err(Error::Camera)?;
         }
     }
     if let Some(path) = &job.vertices_csv {
@@ -412,7 +495,7 @@ pub fn validate(job: &Job) -> Result<(), Error> {
     if let Some(sensors) = &job.sensors {
         check_output(&sensors.out, &["csv"], "--sensors-out")?;
         if sensors.max_points == 0 {
-            return Err(Error::Settings("--max-sensors must be at least 1".into()));
+            return Err(Error::NoSensors);
         }
     }
     Ok(())
@@ -438,10 +521,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         Some(s) => sensors::receivers(&scene, &sensor_points, &s.points)?,
         None => Vec::new(),
     };
-    let mut settings = job.settings.clone();
     let suggested = scene.default_mesh_sizes();
-    settings.mesh.patch_size = job.patch_size.unwrap_or(suggested.patch_size);
-    settings.mesh.element_size = job.element_size.unwrap_or(suggested.element_size);
+    let settings = job.settings_for(&suggested);
     let mesh_start = Instant::now();
     let mesh = Mesh::build(&scene, &settings.mesh)
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
@@ -589,11 +670,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     outcome.write_time = write_start.elapsed();
     if let Some(path) = &job.stats_json {
         outcome.total_time = start.elapsed();
-        let json = stats_json(&settings, &outcome);
-        staged.push(stage(path, &mut |w| {
-            serde_json::to_writer_pretty(&mut *w, &json)?;
-            std::io::Write::write_all(w, b"\n")
-        })?);
+        let file = StatsFile::of(&settings, &outcome);
+        staged.push(stage(path, &mut |w| file.write(w))?);
     }
     outcome.written = commit_all(staged)?;
     outcome.total_time = start.elapsed();
@@ -691,7 +769,7 @@ pub fn bake_colours(
 /// (`.glb`, or `.gltf` with its `.bin`), staged like every output. Returns
 /// the files written.
 pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<PathBuf>, Error> {
-    load.validate().map_err(Error::Settings)?;
+    load.validate()?;
     check_output(out, &["glb", "gltf"], "export-scene")?;
     let loaded = scene::load_with(scene, load)?;
     let files = export::gltf::export_scene(&loaded.scene, out).map_err(|source| Error::Output {
@@ -777,10 +855,11 @@ fn mesh_error(error: MeshError, job: &Job, suggested: &MeshHint, settings: &Sett
             "give a {flag} larger than {size} m (the default: 1/{fraction} of the scene's size)"
         )
     };
-    Error::Settings(format!(
-        "meshing would create {elements} elements, more than the limit of {limit}: {remedy}, or \
-         raise --max-elements"
-    ))
+    Error::MeshTooLarge {
+        elements,
+        limit,
+        remedy,
+    }
 }
 
 /// Progress of a solver, with completion estimated from the nearest
@@ -812,72 +891,129 @@ pub fn progress_of(solver: &Solver<'_>) -> Progress {
     }
 }
 
-/// The `--stats` object of design.md section 6, with the time of each
-/// phase: `load_seconds`, `mesh_seconds`, `solve_seconds` (of which
-/// `accel_build_seconds`), `write_seconds`, within `total_seconds`.
-fn stats_json(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
-    let mut json = stats_json_counters(settings, outcome);
-    for (key, time) in [
-        ("load_seconds", outcome.load_time),
-        ("mesh_seconds", outcome.mesh_time),
-        ("accel_build_seconds", outcome.accel_build_time),
-        ("write_seconds", outcome.write_time),
-    ] {
-        json[key] = serde_json::Value::from(time.as_secs_f64());
-    }
-    json
+/// The `--stats` file of design.md section 6: one JSON object of the run's
+/// counts, counters, phase times (seconds) and the settings in force. The
+/// keys are written sorted, whatever the order of the fields below.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StatsFile {
+    /// Scene name.
+    pub scene: String,
+    /// `surfaces`, `surface_ids`, `patches` (shooters), `elements`,
+    /// `vertices`.
+    #[serde(flatten)]
+    pub counts: Counts,
+    /// `shots`, `subsources`, `pairs`, `rays_cast`, `pretest_visible`,
+    /// `pretest_hidden` and the solver's times: `hemicube_seconds`,
+    /// `gather_seconds`, `pretest_thread_seconds`, `ray_thread_seconds`,
+    /// `form_factor_thread_seconds`, `bookkeeping_seconds`.
+    #[serde(flatten)]
+    pub solver: Stats,
+    /// Unshot power left over emitted power.
+    pub unshot_fraction: f64,
+    /// Why the solve stopped ([`StopReason::describe`]).
+    pub stop_reason: &'static str,
+    /// Reading the scene and merging its coplanar faces.
+    pub load_seconds: f64,
+    /// Building the element mesh.
+    pub mesh_seconds: f64,
+    /// The solve: accelerator build, solver set-up and shooting.
+    pub solve_seconds: f64,
+    /// Building the shadow-ray accelerator (part of `solve_seconds`).
+    pub accel_build_seconds: f64,
+    /// Drawing the picture and writing the other outputs.
+    pub write_seconds: f64,
+    /// The whole run up to writing this file.
+    pub total_seconds: f64,
+    /// Most memory held resident, bytes (`null` where the system does not
+    /// say).
+    pub peak_memory_bytes: Option<u64>,
+    /// The estimate the run was checked against before its solve, bytes.
+    pub estimated_memory_bytes: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// The accelerator's build statistics by name
+    /// ([`crate::accel::Occluder::build_statistics`]).
+    pub accel_build: std::collections::BTreeMap<&'static str, usize>,
+    /// The settings in force, the mesh sizes being those the run used.
+    pub settings: Settings,
 }
 
-/// The `--stats` object but the phases' times (one `json!` call of them
-/// all would exceed the macro's recursion limit).
-fn stats_json_counters(settings: &Settings, outcome: &Outcome) -> serde_json::Value {
-    let s = &outcome.stats;
-    serde_json::json!({
-        "scene": outcome.scene,
-        "surfaces": outcome.counts.surfaces,
-        "surface_ids": outcome.counts.surface_ids,
-        "patches": outcome.counts.patches,
-        "elements": outcome.counts.elements,
-        "vertices": outcome.counts.vertices,
-        "shots": s.shots,
-        "subsources": s.subsources,
-        "pairs": s.pairs,
-        "rays_cast": s.rays_cast,
-        "pretest_visible": s.pretest_visible,
-        "pretest_hidden": s.pretest_hidden,
-        "unshot_fraction": outcome.unshot_fraction,
-        "stop_reason": outcome.stop.describe(),
-        "solve_seconds": outcome.solve_time.as_secs_f64(),
-        "hemicube_seconds": s.hemicube_time.as_secs_f64(),
-        "gather_seconds": s.gather_time.as_secs_f64(),
-        "pretest_thread_seconds": s.pretest_time.as_secs_f64(),
-        "ray_thread_seconds": s.ray_time.as_secs_f64(),
-        "form_factor_thread_seconds": s.form_factor_time.as_secs_f64(),
-        "bookkeeping_seconds": s.bookkeeping_time.as_secs_f64(),
-        "total_seconds": outcome.total_time.as_secs_f64(),
-        "peak_memory_bytes": outcome.peak_memory_bytes,
-        "estimated_memory_bytes": outcome.memory_estimate.total(),
-        "threads": outcome.threads,
-        "accel_build": outcome
-            .accel_statistics
-            .iter()
-            .map(|(k, v)| (k.to_string(), serde_json::Value::from(*v)))
-            .collect::<serde_json::Map<_, _>>(),
-        "settings": {
-            "shooting": settings.shooting.name(),
-            "merge_coplanar": settings.merge_coplanar,
-            "tolerance": settings.tolerance,
-            "form_factor": settings.form_factor.name(),
-            "accel": settings.accel.name(),
-            "visibility": settings.visibility.name(),
-            "hemicube_resolution": settings.hemicube_resolution,
-            "subsources": settings.subsources,
-            "patch_size": settings.mesh.patch_size,
-            "element_size": settings.mesh.element_size,
-            "converge": settings.converge,
-            "max_shots": settings.max_shots,
-            "max_subsources": settings.max_subsources,
-            "time_limit": settings.time_limit.map(|t| t.as_secs_f64()),
-        },
-    })
+impl StatsFile {
+    /// The statistics of a run that used `settings`.
+    #[must_use]
+    pub fn of(settings: &Settings, outcome: &Outcome) -> StatsFile {
+        StatsFile {
+            scene: outcome.scene.clone(),
+            counts: outcome.counts,
+            solver: outcome.stats.clone(),
+            unshot_fraction: outcome.unshot_fraction,
+            stop_reason: outcome.stop.describe(),
+            load_seconds: outcome.load_time.as_secs_f64(),
+            mesh_seconds: outcome.mesh_time.as_secs_f64(),
+            solve_seconds: outcome.solve_time.as_secs_f64(),
+            accel_build_seconds: outcome.accel_build_time.as_secs_f64(),
+            write_seconds: outcome.write_time.as_secs_f64(),
+            total_seconds: outcome.total_time.as_secs_f64(),
+            peak_memory_bytes: outcome.peak_memory_bytes,
+            estimated_memory_bytes: outcome.memory_estimate.total(),
+            threads: outcome.threads,
+            accel_build: outcome.accel_statistics.iter().copied().collect(),
+            settings: settings.clone(),
+        }
+    }
+
+    /// Writes the file as pretty-printed JSON with its keys sorted, and a
+    /// final newline.
+    pub fn write(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        // Through a `Value`, whose objects keep their keys sorted.
+        let value = serde_json::to_value(self)?;
+        serde_json::to_writer_pretty(&mut *w, &value)?;
+        w.write_all(b"\n")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(patch_size: Option<f64>, element_size: Option<f64>) -> Job {
+        Job {
+            scene: "room".into(),
+            settings: Settings::adaptive(),
+            patch_size,
+            element_size,
+            image: None,
+            vertices_csv: None,
+            stats_json: None,
+            load: LoadOptions::default(),
+            bake: None,
+            ply: None,
+            max_memory: None,
+            sensors: None,
+        }
+    }
+
+    #[test]
+    fn mesh_sizes_come_from_the_job_else_the_scene() {
+        let suggested = MeshHint {
+            patch_size: 1.0,
+            element_size: 0.1,
+            directive: None,
+        };
+        let mesh = job(None, None).settings_for(&suggested).mesh;
+        assert_eq!((mesh.patch_size, mesh.element_size), (1.0, 0.1));
+        let mesh = job(Some(2.0), None).settings_for(&suggested).mesh;
+        assert_eq!((mesh.patch_size, mesh.element_size), (2.0, 0.1));
+        let mesh = job(None, Some(0.2)).settings_for(&suggested).mesh;
+        assert_eq!((mesh.patch_size, mesh.element_size), (1.0, 0.2));
+    }
+
+    #[test]
+    fn mesh_sizes_in_a_jobs_settings_are_refused_not_ignored() {
+        assert!(validate(&job(None, None)).is_ok());
+        let mut refused = job(None, None);
+        refused.settings.mesh.element_size = 0.05;
+        let message = validate(&refused).unwrap_err().to_string();
+        assert!(message.contains("element_size"), "{message}");
+    }
 }

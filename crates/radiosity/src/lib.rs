@@ -9,6 +9,7 @@
 
 pub mod accel;
 pub mod app;
+pub mod choice;
 pub mod export;
 pub mod form_factor;
 pub mod geometry;

@@ -437,14 +437,14 @@ fn count(n: u64) -> String {
 /// Parses a memory size: a number with an optional unit, `K`, `M`, `G` or
 /// `T` (powers of 1024, optionally followed by `iB` or `B`); a bare number
 /// is MiB, as `--max-file-size` takes it. `24G`, `1.5GiB`, `512`.
-pub fn parse_size(text: &str) -> Result<u64, String> {
+pub fn parse_size(text: &str) -> Result<u64, SizeError> {
     let t = text.trim();
     let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
     let (number, unit) = t.split_at(split);
     let value: f64 = number
         .trim()
         .parse()
-        .map_err(|_| format!("'{text}' is not a size such as 512M, 24G or 1.5GiB"))?;
+        .map_err(|_| SizeError::NotASize(text.to_string()))?;
     let shift = match unit.trim().to_ascii_lowercase().as_str() {
         "" | "m" | "mb" | "mib" => 20,
         "k" | "kb" | "kib" => 10,
@@ -452,16 +452,36 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
         "t" | "tb" | "tib" => 40,
         "b" => 0,
         _ => {
-            return Err(format!(
-                "'{text}': unknown unit '{unit}' (use K, M, G or T)"
-            ));
+            return Err(SizeError::UnknownUnit {
+                text: text.to_string(),
+                unit: unit.to_string(),
+            });
         }
     };
     let bytes = value * (1u64 << shift) as f64;
     if !(bytes.is_finite() && (1.0..1e19).contains(&bytes)) {
-        return Err(format!("'{text}' is not a positive size"));
+        return Err(SizeError::NotPositive(text.to_string()));
     }
     Ok(bytes as u64)
+}
+
+/// A memory size [`parse_size`] cannot read.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SizeError {
+    /// No number where the size should start.
+    #[error("'{0}' is not a size such as 512M, 24G or 1.5GiB")]
+    NotASize(String),
+    /// A unit other than K, M, G or T.
+    #[error("'{text}': unknown unit '{unit}' (use K, M, G or T)")]
+    UnknownUnit {
+        /// The size as given.
+        text: String,
+        /// Its unit.
+        unit: String,
+    },
+    /// Zero, negative or too large.
+    #[error("'{0}' is not a positive size")]
+    NotPositive(String),
 }
 
 #[cfg(test)]
@@ -476,7 +496,12 @@ mod tests {
         assert_eq!(parse_size("100 kB"), Ok(100 << 10));
         assert!(parse_size("-1G").is_err());
         assert!(parse_size("lots").is_err());
-        assert!(parse_size("3X").unwrap_err().contains("unknown unit"));
+        assert!(
+            parse_size("3X")
+                .unwrap_err()
+                .to_string()
+                .contains("unknown unit")
+        );
     }
 
     #[test]

@@ -23,17 +23,20 @@ use glam::DVec3;
 use crate::geometry;
 use crate::scene::Scene;
 
-/// How finely to cut surfaces.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// How finely to cut surfaces. Serialised (in the `--stats` file's
+/// settings) as its two sizes.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct MeshSettings {
     /// Longest edge of a patch, metres.
     pub patch_size: f64,
     /// Longest edge of an element, metres.
     pub element_size: f64,
     /// Refuse meshes with more elements than this.
+    #[serde(skip)]
     pub max_elements: usize,
     /// Cut triangles by longest-edge bisection (each surface one patch)
     /// instead of the regular grid; see [`Grid::Bisect`].
+    #[serde(skip)]
     pub bisect_triangles: bool,
 }
 

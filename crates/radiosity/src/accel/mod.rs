@@ -17,38 +17,20 @@ use glam::{DVec2, DVec3};
 use crate::geometry;
 use crate::scene::Surface;
 
-/// Which shadow-ray accelerator answers visibility queries.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Accel {
-    /// Every surface is tested (the oracle).
-    Brute,
-    /// A BSP tree over the surfaces, walked front to back (paper section 3).
-    Bsp,
-    /// A surface-area-heuristic bounding-volume hierarchy (beyond the
-    /// paper: the modern answer, kept beside the BSP for comparison).
-    Bvh,
+crate::choice::named_choice! {
+    /// Which shadow-ray accelerator answers visibility queries.
+    pub enum Accel: "accelerator" {
+        /// Every surface is tested (the oracle).
+        Brute = "brute",
+        /// A BSP tree over the surfaces, walked front to back (paper section 3).
+        Bsp = "bsp",
+        /// A surface-area-heuristic bounding-volume hierarchy (beyond the
+        /// paper: the modern answer, kept beside the BSP for comparison).
+        Bvh = "bvh",
+    }
 }
 
 impl Accel {
-    /// Every accelerator, in the order the command line lists them.
-    pub const ALL: [Accel; 3] = [Accel::Brute, Accel::Bsp, Accel::Bvh];
-
-    /// The name used on the command line and in statistics.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Accel::Brute => "brute",
-            Accel::Bsp => "bsp",
-            Accel::Bvh => "bvh",
-        }
-    }
-
-    /// Parses a command-line name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Accel> {
-        Accel::ALL.into_iter().find(|a| a.name() == name)
-    }
-
     /// Builds the accelerator over the scene's surfaces.
     #[must_use]
     pub fn build(self, surfaces: &[Surface]) -> Box<dyn Occluder + '_> {

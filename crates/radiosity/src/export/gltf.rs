@@ -37,32 +37,13 @@ use crate::mesh::Mesh;
 use crate::scene::gltf::{Appearance, NGON_EXTENSION, interpolate_on_fan};
 use crate::scene::{Camera, Scene};
 
-/// What `COLOR_0` of a bake holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BakeMode {
-    /// Displayed radiance under an unlit material.
-    Lit,
-    /// Irradiance / pi, with the original materials.
-    Irradiance,
-}
-
-impl BakeMode {
-    /// Every mode, for flag parsing.
-    pub const ALL: [BakeMode; 2] = [BakeMode::Lit, BakeMode::Irradiance];
-
-    /// The flag value.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            BakeMode::Lit => "lit",
-            BakeMode::Irradiance => "irradiance",
-        }
-    }
-
-    /// Parses a flag value.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<BakeMode> {
-        BakeMode::ALL.into_iter().find(|m| m.name() == name)
+crate::choice::named_choice! {
+    /// What `COLOR_0` of a bake holds.
+    pub enum BakeMode: "bake mode" {
+        /// Displayed radiance under an unlit material.
+        Lit = "lit",
+        /// Irradiance / pi, with the original materials.
+        Irradiance = "irradiance",
     }
 }
 

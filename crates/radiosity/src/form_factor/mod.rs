@@ -25,37 +25,19 @@ pub use analytic::analytic;
 
 use glam::DVec3;
 
-/// Which point-to-polygon formula the solver evaluates.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum FormFactor {
-    /// Wallace et al.'s disk approximation, equation (1).
-    Wallace,
-    /// Wong & Tsang's disk approximation, equation (3).
-    Disk,
-    /// The exact contour formula of Baum et al., equation (2).
-    Analytic,
+crate::choice::named_choice! {
+    /// Which point-to-polygon formula the solver evaluates.
+    pub enum FormFactor: "form factor" {
+        /// Wallace et al.'s disk approximation, equation (1).
+        Wallace = "wallace",
+        /// Wong & Tsang's disk approximation, equation (3).
+        Disk = "disk",
+        /// The exact contour formula of Baum et al., equation (2).
+        Analytic = "analytic",
+    }
 }
 
 impl FormFactor {
-    /// Every formula, in the order the command line lists them.
-    pub const ALL: [FormFactor; 3] = [FormFactor::Wallace, FormFactor::Disk, FormFactor::Analytic];
-
-    /// The name used on the command line and in statistics.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            FormFactor::Wallace => "wallace",
-            FormFactor::Disk => "disk",
-            FormFactor::Analytic => "analytic",
-        }
-    }
-
-    /// Parses a command-line name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<FormFactor> {
-        FormFactor::ALL.into_iter().find(|f| f.name() == name)
-    }
-
     /// Evaluates the factor from the differential area at `receiver`
     /// (unit normal `receiver_normal`) to `source`.
     #[must_use]
@@ -227,9 +209,9 @@ mod tests {
     #[test]
     fn names_round_trip_and_evaluate_dispatches() {
         for f in FormFactor::ALL {
-            assert_eq!(FormFactor::from_name(f.name()), Some(f));
+            assert_eq!(f.name().parse::<FormFactor>(), Ok(f));
         }
-        assert_eq!(FormFactor::from_name("baum"), None);
+        assert!("baum".parse::<FormFactor>().is_err());
         let square = [
             DVec3::new(-0.5, -0.5, 0.0),
             DVec3::new(0.5, -0.5, 0.0),

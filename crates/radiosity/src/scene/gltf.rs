@@ -1479,21 +1479,35 @@ pub fn interpolate_on_fan(corners: &[DVec3], values: &[[f64; 2]], p: DVec3) -> [
     best.1
 }
 
+/// Why a texture has no mean colour ([`mean_linear_colour`]).
+#[derive(Debug, thiserror::Error)]
+pub enum TextureError {
+    /// The bytes could not be read.
+    #[error("cannot read: {0}")]
+    Read(std::io::Error),
+    /// The image could not be decoded.
+    #[error("cannot decode: {0}")]
+    Decode(image::ImageError),
+    /// No pixels.
+    #[error("the image is empty")]
+    Empty,
+}
+
 /// Mean colour of an encoded image in linear light, texels sRGB-decoded,
 /// alpha ignored.
-pub fn mean_linear_colour(bytes: &[u8]) -> Result<DVec3, String> {
+pub fn mean_linear_colour(bytes: &[u8]) -> Result<DVec3, TextureError> {
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
-        .map_err(|e| format!("cannot read: {e}"))?;
+        .map_err(TextureError::Read)?;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_TEXTURE_SIDE);
     limits.max_image_height = Some(MAX_TEXTURE_SIDE);
     limits.max_alloc = Some(MAX_TEXTURE_BYTES);
     reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| format!("cannot decode: {e}"))?;
+    let decoded = reader.decode().map_err(TextureError::Decode)?;
     let (w, h) = (decoded.width(), decoded.height());
     if w == 0 || h == 0 {
-        return Err("the image is empty".into());
+        return Err(TextureError::Empty);
     }
     let mut sum = DVec3::ZERO;
     match decoded {

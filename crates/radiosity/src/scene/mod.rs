@@ -97,27 +97,24 @@ pub struct Camera {
 impl Camera {
     /// Parses `eye,target,up,fov` as ten numbers separated by commas or
     /// white space, as `--camera` and the `#@camera` directive take it.
-    pub fn parse(text: &str) -> Result<Camera, String> {
+    pub fn parse(text: &str) -> Result<Camera, CameraError> {
         let numbers: Vec<f64> = text
             .split(|c: char| c == ',' || c.is_whitespace())
             .filter(|t| !t.is_empty())
             .map(|t| {
                 t.parse::<f64>()
-                    .map_err(|_| format!("{} is not a number", obj::quoted(t)))
+                    .map_err(|_| CameraError::NotANumber(obj::quoted(t)))
                     .and_then(|v| {
                         if v.is_finite() {
                             Ok(v)
                         } else {
-                            Err(format!("{} is not a finite number", obj::quoted(t)))
+                            Err(CameraError::NotFinite(obj::quoted(t)))
                         }
                     })
             })
             .collect::<Result<_, _>>()?;
         if numbers.len() != 10 {
-            return Err(format!(
-                "a camera needs 10 numbers (eye x,y,z, target x,y,z, up x,y,z, fov in degrees), found {}",
-                numbers.len()
-            ));
+            return Err(CameraError::Count(numbers.len()));
         }
         let v = |i: usize| DVec3::new(numbers[i], numbers[i + 1], numbers[i + 2]);
         let camera = Camera {
@@ -131,19 +128,16 @@ impl Camera {
     }
 
     /// Checks that the camera defines a view.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), CameraError> {
         let forward = self.target - self.eye;
         if forward.length() <= 1e-12 {
-            return Err("the camera's eye and target coincide".into());
+            return Err(CameraError::EyeAtTarget);
         }
         if forward.cross(self.up).length() <= 1e-12 * forward.length() * self.up.length() {
-            return Err("the camera's up direction is zero or along the view direction".into());
+            return Err(CameraError::Up);
         }
         if !(self.fov_degrees > 0.0 && self.fov_degrees < 180.0) {
-            return Err(format!(
-                "field of view {} degrees is not between 0 and 180",
-                self.fov_degrees
-            ));
+            return Err(CameraError::FieldOfView(self.fov_degrees));
         }
         Ok(())
     }
@@ -164,6 +158,31 @@ impl Camera {
             fov_degrees,
         }
     }
+}
+
+/// Why a camera ([`Camera::parse`], [`Camera::validate`]) defines no view.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    /// A token that is no number (quoted as given).
+    #[error("{0} is not a number")]
+    NotANumber(String),
+    /// An infinite or NaN number (quoted as given).
+    #[error("{0} is not a finite number")]
+    NotFinite(String),
+    /// Not ten numbers.
+    #[error(
+        "a camera needs 10 numbers (eye x,y,z, target x,y,z, up x,y,z, fov in degrees), found {0}"
+    )]
+    Count(usize),
+    /// Eye and target coincide.
+    #[error("the camera's eye and target coincide")]
+    EyeAtTarget,
+    /// No usable up direction.
+    #[error("the camera's up direction is zero or along the view direction")]
+    Up,
+    /// A field of view outside (0, 180) degrees.
+    #[error("field of view {0} degrees is not between 0 and 180")]
+    FieldOfView(f64),
 }
 
 /// Patch and element sizes a scene file suggests, in metres.
@@ -422,21 +441,26 @@ pub fn read_input(path: &Path, limits: &Limits) -> Result<Vec<u8>, SceneError> {
 
 impl LoadOptions {
     /// Checks the options are usable.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), LoadOptionsError> {
         if !(self.reflectance_cap > 0.0 && self.reflectance_cap < 1.0) {
-            return Err(format!(
-                "--reflectance-cap must be above 0 and below 1, not {}",
-                self.reflectance_cap
-            ));
+            return Err(LoadOptionsError::ReflectanceCap(self.reflectance_cap));
         }
         if !(self.emission_scale.is_finite() && self.emission_scale > 0.0) {
-            return Err(format!(
-                "--emission-scale must be a positive number, not {}",
-                self.emission_scale
-            ));
+            return Err(LoadOptionsError::EmissionScale(self.emission_scale));
         }
         Ok(())
     }
+}
+
+/// Load options that cannot be used ([`LoadOptions::validate`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LoadOptionsError {
+    /// A reflectance cap outside (0, 1).
+    #[error("--reflectance-cap must be above 0 and below 1, not {0}")]
+    ReflectanceCap(f64),
+    /// An emission scale that is not a positive number.
+    #[error("--emission-scale must be a positive number, not {0}")]
+    EmissionScale(f64),
 }
 
 /// A loaded scene and, for glTF input, what the irradiance bake needs to

@@ -36,10 +36,13 @@ use crate::mesh::{Mesh, MeshSettings};
 use crate::scene::Scene;
 
 /// Every setting of a solve, apart from run state. Presets are named
-/// constructors; each field can be overridden on its own.
-#[derive(Clone, Debug, PartialEq)]
+/// constructors; each field can be overridden on its own. Serialised as
+/// the `--stats` file's `settings` object: one flat object, the mesh's
+/// sizes among the others, the time limit in seconds.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Settings {
     /// Patch and element sizes.
+    #[serde(flatten)]
     pub mesh: MeshSettings,
     /// How shooters carry and send their unshot radiosity.
     pub shooting: Shooting,
@@ -70,7 +73,21 @@ pub struct Settings {
     /// Stop once this many subsources have been shot.
     pub max_subsources: Option<u64>,
     /// Stop before a shot once the solve has run this long.
+    #[serde(serialize_with = "optional_seconds")]
     pub time_limit: Option<Duration>,
+}
+
+/// A duration as a number of seconds.
+fn seconds<S: serde::Serializer>(time: &Duration, serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.serialize_f64(time.as_secs_f64())
+}
+
+/// A duration as a number of seconds, `null` for none.
+fn optional_seconds<S: serde::Serializer>(
+    time: &Option<Duration>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&time.map(|t| t.as_secs_f64()), serializer)
 }
 
 /// Default `--converge`.
@@ -135,125 +152,133 @@ impl Settings {
     }
 
     /// Checks the settings a user can get wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SettingsError> {
         if !(1..=MAX_SUBSOURCES_PER_SIDE).contains(&self.subsources) {
-            return Err(format!(
-                "--subsources must be between 1 and {MAX_SUBSOURCES_PER_SIDE}, not {}",
-                self.subsources
-            ));
+            return Err(SettingsError::Subsources(self.subsources));
         }
         if !(8..=MAX_HEMICUBE_RESOLUTION).contains(&self.hemicube_resolution) {
-            return Err(format!(
-                "--hemicube-resolution must be between 8 and {MAX_HEMICUBE_RESOLUTION}, not {}",
-                self.hemicube_resolution
-            ));
+            return Err(SettingsError::HemicubeResolution(self.hemicube_resolution));
         }
         if self.visibility == Visibility::HemicubePretest {
             if self.shooting == Shooting::Adaptive {
-                return Err(
-                    "the hemicube pre-test places a hemicube at each subsource of a \
-                            patch: use it with --shooting patches (adaptive shooting picks \
-                            its sources per receiver)"
-                        .into(),
-                );
+                return Err(SettingsError::PretestWithAdaptiveShooting);
             }
             let bytes = item_buffer_bytes(self.subsources, self.hemicube_resolution);
             if bytes > MAX_ITEM_BUFFER_BYTES {
-                return Err(format!(
-                    "{0} x {0} subsources with hemicubes of {1} pixels need {2:.1} GiB of item \
-                     buffers (limit {3} GiB): lower --subsources or --hemicube-resolution",
-                    self.subsources,
-                    self.hemicube_resolution,
-                    bytes as f64 / (1u64 << 30) as f64,
-                    MAX_ITEM_BUFFER_BYTES >> 30
-                ));
+                return Err(SettingsError::ItemBuffers {
+                    subsources: self.subsources,
+                    resolution: self.hemicube_resolution,
+                    bytes,
+                });
             }
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance <= 1.0) {
-            return Err(format!(
-                "--tolerance must be a fraction in (0, 1], not {}",
-                self.tolerance
-            ));
+            return Err(SettingsError::Tolerance(self.tolerance));
         }
         if !(self.converge.is_finite() && (0.0..1.0).contains(&self.converge)) {
-            return Err(format!(
-                "--converge must be a fraction in [0, 1), not {}",
-                self.converge
-            ));
+            return Err(SettingsError::Converge(self.converge));
         }
         if self.converge == 0.0
             && self.max_shots.is_none()
             && self.max_subsources.is_none()
             && self.time_limit.is_none()
         {
-            return Err(
-                "--converge 0 never stops by itself: give --max-shots, --max-subsources or \
-                 --time-limit"
-                    .into(),
-            );
+            return Err(SettingsError::NeverStops);
         }
         Ok(())
     }
 }
 
-/// How shooters carry and send their unshot radiosity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Shooting {
-    /// The paper's: a patch shoots one uniform unshot radiosity from a fixed
-    /// grid of subsources (Wallace et al. 1989).
-    Patches,
-    /// Unshot radiosity per element, clusters of elements as shooters, the
-    /// source refined per receiver ([`adaptive`]).
-    Adaptive,
+/// Settings a solve cannot run with ([`Settings::validate`]); each message
+/// names the flag to change.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// Subsources per side out of range.
+    #[error("--subsources must be between 1 and {MAX_SUBSOURCES_PER_SIDE}, not {0}")]
+    Subsources(u32),
+    /// Hemicube resolution out of range.
+    #[error("--hemicube-resolution must be between 8 and {MAX_HEMICUBE_RESOLUTION}, not {0}")]
+    HemicubeResolution(u32),
+    /// The hemicube pre-test asked of adaptive shooting.
+    #[error(
+        "the hemicube pre-test places a hemicube at each subsource of a patch: use it with \
+         --shooting patches (adaptive shooting picks its sources per receiver)"
+    )]
+    PretestWithAdaptiveShooting,
+    /// The pre-test's item buffers would exceed [`MAX_ITEM_BUFFER_BYTES`].
+    #[error(
+        "{subsources} x {subsources} subsources with hemicubes of {resolution} pixels need \
+         {gib:.1} GiB of item buffers (limit {limit} GiB): lower --subsources or \
+         --hemicube-resolution",
+        gib = *bytes as f64 / (1u64 << 30) as f64,
+        limit = MAX_ITEM_BUFFER_BYTES >> 30
+    )]
+    ItemBuffers {
+        /// Subsources per side.
+        subsources: u32,
+        /// Hemicube resolution.
+        resolution: u32,
+        /// Bytes the buffers would take.
+        bytes: u64,
+    },
+    /// Tolerance outside (0, 1].
+    #[error("--tolerance must be a fraction in (0, 1], not {0}")]
+    Tolerance(f64),
+    /// Convergence threshold outside [0, 1).
+    #[error("--converge must be a fraction in [0, 1), not {0}")]
+    Converge(f64),
+    /// No stopping rule at all.
+    #[error(
+        "--converge 0 never stops by itself: give --max-shots, --max-subsources or --time-limit"
+    )]
+    NeverStops,
 }
 
-impl Shooting {
-    /// Every way, in the order the command line lists them.
-    pub const ALL: [Shooting; 2] = [Shooting::Patches, Shooting::Adaptive];
+crate::choice::named_choice! {
+    /// How shooters carry and send their unshot radiosity.
+    pub enum Shooting: "shooting" {
+        /// The paper's: a patch shoots one uniform unshot radiosity from a
+        /// fixed grid of subsources (Wallace et al. 1989).
+        Patches = "patches",
+        /// Unshot radiosity per element, clusters of elements as shooters,
+        /// the source refined per receiver ([`adaptive`]).
+        Adaptive = "adaptive",
+    }
+}
 
-    /// The name used on the command line and in statistics.
+crate::choice::named_choice! {
+    /// How a shot decides whether a receiver sees a source.
+    pub enum Visibility: "visibility" {
+        /// A shadow ray for every pair (Wallace et al. 1989).
+        Ray = "ray",
+        /// The hemicube item-buffer pre-test of Wong & Tsang, section 2;
+        /// rays only where it cannot decide.
+        HemicubePretest = "hemicube",
+    }
+}
+
+crate::choice::named_choice! {
+    /// The named settings ([`Settings::adaptive`], [`Settings::wong_tsang93`],
+    /// [`Settings::wallace89`]), in the order the command line lists them.
+    pub enum Preset: "preset" {
+        /// [`Settings::adaptive`], the default.
+        Adaptive = "adaptive",
+        /// [`Settings::wong_tsang93`], the paper's method.
+        WongTsang93 = "wong-tsang93",
+        /// [`Settings::wallace89`], the 1989 baseline.
+        Wallace89 = "wallace89",
+    }
+}
+
+impl Preset {
+    /// The preset's settings.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub fn settings(self) -> Settings {
         match self {
-            Shooting::Patches => "patches",
-            Shooting::Adaptive => "adaptive",
+            Preset::Adaptive => Settings::adaptive(),
+            Preset::WongTsang93 => Settings::wong_tsang93(),
+            Preset::Wallace89 => Settings::wallace89(),
         }
-    }
-
-    /// Parses a command-line name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Shooting> {
-        Shooting::ALL.into_iter().find(|s| s.name() == name)
-    }
-}
-
-/// How a shot decides whether a receiver sees a source.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Visibility {
-    /// A shadow ray for every pair (Wallace et al. 1989).
-    Ray,
-    /// The hemicube item-buffer pre-test of Wong & Tsang, section 2; rays
-    /// only where it cannot decide.
-    HemicubePretest,
-}
-
-impl Visibility {
-    /// Every mode, in the order the command line lists them.
-    pub const ALL: [Visibility; 2] = [Visibility::Ray, Visibility::HemicubePretest];
-
-    /// The name used on the command line and in statistics.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Visibility::Ray => "ray",
-            Visibility::HemicubePretest => "hemicube",
-        }
-    }
-
-    /// Parses a command-line name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Visibility> {
-        Visibility::ALL.into_iter().find(|v| v.name() == name)
     }
 }
 
@@ -274,8 +299,9 @@ pub const MAX_HEMICUBE_RESOLUTION: u32 = 4096;
 /// Largest `--subsources` (per side): 64 x 64 = 4,096 subsources a shot.
 pub const MAX_SUBSOURCES_PER_SIDE: u32 = 64;
 
-/// Counters and timings of a solve.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Counters and timings of a solve. Serialised as the `--stats` file's
+/// counters, the times in seconds under the names given below.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Stats {
     /// Shooters shot.
     pub shots: u64,
@@ -292,18 +318,24 @@ pub struct Stats {
     /// Pairs the hemicube pre-test found hidden without a ray.
     pub pretest_hidden: u64,
     /// Wall time rasterising the hemicube item buffers.
+    #[serde(rename = "hemicube_seconds", serialize_with = "seconds")]
     pub hemicube_time: Duration,
     /// Wall time gathering at receivers (the three phases below, in
     /// parallel).
+    #[serde(rename = "gather_seconds", serialize_with = "seconds")]
     pub gather_time: Duration,
     /// Thread time pairing receivers with sources and applying the pre-test
     /// (summed over threads; adaptive shooting: choosing the sources).
+    #[serde(rename = "pretest_thread_seconds", serialize_with = "seconds")]
     pub pretest_time: Duration,
     /// Thread time casting shadow rays (summed over threads).
+    #[serde(rename = "ray_thread_seconds", serialize_with = "seconds")]
     pub ray_time: Duration,
     /// Thread time evaluating form factors (summed over threads).
+    #[serde(rename = "form_factor_thread_seconds", serialize_with = "seconds")]
     pub form_factor_time: Duration,
     /// Time in book-keeping (selection, element and patch updates).
+    #[serde(rename = "bookkeeping_seconds", serialize_with = "seconds")]
     pub bookkeeping_time: Duration,
 }
 
