@@ -34,7 +34,7 @@ use super::charts;
 use super::rays::{SceneSpec, scenes_folder};
 use super::{Context, Error, Report, table, write_file};
 use radiosity::accel::Accel;
-use radiosity::solver::{DEFAULT_CONVERGE, Settings};
+use radiosity::solver::{DEFAULT_CONVERGE, Preset, Settings};
 
 /// A scene of the experiment and the time its solve may take.
 #[derive(Clone, Debug)]
@@ -157,8 +157,8 @@ pub fn configurations(scene: &ScaleScene, quick: bool) -> Vec<Configuration> {
     }
     if !scene.spec.shared && !quick {
         list.push(Configuration {
-            name: "wong-tsang93".into(),
-            flags: vec!["--preset".into(), "wong-tsang93".into()],
+            name: Preset::WongTsang93.name().into(),
+            flags: vec!["--preset".into(), Preset::WongTsang93.name().into()],
         });
     }
     list

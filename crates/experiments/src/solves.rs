@@ -14,7 +14,7 @@ use radiosity::form_factor::FormFactor;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, Exposure, Image, RenderSettings};
 use radiosity::scene::{self, Scene};
-use radiosity::solver::{Flow, Settings, Solver, Stats, Visibility};
+use radiosity::solver::{Flow, Preset, Settings, Solver, Stats, Visibility};
 use radiosity::{app, luminance};
 
 /// A scene meshed with its suggested sizes, or with an element size chosen
@@ -286,7 +286,7 @@ const PAPER_STEPS: [(u64, f64, f64, u32); 3] = [
 fn configurations() -> Vec<(&'static str, Settings)> {
     let base = Settings::wallace89();
     vec![
-        ("wallace89", base.clone()),
+        (Preset::Wallace89.name(), base.clone()),
         (
             "+ hemicube pre-test only",
             Settings {
@@ -308,7 +308,7 @@ fn configurations() -> Vec<(&'static str, Settings)> {
                 ..base
             },
         ),
-        ("wong-tsang93", Settings::wong_tsang93()),
+        (Preset::WongTsang93.name(), Preset::WongTsang93.settings()),
         (
             "wong-tsang93 with BVH instead of BSP",
             Settings {

@@ -29,7 +29,7 @@ use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, Exposure, RenderSettings};
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
 use radiosity::sensors::{self, SensorPoint};
-use radiosity::solver::{Flow, Settings, Solver};
+use radiosity::solver::{Flow, Preset, Settings, Solver};
 
 /// A scene of the experiments and where its OBJ comes from.
 #[derive(Clone, Copy, Debug)]
@@ -69,10 +69,7 @@ pub const SCENES: [SceneCase; 4] = [
 /// The presets compared: the default and the paper's.
 #[must_use]
 pub fn presets() -> [(&'static str, Settings); 2] {
-    [
-        ("adaptive", Settings::adaptive()),
-        ("wong-tsang93", Settings::wong_tsang93()),
-    ]
+    [Preset::Adaptive, Preset::WongTsang93].map(|p| (p.name(), p.settings()))
 }
 
 /// The OBJ file of a scene: a built-in one is written (OBJ and MTL, as
