@@ -5,13 +5,17 @@
 //! section 2), the BSP's splits, the acceptance region of the shadow test
 //! and the renderer's near plane.
 //!
-//! Beyond the textbook: each cut point is computed from the edge's *inside*
-//! end (the one kept), so the edge two polygons share, walked in opposite
-//! directions, is cut at the bit-identical point from both sides and clipped
-//! neighbours stay watertight. [`split_into`] computes its cuts from the
-//! front end for both pieces, which is the same rule seen from the front.
-//! A cut that would coincide with a kept corner on the plane is not emitted
-//! twice.
+//! Beyond the textbook: each cut point is interpolated from the edge's end
+//! nearer the plane (the inside end on a tie), a choice that depends on the
+//! edge and the plane only, not on the direction the edge is walked. So the
+//! edge two polygons share, walked in opposite directions, is cut at the
+//! bit-identical point from both sides, and clipped neighbours stay
+//! watertight; [`split_into`] gives its two parts the same cut. This is the
+//! hemicube's former rule (interpolate from the inside end) with the same
+//! guarantee and less round-off: the error of `p + (q - p) t` grows with the
+//! distance interpolated, and a long edge cut near one end is interpolated
+//! the short way. A cut that would coincide with a kept corner on the plane
+//! is not emitted twice.
 //!
 //! The clipper is generic over the corner type ([`Lerp`]: 2-D and 3-D
 //! points, or a point with an attribute such as a colour) and takes the
@@ -54,8 +58,8 @@ impl<A: Lerp, B: Lerp> Lerp for (A, B) {
 /// Streams the corners of `polygon` clipped to `distance(p) >= 0` to `emit`,
 /// in order. Corners with `distance >= -tolerance` count as inside; an edge
 /// between an inside and an outside corner is cut where it crosses
-/// `distance = 0` itself (not the tolerance band), computed from its inside
-/// end. Each corner's distance is evaluated once.
+/// `distance = 0` itself (not the tolerance band), interpolated from the
+/// end nearer the plane. Each corner's distance is evaluated once.
 #[inline]
 pub fn clip_each<V: Lerp>(
     polygon: &[V],
@@ -85,7 +89,7 @@ pub fn clip_each<V: Lerp>(
             // An inside end on the plane (or in the tolerance band) is the
             // cut itself, and is emitted as a corner.
             if dp > 0.0 {
-                emit(p.lerp_to(q, dp / (dp - dq)));
+                emit(cut(p, dp, q, dq));
             }
         }
         (a, da) = (b, db);
@@ -102,8 +106,9 @@ pub fn clip_into<V: Lerp>(polygon: &[V], distance: impl Fn(V) -> f64, out: &mut 
 
 /// Cuts `polygon` at `distance(p) = 0` into the part with `distance >= 0`
 /// (`front`) and the part with `distance <= 0` (`back`), both cleared
-/// first; corners on the plane go to both. Each cut point is computed once,
-/// from the edge's front end, goes to both parts and is passed to `cut`.
+/// first; corners on the plane go to both. Each cut point is computed once
+/// (from the end nearer the plane), goes to both parts and is passed to
+/// `cut`.
 #[inline]
 pub fn split_into<V: Lerp>(
     polygon: &[V],
@@ -145,6 +150,17 @@ pub fn split_into<V: Lerp>(
             cut(c);
         }
         (a, da) = (b, db);
+    }
+}
+
+/// Where the edge from `p` (distance `dp > 0`) to `q` (`dq < 0`) crosses
+/// the plane, interpolated from the end nearer the plane (`p` on a tie).
+#[inline]
+fn cut<V: Lerp>(p: V, dp: f64, q: V, dq: f64) -> V {
+    if -dq < dp {
+        q.lerp_to(p, dq / (dq - dp))
+    } else {
+        p.lerp_to(q, dp / (dp - dq))
     }
 }
 

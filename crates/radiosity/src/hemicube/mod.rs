@@ -29,8 +29,9 @@
 //! face's own coordinates to that face's frustum: the near plane
 //! `w >= near` (with `near` = [`NEAR_FRACTION`] of the scene's bounding-box
 //! diagonal), the two side planes, the far edge and the base plane `z >= 0`.
-//! Clipped corners are computed from the inside endpoint of each edge, so two
-//! surfaces sharing an edge get bit-identical clipped corners. Corners are
+//! Clipped corners are interpolated from the end of each edge nearer the
+//! plane, whichever way the edge is walked ([`crate::geometry::clip`]), so
+//! two surfaces sharing an edge get bit-identical clipped corners. Corners are
 //! snapped to 1/256 pixel and covered pixel centres are found with exact
 //! integer edge functions and a top-left fill rule: a pixel centre on an edge
 //! two polygons share belongs to exactly one of them, so a far surface can
@@ -64,6 +65,7 @@
 
 use glam::DVec3;
 
+use crate::geometry::clip;
 use crate::scene::Surface;
 
 /// Default pixels across the top face.
@@ -648,7 +650,7 @@ impl ItemBuffer {
             .zip(needed)
             .filter(|(_, needed)| *needed)
         {
-            clip(&self.clip_in, *form, offset, &mut self.clip_out);
+            clip::clip_into(&self.clip_in, |f| form.dot(f) - offset, &mut self.clip_out);
             std::mem::swap(&mut self.clip_in, &mut self.clip_out);
             if self.clip_in.len() < 3 {
                 return false;
@@ -843,28 +845,6 @@ impl EdgeWalker {
     }
 }
 
-/// Sutherland-Hodgman against `form . p >= offset`. Each crossing point is
-/// computed from the edge's inside endpoint, so the shared edge of two
-/// polygons (walked in opposite directions) clips to the same corner.
-fn clip(polygon: &[DVec3], form: DVec3, offset: f64, out: &mut Vec<DVec3>) {
-    out.clear();
-    let n = polygon.len();
-    for i in 0..n {
-        let a = polygon[i];
-        let b = polygon[(i + 1) % n];
-        let da = form.dot(a) - offset;
-        let db = form.dot(b) - offset;
-        let (a_in, b_in) = (da >= 0.0, db >= 0.0);
-        if a_in {
-            out.push(a);
-        }
-        if a_in != b_in {
-            let (p, dp, q, dq) = if a_in { (a, da, b, db) } else { (b, db, a, da) };
-            out.push(p + (q - p) * (dp / (dp - dq)));
-        }
-    }
-}
-
 /// Snaps a continuous pixel coordinate to the nearest 1/256 pixel. Clipped
 /// corners lie within the face (up to round-off), so the clamp only guards
 /// the conversion; rounding is `floor(v + 0.5)` done by truncating a
@@ -983,24 +963,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn a_shared_edge_clips_to_the_same_corner_both_ways() {
-        let p = DVec3::new(-0.7, 0.31, 0.9);
-        let q = DVec3::new(1.9, -0.13, 0.45);
-        let form = DVec3::new(-1.0, 0.0, 1.0);
-        let (mut one, mut other) = (Vec::new(), Vec::new());
-        // Two triangles sharing p-q, walked in opposite directions.
-        clip(&[p, q, DVec3::new(0.0, -1.0, 2.0)], form, 0.0, &mut one);
-        clip(&[q, p, DVec3::new(0.0, 1.0, 2.0)], form, 0.0, &mut other);
-        let crossing = |v: &[DVec3]| {
-            v.iter()
-                .copied()
-                .find(|c| *c != p && *c != q && (*c - p).cross(q - p).length() < 1e-12)
-                .expect("the edge is cut")
-        };
-        assert_eq!(crossing(&one).to_array(), crossing(&other).to_array());
     }
 
     #[test]
