@@ -445,17 +445,8 @@ pub(super) fn in_plane_bounds(pieces: &[Piece], normal: DVec3) -> Option<Vec<DVe
 }
 
 /// The larger of the bounding-box diagonal and the largest coordinate: the
-/// scale of both the geometry and its round-off.
-pub(super) fn scene_scale(surfaces: &[Surface]) -> f64 {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in surfaces.iter().flat_map(|s| &s.polygon) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    if surfaces.is_empty() {
-        return 1.0;
-    }
+/// scale of both the geometry and its round-off; 1 for no surfaces.
+pub(super) fn scene_scale((lo, hi): (DVec3, DVec3)) -> f64 {
     let scale = (hi - lo)
         .length()
         .max(lo.abs().max_element())

@@ -24,15 +24,9 @@ pub(super) struct Cell {
 }
 
 impl Cell {
-    /// The surfaces' bounding box, grown by a tenth of its diagonal so no
-    /// face is flat.
-    pub(super) fn around(surfaces: &[Surface]) -> Cell {
-        let mut lo = DVec3::INFINITY;
-        let mut hi = DVec3::NEG_INFINITY;
-        for p in surfaces.iter().flat_map(|s| &s.polygon) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
+    /// The surfaces' bounding box `(lo, hi)`, grown by a tenth of its
+    /// diagonal so no face is flat.
+    pub(super) fn around((lo, hi): (DVec3, DVec3)) -> Cell {
         if !(lo.is_finite() && hi.is_finite()) {
             return Cell { faces: Vec::new() };
         }

@@ -129,7 +129,7 @@ use glam::{DVec2, DVec3};
 
 use super::{AcceptanceRegion, Occluder, PreparedSurfaces};
 use crate::geometry::{self, clip};
-use crate::scene::Surface;
+use crate::scene::{self, Surface};
 
 mod build;
 mod cell;
@@ -443,7 +443,8 @@ impl<'a> Bsp<'a> {
             "a BSP tree holds fewer than 2^31 surfaces"
         );
         let settings = settings.sanitized();
-        let scale = scene_scale(surfaces);
+        let bounds = scene::bounds_of(surfaces);
+        let scale = scene_scale(bounds);
         let mut bsp = Bsp {
             surfaces,
             prepared: PreparedSurfaces::new(surfaces),
@@ -463,7 +464,7 @@ impl<'a> Bsp<'a> {
                 polygon: s.polygon.clone(),
             })
             .collect();
-        let cell = Cell::around(surfaces);
+        let cell = Cell::around(bounds);
         let allowance = ((settings.max_growth - 1.0) * surfaces.len() as f64).min(1e15) as usize;
         let mut scratch = Scratch::default();
         bsp.build(pieces, cell, 1, allowance, &mut scratch);
@@ -673,7 +674,7 @@ mod tests {
         let square = square_at_z(0.0, 1.0);
         // The box around it: [-1.2, 1.2] x [-1.2, 1.2] x [-0.28, 0.28] (a
         // tenth of the diagonal added on every side).
-        let cell = Cell::around(std::slice::from_ref(&square));
+        let cell = Cell::around(scene::bounds_of(std::slice::from_ref(&square)));
         let mut scratch = Scratch::default();
         let area = cell.area();
         let (lo, hi) = cell.bounds();
