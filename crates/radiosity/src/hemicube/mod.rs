@@ -49,9 +49,9 @@
 //! `Uncertain`: every one of the nine pixels must hold a surface that lies
 //! in front of the receiver's plane along that pixel's ray (a receiver too
 //! thin to cover any pixel centre would otherwise always be called hidden),
-//! and no pixel may be empty. On the built-in room the first cuts the
-//! wrong answers from 4% of the pairs to 0.34% at resolution 128:
-//! thin furniture edges seen nearly edge-on are exactly such receivers.
+//! and no pixel may be empty. Thin furniture edges seen nearly edge-on are
+//! exactly such receivers; EXPERIMENTS.md ("The pre-test's resolution")
+//! gives the measured effect.
 //! Surfaces cut from one input face (same [`Surface::face`], hence coplanar
 //! and contiguous) count as one item.
 //!
@@ -62,6 +62,12 @@
 //! The answers are about the segment from the hemicube's origin: a caller
 //! that shoots from elsewhere (a subsource clipped by the receiver's plane)
 //! must cast the ray.
+//!
+//! # Files
+//!
+//! `projection` (faces, pixels and neighbours), `raster` (clipping,
+//! scan conversion, depth test) and `pretest` (the decision); the buffer
+//! itself and its public accessors are here.
 
 use glam::DVec3;
 
@@ -76,34 +82,14 @@ pub use pretest::{Pretest, PretestCounts};
 pub use projection::Face;
 use raster::*;
 
-/// Default pixels across the top face.
-///
-/// Measured on the built-in room (patch 2.5 m, element 0.2 m; the 36
-/// subsources (3 x 3) of its emitting patches against the 106,773
-/// vertex-subsource pairs in front of them; best render time on one core):
-///
-/// | resolution | visible | hidden | uncertain | wrong | render |
-/// |-----------:|--------:|-------:|----------:|------:|-------:|
-/// |         32 |   52.5% |  14.8% |     32.8% | 1.51% | 0.08 ms |
-/// |         64 |   53.8% |  19.7% |     26.5% | 0.63% | 0.11 ms |
-/// |        128 |   54.8% |  23.3% |     21.9% | 0.34% | 0.20 ms |
-/// |        256 |   55.4% |  25.2% |     19.4% | 0.18% | 0.48 ms |
-/// |        512 |   55.8% |  26.2% |     18.0% | 0.15% | 1.90 ms |
-///
-/// ("wrong": a decision the brute-force ray contradicts.) Past 128 the
-/// uncertain share barely falls: nine in ten uncertain pairs are vertices on
-/// their surface's own edge, whose pixel straddles it at any resolution.
-///
-/// The wrong answers are not symmetric, though: almost all are "visible"
-/// for vertices on a line where furniture meets the floor or a wall, whose
-/// pixel centre peeks past the contact edge. They bias the solution upwards.
-/// Solving the room to 72 subsources with the analytic factor, the mean
-/// reflected radiosity moves against ray-only visibility by 0.66% at 128,
-/// 0.29% at 256, 0.18% at 512 and 0.12% at 1024, while the whole solve
-/// takes the same time at 128 and 256 (the extra raster time buys back the
-/// rays it saves) and 1.6x and 4x longer at 512 and 1024. 256 is the
-/// smallest resolution that keeps the picture within 0.5% of ray-only
-/// visibility at no cost (tests/configurations.rs checks it).
+/// Default pixels across the top face: the smallest resolution that keeps
+/// the solution within 0.5% of ray-only visibility at no cost in solve time
+/// (tests/configurations.rs checks the 0.5%). The wrong answers a coarser
+/// buffer gives are biased (vertices where furniture meets the floor seen
+/// past the contact edge), and past 128 the uncertain share barely falls:
+/// most uncertain pairs are vertices on their own surface's edge. The
+/// measurements behind the choice are in EXPERIMENTS.md ("The pre-test's
+/// resolution", under Figure 2.1).
 pub const DEFAULT_RESOLUTION: u32 = 256;
 
 /// Largest accepted resolution (the buffers then take 400 MB); larger
