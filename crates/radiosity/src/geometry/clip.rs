@@ -67,19 +67,7 @@ pub fn clip_each<V: Lerp>(
     tolerance: f64,
     mut emit: impl FnMut(V),
 ) {
-    let Some(&first) = polygon.first() else {
-        return;
-    };
-    let n = polygon.len();
-    let d_first = distance(first);
-    let (mut a, mut da) = (first, d_first);
-    for i in 0..n {
-        let (b, db) = if i + 1 < n {
-            let b = polygon[i + 1];
-            (b, distance(b))
-        } else {
-            (first, d_first)
-        };
+    for_each_edge(polygon, distance, |(a, da), (b, db)| {
         let (a_in, b_in) = (da >= -tolerance, db >= -tolerance);
         if a_in {
             emit(a);
@@ -89,11 +77,10 @@ pub fn clip_each<V: Lerp>(
             // An inside end on the plane (or in the tolerance band) is the
             // cut itself, and is emitted as a corner.
             if dp > 0.0 {
-                emit(cut(p, dp, q, dq));
+                emit(crossing(p, dp, q, dq));
             }
         }
-        (a, da) = (b, db);
-    }
+    });
 }
 
 /// Clips `polygon` to `distance(p) >= 0` into `out` (cleared first): see
@@ -119,19 +106,7 @@ pub fn split_into<V: Lerp>(
 ) {
     front.clear();
     back.clear();
-    let Some(&first) = polygon.first() else {
-        return;
-    };
-    let n = polygon.len();
-    let d_first = distance(first);
-    let (mut a, mut da) = (first, d_first);
-    for i in 0..n {
-        let (b, db) = if i + 1 < n {
-            let b = polygon[i + 1];
-            (b, distance(b))
-        } else {
-            (first, d_first)
-        };
+    for_each_edge(polygon, distance, |(a, da), (b, db)| {
         if da >= 0.0 {
             front.push(a);
         }
@@ -144,19 +119,40 @@ pub fn split_into<V: Lerp>(
             } else {
                 (b, db, a, da)
             };
-            let c = p.lerp_to(q, dp / (dp - dq));
+            let c = crossing(p, dp, q, dq);
             front.push(c);
             back.push(c);
             cut(c);
         }
-        (a, da) = (b, db);
+    });
+}
+
+/// Calls `f` on the polygon's edges in order, as
+/// `((a, distance(a)), (b, distance(b)))`, with each corner's distance
+/// evaluated once.
+#[inline]
+fn for_each_edge<V: Lerp>(
+    polygon: &[V],
+    distance: impl Fn(V) -> f64,
+    mut f: impl FnMut((V, f64), (V, f64)),
+) {
+    let Some(&first) = polygon.first() else {
+        return;
+    };
+    let first = (first, distance(first));
+    let mut a = first;
+    for &v in &polygon[1..] {
+        let b = (v, distance(v));
+        f(a, b);
+        a = b;
     }
+    f(a, first);
 }
 
 /// Where the edge from `p` (distance `dp > 0`) to `q` (`dq < 0`) crosses
 /// the plane, interpolated from the end nearer the plane (`p` on a tie).
 #[inline]
-fn cut<V: Lerp>(p: V, dp: f64, q: V, dq: f64) -> V {
+fn crossing<V: Lerp>(p: V, dp: f64, q: V, dq: f64) -> V {
     if -dq < dp {
         q.lerp_to(p, dq / (dq - dp))
     } else {
