@@ -6,6 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use approx::assert_abs_diff_eq;
+
 #[path = "../crates/radiosity/tests/common/mod.rs"]
 mod common;
 
@@ -305,7 +307,7 @@ fn cornell_writes_picture_vertices_and_stats() {
     for row in &rows {
         assert_eq!(row.len(), 10);
         let normal_length = (row[3] * row[3] + row[4] * row[4] + row[5] * row[5]).sqrt();
-        assert!((normal_length - 1.0).abs() < 1e-9);
+        assert_abs_diff_eq!(normal_length, 1.0, epsilon = 1e-9);
         assert!(row[7..].iter().all(|b| b.is_finite() && *b >= 0.0));
     }
     let png = std::fs::read(p("c.png")).unwrap();

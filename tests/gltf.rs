@@ -10,6 +10,7 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
+use approx::{abs_diff_eq, assert_abs_diff_eq, relative_eq};
 use glam::DVec3;
 use radiosity::app::{self, BakeJob, ImageJob, Job};
 use radiosity::export::gltf::BakeMode;
@@ -42,10 +43,6 @@ fn srgb_decode(v: u8) -> f64 {
     }
 }
 
-fn close(a: DVec3, b: DVec3, tolerance: f64) -> bool {
-    (a - b).abs().max_element() <= tolerance
-}
-
 fn bounds(polygon: &[DVec3]) -> (DVec3, DVec3) {
     let lo = polygon.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
     let hi = polygon.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
@@ -66,33 +63,67 @@ fn hierarchy_transforms_materials_camera_and_warnings() {
     let texel_mean = (srgb_decode(255) + 2.0 * srgb_decode(0) + srgb_decode(128)) / 4.0;
     let floor_rho = DVec3::splat(0.8 * texel_mean);
     for s in &scene.surfaces[0..2] {
-        assert!(close(s.normal, DVec3::Y, 1e-12), "{}", s.normal);
-        assert!((s.area - 2.0).abs() < 1e-12, "{}", s.area);
+        assert!(
+            abs_diff_eq!(s.normal, DVec3::Y, epsilon = 1e-12),
+            "{}",
+            s.normal
+        );
+        assert!(abs_diff_eq!(s.area, 2.0, epsilon = 1e-12), "{}", s.area);
         let (lo, hi) = bounds(&s.polygon);
-        assert!(close(lo, DVec3::new(-1.0, 0.0, -1.0), 1e-12), "{lo}");
-        assert!(close(hi, DVec3::new(1.0, 0.0, 1.0), 1e-12), "{hi}");
-        assert!(close(s.rho, floor_rho, 1e-12), "{} vs {floor_rho}", s.rho);
+        assert!(
+            abs_diff_eq!(lo, DVec3::new(-1.0, 0.0, -1.0), epsilon = 1e-12),
+            "{lo}"
+        );
+        assert!(
+            abs_diff_eq!(hi, DVec3::new(1.0, 0.0, 1.0), epsilon = 1e-12),
+            "{hi}"
+        );
+        assert!(
+            abs_diff_eq!(s.rho, floor_rho, epsilon = 1e-12),
+            "{} vs {floor_rho}",
+            s.rho
+        );
         assert_eq!(s.emission, DVec3::ZERO);
     }
     // Rug: a mirrored node (scale -0.5 in x) under the floor: the winding
     // flips with the determinant, so it still faces up; 1 x 1 m at y = 0.01.
     for s in &scene.surfaces[2..4] {
-        assert!(close(s.normal, DVec3::Y, 1e-12), "{}", s.normal);
-        assert!((s.area - 0.5).abs() < 1e-12);
+        assert!(
+            abs_diff_eq!(s.normal, DVec3::Y, epsilon = 1e-12),
+            "{}",
+            s.normal
+        );
+        assert_abs_diff_eq!(s.area, 0.5, epsilon = 1e-12);
         let (lo, hi) = bounds(&s.polygon);
-        assert!(close(lo, DVec3::new(-0.5, 0.01, -0.5), 1e-12), "{lo}");
-        assert!(close(hi, DVec3::new(0.5, 0.01, 0.5), 1e-12), "{hi}");
+        assert!(
+            abs_diff_eq!(lo, DVec3::new(-0.5, 0.01, -0.5), epsilon = 1e-12),
+            "{lo}"
+        );
+        assert!(
+            abs_diff_eq!(hi, DVec3::new(0.5, 0.01, 0.5), epsilon = 1e-12),
+            "{hi}"
+        );
         assert_eq!(s.rho, DVec3::new(0.5, 0.25, 0.125));
     }
     // Lamp: rotated 180 degrees about x (faces down), 0.5 x 0.5 m at
     // y = 2.4; exitance pi x emissive (1, 0.5, 0.25) x strength 8; its white
     // base colour is capped at 0.9.
     for s in &scene.surfaces[4..6] {
-        assert!(close(s.normal, -DVec3::Y, 1e-12), "{}", s.normal);
-        assert!((s.area - 0.125).abs() < 1e-12);
+        assert!(
+            abs_diff_eq!(s.normal, -DVec3::Y, epsilon = 1e-12),
+            "{}",
+            s.normal
+        );
+        assert_abs_diff_eq!(s.area, 0.125, epsilon = 1e-12);
         let (lo, hi) = bounds(&s.polygon);
-        assert!(close(lo, DVec3::new(-0.25, 2.4, -0.25), 1e-12), "{lo}");
-        assert!(close(hi, DVec3::new(0.25, 2.4, 0.25), 1e-12), "{hi}");
+        assert!(
+            abs_diff_eq!(lo, DVec3::new(-0.25, 2.4, -0.25), epsilon = 1e-12),
+            "{lo}"
+        );
+        assert!(
+            abs_diff_eq!(hi, DVec3::new(0.25, 2.4, 0.25), epsilon = 1e-12),
+            "{hi}"
+        );
         assert_eq!(s.emission, PI * 8.0 * DVec3::new(1.0, 0.5, 0.25));
         assert_eq!(s.rho, DVec3::splat(0.9));
     }
@@ -101,8 +132,16 @@ fn hierarchy_transforms_materials_camera_and_warnings() {
     // sided, so each triangle is followed by its reversed twin facing -x.
     for pair in scene.surfaces[6..10].chunks(2) {
         let (front, back) = (&pair[0], &pair[1]);
-        assert!(close(front.normal, DVec3::X, 1e-12), "{}", front.normal);
-        assert!(close(back.normal, -DVec3::X, 1e-12), "{}", back.normal);
+        assert!(
+            abs_diff_eq!(front.normal, DVec3::X, epsilon = 1e-12),
+            "{}",
+            front.normal
+        );
+        assert!(
+            abs_diff_eq!(back.normal, -DVec3::X, epsilon = 1e-12),
+            "{}",
+            back.normal
+        );
         let mut reversed = back.polygon.clone();
         reversed.reverse();
         assert_eq!(front.polygon, reversed);
@@ -111,22 +150,25 @@ fn hierarchy_transforms_materials_camera_and_warnings() {
             (pair[0].rho, DVec3::new(0.2, 0.4, 0.6))
         );
         let (lo, hi) = bounds(&front.polygon);
-        assert!((lo.x + 1.2).abs() < 1e-12 && (hi.x + 1.2).abs() < 1e-12);
-        assert!(lo.y.abs() < 1e-12 && (hi.y - 2.0).abs() < 1e-12 && (hi.z - 1.0).abs() < 1e-12);
+        assert_abs_diff_eq!(lo.x, -1.2, epsilon = 1e-12);
+        assert_abs_diff_eq!(hi.x, -1.2, epsilon = 1e-12);
+        assert_abs_diff_eq!(lo.y, 0.0, epsilon = 1e-12);
+        assert_abs_diff_eq!(hi.y, 2.0, epsilon = 1e-12);
+        assert_abs_diff_eq!(hi.z, 1.0, epsilon = 1e-12);
     }
     // Camera node: translation (0, 0.5, 1.5) under the room's scale 2.
     let camera = scene.camera.expect("the file has a camera");
     assert!(
-        close(camera.eye, DVec3::new(0.0, 1.0, 3.0), 1e-12),
+        abs_diff_eq!(camera.eye, DVec3::new(0.0, 1.0, 3.0), epsilon = 1e-12),
         "{}",
         camera.eye
     );
-    assert!(close(
+    assert!(abs_diff_eq!(
         (camera.target - camera.eye).normalize(),
         -DVec3::Z,
-        1e-12
+        epsilon = 1e-12
     ));
-    assert!((camera.fov_degrees - 0.8f64.to_degrees()).abs() < 1e-9);
+    assert_abs_diff_eq!(camera.fov_degrees, 0.8f64.to_degrees(), epsilon = 1e-9);
     // One warning each: the POINTS primitive, the punctual light, the cap.
     let warnings = scene.warnings.join("\n");
     assert_eq!(scene.warnings.len(), 3, "{warnings}");
@@ -181,10 +223,14 @@ fn blender_export_renders_like_the_builtin_box() {
     let cornell = scene::load("cornell").unwrap();
     let camera = blender.camera.expect("Blender exported the camera");
     let reference = cornell.camera.unwrap();
-    assert!(close(camera.eye, reference.eye, 1e-5), "{}", camera.eye);
+    assert!(
+        abs_diff_eq!(camera.eye, reference.eye, epsilon = 1e-5),
+        "{}",
+        camera.eye
+    );
     let forward = (camera.target - camera.eye).normalize();
-    assert!(close(forward, DVec3::Z, 1e-5), "{forward}");
-    assert!((camera.fov_degrees - reference.fov_degrees).abs() < 1e-3);
+    assert!(abs_diff_eq!(forward, DVec3::Z, epsilon = 1e-5), "{forward}");
+    assert_abs_diff_eq!(camera.fov_degrees, reference.fov_degrees, epsilon = 1e-3);
     let fronts: Vec<_> = blender.surfaces.iter().step_by(2).collect();
     assert_eq!(fronts.len() * 2, blender.surfaces.len());
     let area = |surfaces: &mut dyn Iterator<Item = &radiosity::scene::Surface>| {
@@ -194,16 +240,23 @@ fn blender_export_renders_like_the_builtin_box() {
         area(&mut fronts.iter().copied()),
         area(&mut cornell.surfaces.iter()),
     );
-    assert!((a - b).abs() < 1e-5 * b, "{a} vs {b}");
+    assert!(
+        relative_eq!(a, b, epsilon = 0.0, max_relative = 1e-5),
+        "{a} vs {b}"
+    );
     let exitance = PI * DVec3::new(17.0, 12.0, 4.0);
     for s in &blender.surfaces {
-        let known = cornell
-            .surfaces
-            .iter()
-            .any(|c| close(c.rho, s.rho, 1e-6) && close(c.emission, s.emission, 1e-4));
+        let known = cornell.surfaces.iter().any(|c| {
+            abs_diff_eq!(c.rho, s.rho, epsilon = 1e-6)
+                && abs_diff_eq!(c.emission, s.emission, epsilon = 1e-4)
+        });
         assert!(known, "rho {} emission {}", s.rho, s.emission);
         if s.is_emitter() {
-            assert!(close(s.emission, exitance, 1e-4), "{}", s.emission);
+            assert!(
+                abs_diff_eq!(s.emission, exitance, epsilon = 1e-4),
+                "{}",
+                s.emission
+            );
         }
     }
 
@@ -336,7 +389,10 @@ fn double_sided_faces_receive_on_both_sides_without_leaks() {
     let (_, rays) = solve(Visibility::Ray);
     let mut sides = [DVec3::ZERO; 2];
     for (v, (p, r)) in mesh.vertices.iter().zip(pretest.iter().zip(&rays)) {
-        assert!(close(*p, *r, 1e-12 * (1.0 + r.length())), "{p} vs {r}");
+        assert!(
+            abs_diff_eq!(*p, *r, epsilon = 1e-12 * (1.0 + r.length())),
+            "{p} vs {r}"
+        );
         if scene.surfaces[v.surface as usize].rho.x == 0.5 {
             let side = usize::from(v.normal.x < 0.0);
             sides[side] += *p;
@@ -345,7 +401,7 @@ fn double_sided_faces_receive_on_both_sides_without_leaks() {
     // Front (+x) sees only red, back (-x) only blue, in equal amounts.
     assert!(sides[0].x > 0.0 && sides[0].z == 0.0, "{}", sides[0]);
     assert!(sides[1].z > 0.0 && sides[1].x == 0.0, "{}", sides[1]);
-    assert!((sides[0].x - sides[1].z).abs() < 1e-9 * sides[0].x);
+    assert_abs_diff_eq!(sides[0].x, sides[1].z, epsilon = 1e-9 * sides[0].x);
 }
 
 /// A glTF JSON document with one external buffer holding `quads`
@@ -916,8 +972,9 @@ fn job(scene: &str, dir: &Path, bake: Option<(&str, BakeMode)>, image: &str) -> 
     }
 }
 
+/// Equal to f32 precision: within 2e-7 absolutely or relatively.
 fn f32_close(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 2e-7 * (1.0 + a.abs().max(b.abs()))
+    relative_eq!(a, b, epsilon = 2e-7, max_relative = 2e-7)
 }
 
 /// Lit bakes hold `min(1, color_scale x (B + rho ambient) / pi)` per vertex
@@ -992,8 +1049,11 @@ fn bakes_match_the_vertex_csv() {
                     let rebuilt = emission + rho * e;
                     for i in 0..3 {
                         assert!(
-                            (rebuilt[i] - b[i]).abs()
-                                <= 1e-5 * (1.0 + b[i].abs() + (rho * ambient)[i]),
+                            abs_diff_eq!(
+                                rebuilt[i],
+                                b[i],
+                                epsilon = 1e-5 * (1.0 + b[i].abs() + (rho * ambient)[i])
+                            ),
                             "vertex {k}: {rebuilt} vs {b}"
                         );
                     }
@@ -1035,7 +1095,7 @@ fn bakes_match_the_vertex_csv() {
                     let expected = [0.5 - p.z / 2.0, 0.5 + p.x / 2.0];
                     for i in 0..2 {
                         assert!(
-                            (f64::from(uvs[k][i]) - expected[i]).abs() < 1e-6,
+                            abs_diff_eq!(f64::from(uvs[k][i]), expected[i], epsilon = 1e-6),
                             "{p}: {:?}",
                             uvs[k]
                         );
@@ -1114,7 +1174,7 @@ fn ply_holds_positions_colours_and_radiosity() {
         for i in 0..3 {
             let expected = encode(shown[i]);
             assert!(
-                (f64::from(bytes[at + 24 + i]) - expected).abs() <= 1.0,
+                abs_diff_eq!(f64::from(bytes[at + 24 + i]), expected, epsilon = 1.0),
                 "vertex {k}"
             );
         }

@@ -10,6 +10,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use approx::{abs_diff_eq, assert_abs_diff_eq, assert_relative_eq};
 use common::{quad, scene_of};
 use glam::DVec3;
 use radiosity::form_factor::closed_form;
@@ -236,7 +237,12 @@ fn sensors_under_a_square_light_get_the_closed_form() {
             let b = sensors::radiosity(&scene, r, *e);
             assert_eq!(b, 0.5 * *e);
             // White light: lux = 179 E.
-            assert!((sensors::lux(*e) - 179.0 * e.x).abs() <= 1e-12 * 179.0 * e.x);
+            assert_relative_eq!(
+                sensors::lux(*e),
+                179.0 * e.x,
+                epsilon = 0.0,
+                max_relative = 1e-12
+            );
         }
         eprintln!("{:?}: worst relative error {worst:.2e}", settings.shooting);
     }
@@ -464,18 +470,18 @@ fn the_cli_writes_vertex_values_at_vertex_points_in_input_order() {
         assert_eq!(&s[0..3], &v[0..3]);
         // Normals as given, normalised: to round-off.
         for c in 3..6 {
-            assert!((s[c] - v[c]).abs() <= 1e-15, "{s:?} vs {v:?}");
+            assert!(abs_diff_eq!(s[c], v[c], epsilon = 1e-15), "{s:?} vs {v:?}");
         }
         for c in 0..3 {
             let (b, vb) = (s[9 + c], v[7 + c]);
             assert!(
-                (b - vb).abs() <= 1e-12 * vb.abs().max(1e-300),
+                abs_diff_eq!(b, vb, epsilon = 1e-12 * vb.abs().max(1e-300)),
                 "{s:?} vs {v:?}"
             );
         }
         // Light surfaces (Kd 0) have B = Ke; white ones B = Kd E.
         let lux = 179.0 * (0.265 * s[6] + 0.670 * s[7] + 0.065 * s[8]);
-        assert!((s[12] - lux).abs() <= 1e-12 * lux.max(1e-300));
+        assert_abs_diff_eq!(s[12], lux, epsilon = 1e-12 * lux.max(1e-300));
     }
 }
 

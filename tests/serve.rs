@@ -12,6 +12,7 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use approx::{abs_diff_eq, assert_abs_diff_eq};
 use serde_json::Value;
 use tungstenite::Message;
 use tungstenite::client::IntoClientRequest;
@@ -633,13 +634,13 @@ fn live_frames_decode_to_the_solvers_colours() {
     assert_eq!(csv.len(), v);
     for (i, (position, b)) in csv.iter().enumerate() {
         for (sent, written) in mesh.positions[i].iter().zip(position) {
-            assert!((f64::from(*sent) - written).abs() < 1e-5);
+            assert_abs_diff_eq!(f64::from(*sent), written, epsilon = 1e-5);
         }
         let decoded = decode_rgbe(colours[i]);
         let tolerance = b.iter().copied().fold(0.0, f64::max) / 128.0 + 1e-30;
         for k in 0..3 {
             assert!(
-                (decoded[k] - b[k]).abs() <= tolerance,
+                abs_diff_eq!(decoded[k], b[k], epsilon = tolerance),
                 "vertex {i}: decoded {decoded:?}, solver {b:?}"
             );
         }
@@ -658,18 +659,24 @@ fn live_frames_decode_to_the_solvers_colours() {
         for k in 0..3 {
             // serde_json parses floats to within an ulp or so.
             assert!(
-                (b[k] - csv[i].1[k]).abs() <= 1e-14 * b[k],
+                abs_diff_eq!(b[k], csv[i].1[k], epsilon = 1e-14 * b[k]),
                 "vertex {i}: {b:?}"
             );
         }
         let ambient = vec3(&vertex["ambient"]);
         for k in 0..3 {
-            assert!(
-                (ambient[k] - f64::from(final_ambient[k])).abs() <= 1e-6 * ambient[k].max(1e-9)
+            assert_abs_diff_eq!(
+                ambient[k],
+                f64::from(final_ambient[k]),
+                epsilon = 1e-6 * ambient[k].max(1e-9)
             );
             let rho = f64::from(mesh.rho[i][k]);
             let display = vertex["display"][k].as_f64().unwrap();
-            assert!((display - (b[k] + rho * ambient[k])).abs() <= 1e-6 * display.max(1e-9));
+            assert_abs_diff_eq!(
+                display,
+                (b[k] + rho * ambient[k]),
+                epsilon = 1e-6 * display.max(1e-9)
+            );
         }
     }
 

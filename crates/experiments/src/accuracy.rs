@@ -136,11 +136,43 @@ fn radiance_runs(quick: bool) -> Vec<(&'static str, String, String)> {
 
 /// One point of the curve.
 #[derive(Clone, Debug)]
-struct Measured {
-    series: &'static str,
-    setting: String,
-    seconds: f64,
-    score: reference::Score,
+pub struct Measured {
+    /// The series (line) it belongs to.
+    pub series: &'static str,
+    /// Its setting within the series.
+    pub setting: String,
+    /// Seconds timed (see the module's documentation).
+    pub seconds: f64,
+    /// Its score against the reference.
+    pub score: reference::Score,
+}
+
+/// One scene of the curve.
+#[derive(Clone, Debug)]
+pub struct AccuracyScene {
+    /// The scene's name in [`SCENES`].
+    pub name: &'static str,
+    /// Points scored (score.py's sample).
+    pub points: usize,
+    /// Vertices of the default preset's mesh they are sampled from.
+    pub vertices: usize,
+    /// The default preset's score at those vertices.
+    pub vertex_l1: f64,
+    /// The reference's own noise floor (score.py's estimate).
+    pub noise: f64,
+    /// Every method's point: ours, then Radiance's.
+    pub measured: Vec<Measured>,
+}
+
+/// What the accuracy curve measures.
+#[derive(Clone, Debug)]
+pub struct AccuracyCurve {
+    /// The reference harness's folder.
+    pub harness: std::path::PathBuf,
+    /// The reference's `--accuracy`.
+    pub accuracy: &'static str,
+    /// One entry per scene.
+    pub scenes: Vec<AccuracyScene>,
 }
 
 /// `radiosity experiment accuracy-curve`.
@@ -150,22 +182,32 @@ pub fn accuracy_curve(context: &Context) -> Result<Report, Error> {
         .num_threads(THREADS)
         .build()
         .map_err(|e| Error::Experiment(format!("cannot start worker threads: {e}")))?;
-    pool.install(|| curve(context, &harness))
+    let data = pool.install(|| accuracy_compute(context, &harness))?;
+    let mut report = accuracy_report(&data);
+    for (file, svg) in accuracy_plot(&data)? {
+        let path = context.path(&file);
+        write_file(&path, svg.as_bytes())?;
+        report.files.push(path);
+    }
+    Ok(report)
 }
 
-fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
+/// The plot's file of a scene.
+fn plot_file(scene: &str) -> String {
+    format!("accuracy-{scene}.svg")
+}
+
+/// Solves, runs Radiance and scores every method on each scene (the
+/// intermediate CSVs and score.py's JSONs are written into the output
+/// folder), on the calling thread pool.
+///
+/// # Errors
+///
+/// If a scene is missing, a solve, Radiance or score.py fails, or a score
+/// disagrees with score.py's.
+pub fn accuracy_compute(context: &Context, harness: &Harness) -> Result<AccuracyCurve, Error> {
     let accuracy = if context.quick { "medium" } else { "high" };
-    let mut report = Report::default();
-    report.setting("reference harness", harness.dir.display());
-    report.setting(
-        "reference",
-        format!("reference.py --accuracy {accuracy} at the points below"),
-    );
-    report.setting(
-        "timed",
-        "ours: the solve (solver construction and shots; median of 3 when under 2 s); \
-         Radiance: the rtrace call's wall time; both on 2 threads (a pool of 2, rtrace -n 2)",
-    );
+    let mut scenes = Vec::new();
     let cases: &[SceneCase] = if context.quick { &SCENES[..1] } else { &SCENES };
     for case in cases {
         let path = validate::scene_file(context, case)?;
@@ -290,18 +332,69 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
             });
         }
 
-        let _ = writeln!(report.body, "## {}\n", case.name);
+        scenes.push(AccuracyScene {
+            name: case.name,
+            points: sampled.points,
+            vertices: base.mesh.vertices.len(),
+            vertex_l1: vertex_score.l1,
+            noise: sampled.noise,
+            measured,
+        });
+    }
+    Ok(AccuracyCurve {
+        harness: harness.dir.clone(),
+        accuracy,
+        scenes,
+    })
+}
+
+/// The curves as SVG, one per scene: (file name, SVG).
+///
+/// # Errors
+///
+/// If plotters fails to draw.
+pub fn accuracy_plot(data: &AccuracyCurve) -> Result<Vec<(String, String)>, Error> {
+    data.scenes
+        .iter()
+        .map(|scene| {
+            let title = format!("{}: L1 against time", scene.name);
+            Ok((plot_file(scene.name), plot_curve(&title, &scene.measured)?))
+        })
+        .collect()
+}
+
+/// The report of the accuracy curve: per scene, the table of every method's
+/// scores and time and its plot; then how Radiance was run.
+#[must_use]
+pub fn accuracy_report(data: &AccuracyCurve) -> Report {
+    let mut report = Report::default();
+    report.setting("reference harness", data.harness.display());
+    report.setting(
+        "reference",
+        format!(
+            "reference.py --accuracy {} at the points below",
+            data.accuracy
+        ),
+    );
+    report.setting(
+        "timed",
+        "ours: the solve (solver construction and shots; median of 3 when under 2 s); \
+         Radiance: the rtrace call's wall time; both on 2 threads (a pool of 2, rtrace -n 2)",
+    );
+    for scene in &data.scenes {
+        let _ = writeln!(report.body, "## {}\n", scene.name);
         report.paragraph(&format!(
             "{} points: score.py's sample of the default preset's {} vertices. The default \
              preset scored at those vertices (as `validate` does): L1 {:.2}%; as sensors at the \
              same points: the `adaptive, --converge 1e-2` row at tolerance 1e-3. The reference's \
              own noise floor (score.py's estimate): about {:.2}%.",
-            sampled.points,
-            base.mesh.vertices.len(),
-            100.0 * vertex_score.l1,
-            100.0 * sampled.noise
+            scene.points,
+            scene.vertices,
+            100.0 * scene.vertex_l1,
+            100.0 * scene.noise
         ));
-        let rows: Vec<Vec<String>> = measured
+        let rows: Vec<Vec<String>> = scene
+            .measured
             .iter()
             .map(|m| {
                 vec![
@@ -321,15 +414,11 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
             ],
             &rows,
         ));
-        let file = format!("{stem}.svg");
-        let svg = plot_curve(&format!("{}: L1 against time", case.name), &measured)?;
-        let svg_path = context.path(&file);
-        write_file(&svg_path, svg.as_bytes())?;
-        report.files.push(svg_path);
         let _ = writeln!(
             report.body,
-            "![{} accuracy against time]({file})\n",
-            case.name
+            "![{} accuracy against time]({})\n",
+            scene.name,
+            plot_file(scene.name)
         );
     }
     report.paragraph(
@@ -340,7 +429,7 @@ fn curve(context: &Context, harness: &Harness) -> Result<Report, Error> {
          rtrace's defaults. L1 = sum |B - Bref| / sum Bref; bias, median and p90 as score.py \
          computes them (each checked against its output).",
     );
-    Ok(report)
+    report
 }
 
 /// Writes `rows` as a vertices CSV, scores it with `score.py` (it must

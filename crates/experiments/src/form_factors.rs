@@ -15,13 +15,13 @@
 
 use std::fmt::Write as _;
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::plot::{self, Canvas, ColourMap, Panel, Scale, Tick};
+use super::plot::{self, ColourMap, Panel, Picture, Scale, Tick};
 use super::{Context, Error, Report, table};
 use crate::form_factor_accuracy::{DiskStudy, ErrorStats, Tilt};
 use radiosity::form_factor::{FormFactor, Source, analytic, closed_form, disk, wallace};
@@ -71,60 +71,105 @@ fn formula_label(formula: FormFactor) -> &'static str {
     }
 }
 
+/// The tilts of the receiver's normal compared in Figure 4.2's second table.
+const TILTS: [Tilt; 3] = [Tilt::DiskAxis, Tilt::InPlane, Tilt::Sideways];
+
+/// The formulas of Figures 4.2 (eq. (1)) and 4.6 (eq. (3)).
+const DISK_FORMULAS: [FormFactor; 2] = [FormFactor::Wallace, FormFactor::Disk];
+
+/// What Figures 4.2 and 4.6 measure: the error statistics of every
+/// (tilt, formula, distance) and the check of the exact factor.
+#[derive(Clone, Debug)]
+pub struct DiskErrors {
+    /// `(tilt, formula, index into PAPER_DISTANCES)` of each entry of
+    /// [`DiskErrors::stats`].
+    pub cases: Vec<(Tilt, FormFactor, usize)>,
+    /// The errors of each case.
+    pub stats: Vec<ErrorStats>,
+    /// Equation (2) on a 2048-gon against the exact factor, per distance
+    /// (over `theta_j = 0` only in quick mode).
+    pub checks: Vec<ErrorStats>,
+    /// Whether the check ran on the reduced grid.
+    pub quick: bool,
+}
+
+impl DiskErrors {
+    /// Computes every case of the study; cheap (75,000 closed forms), so
+    /// quick mode runs the paper's full grid too. The check of the exact
+    /// factor, the contour formula on a 2048-gon of the disk's area, runs
+    /// over `theta_j = 0` only in quick mode, the polygon being costly.
+    #[must_use]
+    pub fn compute(quick: bool) -> DiskErrors {
+        let cases: Vec<(Tilt, FormFactor, usize)> = TILTS
+            .iter()
+            .flat_map(|&t| {
+                DISK_FORMULAS
+                    .iter()
+                    .flat_map(move |&f| (0..3).map(move |i| (t, f, i)))
+            })
+            .collect();
+        let stats = cases
+            .par_iter()
+            .map(|&(tilt, f, i)| {
+                DiskStudy {
+                    tilt,
+                    ..DiskStudy::paper(PAPER_DISTANCES[i])
+                }
+                .errors(f)
+            })
+            .collect();
+        let check_grid = |distance: f64| {
+            if quick {
+                DiskStudy {
+                    max_theta_j: 0,
+                    ..DiskStudy::paper(distance)
+                }
+            } else {
+                DiskStudy::paper(distance)
+            }
+        };
+        let checks = PAPER_DISTANCES
+            .par_iter()
+            .map(|&d| check_grid(d).errors(FormFactor::Analytic))
+            .collect();
+        DiskErrors {
+            cases,
+            stats,
+            checks,
+            quick,
+        }
+    }
+
+    /// The errors of one case.
+    ///
+    /// # Panics
+    ///
+    /// If the case was not computed.
+    #[must_use]
+    pub fn get(&self, tilt: Tilt, formula: FormFactor, distance: usize) -> ErrorStats {
+        let at = self
+            .cases
+            .iter()
+            .position(|c| *c == (tilt, formula, distance))
+            .expect("every case is computed");
+        self.stats[at]
+    }
+}
+
 /// Figures 4.2 and 4.6: the relative errors of equations (1) and (3)
 /// against [`closed_form::disk_exact`] over the paper's 4,140 receiver
 /// positions and orientations at 1, 5 and 10 radii, under the paper's
 /// protocol ([`Tilt::DiskAxis`], root-mean-square "average") beside the
 /// paper's numbers, then under the other plausible protocols.
 pub fn fig4_2(context: &Context) -> Result<Report, Error> {
+    Ok(fig4_2_report(&DiskErrors::compute(context.quick)))
+}
+
+/// The report of Figures 4.2 and 4.6: the protocol, the check of the exact
+/// factor, the paper's table beside ours and every protocol's.
+#[must_use]
+pub fn fig4_2_report(errors: &DiskErrors) -> Report {
     let mut report = Report::default();
-    let tilts = [Tilt::DiskAxis, Tilt::InPlane, Tilt::Sideways];
-    let formulas = [FormFactor::Wallace, FormFactor::Disk];
-    let study = |distance: f64, tilt: Tilt| DiskStudy {
-        tilt,
-        ..DiskStudy::paper(distance)
-    };
-
-    // Every (tilt, formula, distance) of the study; cheap (75,000 closed
-    // forms), so quick mode runs the paper's full grid too.
-    let cases: Vec<(Tilt, FormFactor, usize)> = tilts
-        .iter()
-        .flat_map(|&t| {
-            formulas
-                .iter()
-                .flat_map(move |&f| (0..3).map(move |i| (t, f, i)))
-        })
-        .collect();
-    let stats: Vec<ErrorStats> = cases
-        .par_iter()
-        .map(|&(t, f, i)| study(PAPER_DISTANCES[i], t).errors(f))
-        .collect();
-    let find = |tilt: Tilt, formula: FormFactor, i: usize| {
-        let at = cases
-            .iter()
-            .position(|c| *c == (tilt, formula, i))
-            .expect("every case is computed");
-        stats[at]
-    };
-
-    // The check of the exact factor: the contour formula on a 2048-gon of
-    // the disk's area, over the paper's grid (over theta_j = 0 only in quick
-    // mode, the polygon being costly).
-    let check_grid = |distance: f64| {
-        if context.quick {
-            DiskStudy {
-                max_theta_j: 0,
-                ..DiskStudy::paper(distance)
-            }
-        } else {
-            DiskStudy::paper(distance)
-        }
-    };
-    let checks: Vec<ErrorStats> = PAPER_DISTANCES
-        .par_iter()
-        .map(|&d| check_grid(d).errors(FormFactor::Analytic))
-        .collect();
-
     report.setting("disk", "unit radius R = 1, centre at the origin, normal +z");
     report.setting(
         "grid",
@@ -161,15 +206,15 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
          2048-sided polygon of the disk's area{}: the largest relative \
          difference is {:.1e} at 1R, {:.1e} at 5R and {:.1e} at 10R over {} \
          receivers each.",
-        if context.quick {
+        if errors.quick {
             " (quick mode: theta_j = 0 only)"
         } else {
             ""
         },
-        checks[0].max,
-        checks[1].max,
-        checks[2].max,
-        checks[0].samples,
+        errors.checks[0].max,
+        errors.checks[1].max,
+        errors.checks[2].max,
+        errors.checks[0].samples,
     ));
 
     // Table 1: ours under the paper's protocol beside the paper.
@@ -179,8 +224,8 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
     let mut deviation = 0.0_f64;
     let mut misses = Vec::new();
     for (i, &r) in PAPER_DISTANCES.iter().enumerate() {
-        let e1 = find(Tilt::DiskAxis, FormFactor::Wallace, i);
-        let e3 = find(Tilt::DiskAxis, FormFactor::Disk, i);
+        let e1 = errors.get(Tilt::DiskAxis, FormFactor::Wallace, i);
+        let e3 = errors.get(Tilt::DiskAxis, FormFactor::Disk, i);
         let (p1, p3) = (PAPER_EQ1_TEXT[i], PAPER_EQ3_TEXT[i]);
         let ours = [
             (e1.rms, p1.0),
@@ -237,10 +282,10 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
 
     // Table 2: every protocol.
     let mut rows = Vec::new();
-    for &tilt in &tilts {
-        for &formula in &formulas {
+    for tilt in TILTS {
+        for formula in DISK_FORMULAS {
             for (i, &r) in PAPER_DISTANCES.iter().enumerate() {
-                let e = find(tilt, formula, i);
+                let e = errors.get(tilt, formula, i);
                 let paper = if formula == FormFactor::Wallace {
                     PAPER_EQ1_TEXT[i]
                 } else {
@@ -282,10 +327,10 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
         &rows,
     ));
     let spread = |formula: FormFactor, i: usize, pick: fn(&ErrorStats) -> f64| {
-        let values: Vec<f64> = tilts
+        let values: Vec<f64> = TILTS
             .iter()
             .flat_map(|&t| {
-                let e = find(t, formula, i);
+                let e = errors.get(t, formula, i);
                 [e.mean, pick(&e)]
             })
             .collect();
@@ -307,7 +352,7 @@ pub fn fig4_2(context: &Context) -> Result<Report, Error> {
         100.0 * lo3,
         100.0 * hi3,
     ));
-    Ok(report)
+    report
 }
 
 /// The cross-section of Figures 4.3 and 4.5: the factor from the unit
@@ -451,16 +496,271 @@ fn ticks(values: &[(f64, &str)]) -> Vec<Tick> {
     values.iter().map(|&(v, s)| (v, s.to_string())).collect()
 }
 
+/// What Figures 4.3 and 4.5 show: the cross-section's factors and the
+/// relative errors of (b), (c) and (d) against (a), signed and absolute.
+#[derive(Clone, Debug)]
+pub struct Fig43 {
+    /// The factors.
+    pub section: CrossSection,
+    /// Signed relative errors of (b), (c), (d).
+    pub signed: [Vec<f64>; 3],
+    /// Their absolute values.
+    pub absolute: [Vec<f64>; 3],
+}
+
+impl Fig43 {
+    /// Evaluates the cross-section on the grid of [`CrossSection::grid`]
+    /// and the errors.
+    #[must_use]
+    pub fn compute(quick: bool) -> Fig43 {
+        let (width, height) = CrossSection::grid(quick);
+        let section = CrossSection::compute(width, height);
+        let signed = [&section.wallace, &section.analytic, &section.disk]
+            .map(|field| section.relative_errors(field));
+        let absolute = signed
+            .each_ref()
+            .map(|errors| errors.iter().map(|e| e.abs()).collect());
+        Fig43 {
+            section,
+            signed,
+            absolute,
+        }
+    }
+
+    /// The ten pictures: the factors (a)-(d), the signed errors of (b)-(d)
+    /// and their absolute values on log scales.
+    fn figures(&self) -> [Figure<'_>; 10] {
+        let section = &self.section;
+        let [errors_b, errors_c, errors_d] = &self.signed;
+        let [abs_b, abs_c, abs_d] = &self.absolute;
+        let value = |values| {
+            (
+                values,
+                ColourMap::Viridis,
+                Scale::Linear { min: 0.0, max: 1.0 },
+                ticks(&[
+                    (0.0, "0"),
+                    (0.2, "0.2"),
+                    (0.4, "0.4"),
+                    (0.6, "0.6"),
+                    (0.8, "0.8"),
+                    (1.0, "1"),
+                ]),
+            )
+        };
+        let signed = |values| {
+            (
+                values,
+                ColourMap::Diverging,
+                Scale::Linear {
+                    min: -0.25,
+                    max: 0.25,
+                },
+                ticks(&[
+                    (-0.25, "<-25%"),
+                    (-0.1, "-10%"),
+                    (0.0, "0%"),
+                    (0.1, "+10%"),
+                    (0.25, ">+25%"),
+                ]),
+            )
+        };
+        let log = |values| {
+            (
+                values,
+                ColourMap::Magma,
+                Scale::Log10 {
+                    min: 1e-4,
+                    max: 1.0,
+                },
+                ticks(&[
+                    (1e-4, "<1E-4"),
+                    (1e-3, "0.1%"),
+                    (1e-2, "1%"),
+                    (1e-1, "10%"),
+                    (1.0, "100%"),
+                ]),
+            )
+        };
+        let round_off = |values| {
+            (
+                values,
+                ColourMap::Magma,
+                Scale::Log10 {
+                    min: 1e-17,
+                    max: 1e-9,
+                },
+                ticks(&[
+                    (1e-17, "<1E-17"),
+                    (1e-15, "1E-15"),
+                    (1e-13, "1E-13"),
+                    (1e-11, "1E-11"),
+                    (1e-9, ">1E-9"),
+                ]),
+            )
+        };
+        [
+            (
+                "fig4-3a-exact.png",
+                "(a) exact: eq. (2), 1 square",
+                "(a) the exact factor, eq. (2) on the whole square (Figure 4.3, left)",
+                value(&section.exact),
+            ),
+            (
+                "fig4-3b-wallace.png",
+                "(b) eq. (1), 3x3 disks",
+                "(b) Wallace's eq. (1) summed over 3x3 disks (Figure 4.3, right)",
+                value(&section.wallace),
+            ),
+            (
+                "fig4-3c-analytic-3x3.png",
+                "(c) eq. (2), 3x3 squares",
+                "(c) eq. (2) summed over the 3x3 sub-squares (Figure 4.5)",
+                value(&section.analytic),
+            ),
+            (
+                "fig4-3d-eq3.png",
+                "(d) eq. (3), 3x3 disks",
+                "(d) Wong & Tsang's eq. (3) summed over 3x3 disks",
+                value(&section.disk),
+            ),
+            (
+                "fig4-3b-error.png",
+                "(b)-(a) / (a)",
+                "signed relative error of (b); blue = too little",
+                signed(errors_b),
+            ),
+            (
+                "fig4-3c-error.png",
+                "(c)-(a) / (a)",
+                "signed relative error of (c): white, round-off only",
+                signed(errors_c),
+            ),
+            (
+                "fig4-3d-error.png",
+                "(d)-(a) / (a)",
+                "signed relative error of (d)",
+                signed(errors_d),
+            ),
+            (
+                "fig4-3b-log-error.png",
+                "|(b)-(a)| / (a)",
+                "|relative error| of (b), log scale",
+                log(abs_b),
+            ),
+            (
+                "fig4-3c-log-error.png",
+                "|(c)-(a)| / (a)",
+                "|relative error| of (c), log scale 1e-17..1e-9 of its own: round-off",
+                round_off(abs_c),
+            ),
+            (
+                "fig4-3d-log-error.png",
+                "|(d)-(a)| / (a)",
+                "|relative error| of (d), log scale",
+                log(abs_d),
+            ),
+        ]
+        .map(
+            |(file, title, what, (values, map, scale, bar_ticks))| Figure {
+                file,
+                title,
+                what,
+                panel: Panel {
+                    values,
+                    width: section.width,
+                    height: section.height,
+                    map,
+                    scale,
+                    bar_ticks,
+                    x_range: CrossSection::X_RANGE,
+                    y_range: CrossSection::Z_RANGE,
+                    x_ticks: ticks(&[
+                        (-0.5, "-0.5"),
+                        (0.0, "0"),
+                        (0.5, "0.5"),
+                        (1.0, "1"),
+                        (1.5, "1.5"),
+                    ]),
+                    y_ticks: ticks(&[(0.0, "0"), (0.5, "0.5"), (1.0, "1")]),
+                    marker: Some((0.0, 1.0)),
+                },
+            },
+        )
+    }
+}
+
+/// One picture of Figures 4.3 and 4.5: its file, title, description and
+/// panel.
+struct Figure<'a> {
+    file: &'static str,
+    title: &'static str,
+    what: &'static str,
+    panel: Panel<'a>,
+}
+
+/// The combined picture of Figures 4.3 and 4.5.
+const FIG4_3_ALL: &str = "fig4-3-all.png";
+
+/// Draws the pictures of Figures 4.3 and 4.5, each with its file name: the
+/// ten panels, then all of them side by side (values (a)-(d) on the first
+/// row, signed errors of (b)-(d) on the second, log errors on the third,
+/// each error under its picture).
+///
+/// # Errors
+///
+/// If plotting fails.
+pub fn fig4_3_plot(data: &Fig43) -> Result<Vec<(&'static str, Picture)>, Error> {
+    let mut pictures = data
+        .figures()
+        .iter()
+        .map(|f| Ok((f.file, f.panel.draw()?)))
+        .collect::<Result<Vec<_>, Error>>()?;
+    let panel = |i: usize| Some(&pictures[i].1);
+    let cells = [
+        panel(0),
+        panel(1),
+        panel(2),
+        panel(3),
+        None,
+        panel(4),
+        panel(5),
+        panel(6),
+        None,
+        panel(7),
+        panel(8),
+        panel(9),
+    ];
+    let combined = plot::grid(&cells, 4, 8)?;
+    pictures.push((FIG4_3_ALL, combined));
+    Ok(pictures)
+}
+
 /// Figures 4.3 and 4.5: colour-scale pictures of the factor from a unit
 /// square source to a receiver on the cross-section `y = 0.5` above it
 /// (see [`CrossSection`]): (a) exact, (b) equation (1) on 3x3 disks,
 /// (c) equation (2) on 3x3 squares, (d) equation (3) on 3x3 disks, and the
 /// relative errors of (b), (c), (d) against (a).
 pub fn fig4_3(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
-    let (width, height) = CrossSection::grid(context.quick);
-    let section = CrossSection::compute(width, height);
+    let data = Fig43::compute(context.quick);
+    let mut report = fig4_3_report(&data);
+    for (file, picture) in fig4_3_plot(&data)? {
+        let path = context.path(file);
+        picture.write_png(&path).map_err(output_error(&path))?;
+        report.files.push(path);
+    }
+    Ok(report)
+}
 
+/// The report of Figures 4.3 and 4.5: settings, checks, the error table,
+/// the signs and the lowest row in words, and the list of pictures with
+/// their axes.
+#[must_use]
+pub fn fig4_3_report(data: &Fig43) -> Report {
+    let mut report = Report::default();
+    let section = &data.section;
+    let (width, height) = (section.width, section.height);
+    let [errors_b, errors_c, errors_d] = &data.signed;
     report.setting(
         "source",
         "unit square [0,1] x [0,1] in the plane z = 0, facing +z; 3 x 3 subsources",
@@ -495,214 +795,6 @@ pub fn fig4_3(context: &Context) -> Result<Report, Error> {
     let c_abs = max_abs(&section.analytic, &section.exact);
     let c_rel = max_rel(&section.analytic, &section.exact);
 
-    let errors_b = section.relative_errors(&section.wallace);
-    let errors_c = section.relative_errors(&section.analytic);
-    let errors_d = section.relative_errors(&section.disk);
-
-    // Pictures.
-    let x_ticks = ticks(&[
-        (-0.5, "-0.5"),
-        (0.0, "0"),
-        (0.5, "0.5"),
-        (1.0, "1"),
-        (1.5, "1.5"),
-    ]);
-    let y_ticks = ticks(&[(0.0, "0"), (0.5, "0.5"), (1.0, "1")]);
-    let value_scale = Scale::Linear { min: 0.0, max: 1.0 };
-    let value_ticks = ticks(&[
-        (0.0, "0"),
-        (0.2, "0.2"),
-        (0.4, "0.4"),
-        (0.6, "0.6"),
-        (0.8, "0.8"),
-        (1.0, "1"),
-    ]);
-    let signed_scale = Scale::Linear {
-        min: -0.25,
-        max: 0.25,
-    };
-    let signed_ticks = ticks(&[
-        (-0.25, "<-25%"),
-        (-0.1, "-10%"),
-        (0.0, "0%"),
-        (0.1, "+10%"),
-        (0.25, ">+25%"),
-    ]);
-    let log_scale = Scale::Log10 {
-        min: 1e-4,
-        max: 1.0,
-    };
-    let log_ticks = ticks(&[
-        (1e-4, "<1E-4"),
-        (1e-3, "0.1%"),
-        (1e-2, "1%"),
-        (1e-1, "10%"),
-        (1.0, "100%"),
-    ]);
-    let round_off_scale = Scale::Log10 {
-        min: 1e-17,
-        max: 1e-9,
-    };
-    let round_off_ticks = ticks(&[
-        (1e-17, "<1E-17"),
-        (1e-15, "1E-15"),
-        (1e-13, "1E-13"),
-        (1e-11, "1E-11"),
-        (1e-9, ">1E-9"),
-    ]);
-    let abs_c: Vec<f64> = errors_c.iter().map(|e| e.abs()).collect();
-    let abs_b: Vec<f64> = errors_b.iter().map(|e| e.abs()).collect();
-    let abs_d: Vec<f64> = errors_d.iter().map(|e| e.abs()).collect();
-
-    struct Picture<'a> {
-        file: &'static str,
-        title: &'static str,
-        values: &'a [f64],
-        map: ColourMap,
-        scale: Scale,
-        ticks: &'a [Tick],
-        what: &'static str,
-    }
-    let pictures = [
-        Picture {
-            file: "fig4-3a-exact.png",
-            title: "(A) EXACT: EQ. (2), 1 SQUARE",
-            values: &section.exact,
-            map: ColourMap::Viridis,
-            scale: value_scale,
-            ticks: &value_ticks,
-            what: "(a) the exact factor, eq. (2) on the whole square (Figure 4.3, left)",
-        },
-        Picture {
-            file: "fig4-3b-wallace.png",
-            title: "(B) EQ. (1), 3X3 DISKS",
-            values: &section.wallace,
-            map: ColourMap::Viridis,
-            scale: value_scale,
-            ticks: &value_ticks,
-            what: "(b) Wallace's eq. (1) summed over 3x3 disks (Figure 4.3, right)",
-        },
-        Picture {
-            file: "fig4-3c-analytic-3x3.png",
-            title: "(C) EQ. (2), 3X3 SQUARES",
-            values: &section.analytic,
-            map: ColourMap::Viridis,
-            scale: value_scale,
-            ticks: &value_ticks,
-            what: "(c) eq. (2) summed over the 3x3 sub-squares (Figure 4.5)",
-        },
-        Picture {
-            file: "fig4-3d-eq3.png",
-            title: "(D) EQ. (3), 3X3 DISKS",
-            values: &section.disk,
-            map: ColourMap::Viridis,
-            scale: value_scale,
-            ticks: &value_ticks,
-            what: "(d) Wong & Tsang's eq. (3) summed over 3x3 disks",
-        },
-        Picture {
-            file: "fig4-3b-error.png",
-            title: "(B)-(A) / (A)",
-            values: &errors_b,
-            map: ColourMap::Diverging,
-            scale: signed_scale,
-            ticks: &signed_ticks,
-            what: "signed relative error of (b); blue = too little",
-        },
-        Picture {
-            file: "fig4-3c-error.png",
-            title: "(C)-(A) / (A)",
-            values: &errors_c,
-            map: ColourMap::Diverging,
-            scale: signed_scale,
-            ticks: &signed_ticks,
-            what: "signed relative error of (c): white, round-off only",
-        },
-        Picture {
-            file: "fig4-3d-error.png",
-            title: "(D)-(A) / (A)",
-            values: &errors_d,
-            map: ColourMap::Diverging,
-            scale: signed_scale,
-            ticks: &signed_ticks,
-            what: "signed relative error of (d)",
-        },
-        Picture {
-            file: "fig4-3b-log-error.png",
-            title: "|(B)-(A)| / (A)",
-            values: &abs_b,
-            map: ColourMap::Magma,
-            scale: log_scale,
-            ticks: &log_ticks,
-            what: "|relative error| of (b), log scale",
-        },
-        Picture {
-            file: "fig4-3c-log-error.png",
-            title: "|(C)-(A)| / (A)",
-            values: &abs_c,
-            map: ColourMap::Magma,
-            scale: round_off_scale,
-            ticks: &round_off_ticks,
-            what: "|relative error| of (c), log scale 1e-17..1e-9 of its own: round-off",
-        },
-        Picture {
-            file: "fig4-3d-log-error.png",
-            title: "|(D)-(A)| / (A)",
-            values: &abs_d,
-            map: ColourMap::Magma,
-            scale: log_scale,
-            ticks: &log_ticks,
-            what: "|relative error| of (d), log scale",
-        },
-    ];
-    let canvases: Vec<Canvas> = pictures
-        .iter()
-        .map(|p| {
-            Panel {
-                title: p.title,
-                values: p.values,
-                width,
-                height,
-                map: p.map,
-                scale: p.scale,
-                bar_ticks: p.ticks.to_vec(),
-                x_range: CrossSection::X_RANGE,
-                y_range: CrossSection::Z_RANGE,
-                x_ticks: x_ticks.clone(),
-                y_ticks: y_ticks.clone(),
-                marker: Some((0.0, 1.0)),
-            }
-            .draw()
-        })
-        .collect();
-    let mut written: Vec<PathBuf> = Vec::new();
-    for (p, c) in pictures.iter().zip(&canvases) {
-        let path = context.path(p.file);
-        c.write_png(&path).map_err(output_error(&path))?;
-        written.push(path);
-    }
-    // Values on the first row, signed errors on the second, log errors on
-    // the third, each error under its picture.
-    let cells: Vec<Option<&Canvas>> = vec![
-        Some(&canvases[0]),
-        Some(&canvases[1]),
-        Some(&canvases[2]),
-        Some(&canvases[3]),
-        None,
-        Some(&canvases[4]),
-        Some(&canvases[5]),
-        Some(&canvases[6]),
-        None,
-        Some(&canvases[7]),
-        Some(&canvases[8]),
-        Some(&canvases[9]),
-    ];
-    let combined = Canvas::grid(&cells, 4, 8, plot::WHITE);
-    let combined_path = context.path("fig4-3-all.png");
-    combined
-        .write_png(&combined_path)
-        .map_err(output_error(&combined_path))?;
-
     report.paragraph(
         "The cross-section is the vertical plane y = 0.5 through the middle of \
          the unit square source (which lies in z = 0, corners (0,0) and (1,1), \
@@ -730,13 +822,13 @@ pub fn fig4_3(context: &Context) -> Result<Report, Error> {
         (f64::NEG_INFINITY, f64::INFINITY),
     ];
     for (name, errors) in [
-        ("(b) eq. (1), 3x3 disks", &errors_b),
-        ("(c) eq. (2), 3x3 squares", &errors_c),
-        ("(d) eq. (3), 3x3 disks", &errors_d),
+        ("(b) eq. (1), 3x3 disks", errors_b),
+        ("(c) eq. (2), 3x3 squares", errors_c),
+        ("(d) eq. (3), 3x3 disks", errors_d),
     ] {
         let mut row = vec![name.to_string()];
         for &(lo, hi) in &regions {
-            let (max, mean) = region_stats(&section, errors, |z| lo < z && z < hi);
+            let (max, mean) = region_stats(section, errors, |z| lo < z && z < hi);
             row.push(format_error(max));
             row.push(format_error(mean));
         }
@@ -765,8 +857,8 @@ pub fn fig4_3(context: &Context) -> Result<Report, Error> {
                 (lo.min(e), hi.max(e))
             })
     };
-    let (b_lo, b_hi) = signed_range(&errors_b);
-    let (d_lo, d_hi) = signed_range(&errors_d);
+    let (b_lo, b_hi) = signed_range(errors_b);
+    let (d_lo, d_hi) = signed_range(errors_d);
     let overestimates = |errors: &[f64]| {
         let points: Vec<DVec3> = errors
             .iter()
@@ -800,10 +892,10 @@ pub fn fig4_3(context: &Context) -> Result<Report, Error> {
     let mut signed = format!(
         "Signed, the relative error of {}; that of {}. Both disk formulas \
          underestimate almost everywhere.",
-        describe("(b)", b_lo, b_hi, &errors_b),
-        describe("(d)", d_lo, d_hi, &errors_d),
+        describe("(b)", b_lo, b_hi, errors_b),
+        describe("(d)", d_lo, d_hi, errors_d),
     );
-    if overestimates(&errors_d).0 > 0 {
+    if overestimates(errors_d).0 > 0 {
         let _ = write!(
             signed,
             " The disks of equal area have radius {radius:.4}, so the outer \
@@ -815,7 +907,7 @@ pub fn fig4_3(context: &Context) -> Result<Report, Error> {
     }
     report.paragraph(&signed);
 
-    let (row_b, _) = worst(&section, &errors_b);
+    let (row_b, _) = worst(section, errors_b);
     report.paragraph(&format!(
         "Lowest row (z = {:.4}): over the source, (b) ranges from {:.1}% to \
          {:.1}% of the exact factor and (d) from {:.1}% to {:.1}%; the exact \
@@ -823,29 +915,40 @@ pub fn fig4_3(context: &Context) -> Result<Report, Error> {
          (d) sit between the disks' centres, the aliasing of Figure 4.3. The \
          worst error of (b) is at z = {:.4}.",
         section.z(height - 1),
-        100.0 * over_source_ratio(&section, &section.wallace, height - 1).0,
-        100.0 * over_source_ratio(&section, &section.wallace, height - 1).1,
-        100.0 * over_source_ratio(&section, &section.disk, height - 1).0,
-        100.0 * over_source_ratio(&section, &section.disk, height - 1).1,
-        over_source_range(&section, height - 1).0,
-        over_source_range(&section, height - 1).1,
+        100.0 * over_source_ratio(section, &section.wallace, height - 1).0,
+        100.0 * over_source_ratio(section, &section.wallace, height - 1).1,
+        100.0 * over_source_ratio(section, &section.disk, height - 1).0,
+        100.0 * over_source_ratio(section, &section.disk, height - 1).1,
+        over_source_range(section, height - 1).0,
+        over_source_range(section, height - 1).1,
         section.z(row_b),
     ));
 
-    let mut list = String::from("Pictures:\n\n");
-    for p in &pictures {
-        let _ = writeln!(list, "- `{}`: {}", p.file, p.what);
+    let figures = data.figures();
+    let mut list = String::from(
+        "Pictures (titles and tick labels are here, not in the pictures; the \
+         tick marks are drawn):\n\n",
+    );
+    for f in &figures {
+        let _ = writeln!(list, "- `{}`: {}; titled {}", f.file, f.what, f.title);
     }
     let _ = writeln!(
         list,
-        "- `fig4-3-all.png`: all of them side by side: values (a)-(d) on the \
+        "- `{FIG4_3_ALL}`: all of them side by side: values (a)-(d) on the \
          first row, signed errors of (b)-(d) on the second, log errors on the \
          third\n"
     );
+    let _ = writeln!(
+        list,
+        "Axes of every picture: {}. Colour bar ticks of the signed errors: {}; \
+         of the log errors of (b) and (d): {}; of (c): {}.\n",
+        figures[0].panel.axes(),
+        plot::labels(&figures[4].panel.bar_ticks),
+        plot::labels(&figures[7].panel.bar_ticks),
+        plot::labels(&figures[8].panel.bar_ticks),
+    );
     report.body.push_str(&list);
-    report.files = written;
-    report.files.push(combined_path);
-    Ok(report)
+    report
 }
 
 fn format_error(e: f64) -> String {
@@ -947,21 +1050,68 @@ fn measure(
         .collect()
 }
 
-/// Section 4's timing: the paper's 4,140 receiver positions and
-/// orientations (the [`DiskStudy::paper`] grid at 5 radii) evaluated with
-/// equation (1) and equation (3) on a disk and with equation (2) on a square
-/// of the same area, on one thread. Reports the median over
-/// [`Context::repetitions`] of the time per evaluation, each repetition
-/// looping over the 4,140 cases for at least 20 ms.
-pub fn formula_timing(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
+/// The rows of the formula timing: formula, source, the paper's time.
+const FORMULA_TIMING_ROWS: [(&str, &str, &str); 5] = [
+    ("eq. (1) Wallace", "disk, R = 1", "0.1 s (1x)"),
+    (
+        "eq. (3) Wong-Tsang",
+        "disk, R = 1",
+        "\"as fast as Wallace's\"",
+    ),
+    (
+        "eq. (2) analytic (Baum)",
+        "square, side sqrt(pi)",
+        "0.9 s (9x)",
+    ),
+    ("exact disk (closed_form::disk_exact)", "disk, R = 1", "-"),
+    ("loop only (no formula)", "-", "-"),
+];
+
+/// The cost of one formula over all the cases.
+#[derive(Clone, Copy, Debug)]
+pub struct FormulaCost {
+    /// Median seconds for one pass over the cases.
+    pub seconds: f64,
+    /// Passes per repetition.
+    pub passes: usize,
+    /// Sum of the factors of the last repetition.
+    pub checksum: f64,
+}
+
+/// What the formula timing measures.
+#[derive(Clone, Debug)]
+pub struct FormulaTiming {
+    /// Distance of the receivers, in disk radii.
+    pub distance: f64,
+    /// Receivers (the paper's 4,140).
+    pub cases: usize,
+    /// Receivers for which part of the square is behind the tangent plane.
+    pub clipped: usize,
+    /// Minimum seconds of one repetition.
+    pub target: f64,
+    /// Repetitions (the median is kept).
+    pub repetitions: usize,
+    /// The 1, 5 and 15 minute load averages at the end, if known.
+    pub load: Option<String>,
+    /// One cost per row of `FORMULA_TIMING_ROWS`: eq. (1), eq. (3),
+    /// eq. (2), the exact disk, the loop alone.
+    pub costs: Vec<FormulaCost>,
+}
+
+/// Times the paper's 4,140 receiver positions and orientations (the
+/// [`DiskStudy::paper`] grid at 5 radii) evaluated with equation (1) and
+/// equation (3) on a disk and with equation (2) on a square of the same
+/// area, on one thread: the median over `repetitions` of the time per
+/// evaluation, each repetition looping over the 4,140 cases for at least
+/// 20 ms (2 ms when `quick`).
+#[must_use]
+pub fn formula_timing_compute(quick: bool, repetitions: usize) -> FormulaTiming {
     let distance = 5.0;
     let study = DiskStudy::paper(distance);
     let cases: Vec<(DVec3, DVec3)> = (0..=study.max_theta_k)
         .flat_map(|k| (0..=study.max_theta_j).map(move |j| (k, j)))
         .map(|(k, j)| study.receiver(f64::from(k), f64::from(j)))
         .collect();
-    let n = cases.len();
 
     // The unit disk for eq. (1) and (3); a square of the same area (side
     // sqrt(pi)), centred on the disk, for eq. (2).
@@ -985,24 +1135,8 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
         .filter(|(x, nn)| square.iter().any(|p| nn.dot(*p - *x) < 0.0))
         .count();
 
-    let target = if context.quick { 0.002 } else { 0.02 };
-    let repetitions = context.repetitions();
-    let labels = [
-        ("eq. (1) Wallace", "disk, R = 1", "0.1 s (1x)"),
-        (
-            "eq. (3) Wong-Tsang",
-            "disk, R = 1",
-            "\"as fast as Wallace's\"",
-        ),
-        (
-            "eq. (2) analytic (Baum)",
-            "square, side sqrt(pi)",
-            "0.9 s (9x)",
-        ),
-        ("exact disk (closed_form::disk_exact)", "disk, R = 1", "-"),
-        ("loop only (no formula)", "-", "-"),
-    ];
-    let results = measure(
+    let target = if quick { 0.002 } else { 0.02 };
+    let costs = measure(
         &[
             &|p| run_passes(&cases, |x, nn| wallace(x, nn, black_box(&disk_source)), p),
             &|p| run_passes(&cases, |x, nn| disk(x, nn, black_box(&disk_source)), p),
@@ -1018,21 +1152,65 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
         ],
         target,
         repetitions,
-    );
+    )
+    .into_iter()
+    .map(|(seconds, passes, checksum)| FormulaCost {
+        seconds,
+        passes,
+        checksum,
+    })
+    .collect();
+    let load = std::fs::read_to_string("/proc/loadavg").ok().map(|load| {
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(", ")
+    });
+    FormulaTiming {
+        distance,
+        cases: cases.len(),
+        clipped,
+        target,
+        repetitions,
+        load,
+        costs,
+    }
+}
 
+/// Section 4's timing: the paper's 4,140 receiver positions and
+/// orientations (the [`DiskStudy::paper`] grid at 5 radii) evaluated with
+/// equation (1) and equation (3) on a disk and with equation (2) on a square
+/// of the same area, on one thread. Reports the median over
+/// [`Context::repetitions`] of the time per evaluation, each repetition
+/// looping over the 4,140 cases for at least 20 ms.
+pub fn formula_timing(context: &Context) -> Result<Report, Error> {
+    Ok(formula_timing_report(&formula_timing_compute(
+        context.quick,
+        context.repetitions(),
+    )))
+}
+
+/// The report of the formula timing: the paper's protocol and ours, the
+/// table of costs and the ratios that matter.
+#[must_use]
+pub fn formula_timing_report(data: &FormulaTiming) -> Report {
+    let mut report = Report::default();
+    let FormulaTiming {
+        distance,
+        cases: n,
+        clipped,
+        target,
+        repetitions,
+        ..
+    } = *data;
+    let results: Vec<f64> = data.costs.iter().map(|c| c.seconds).collect();
     report.setting(
         "cases",
         format!("{n} (DiskStudy::paper grid at r = {distance}R)"),
     );
     report.setting("threads", "1 (the calling thread)");
-    if let Ok(load) = std::fs::read_to_string("/proc/loadavg") {
-        report.setting(
-            "load average at the end (1, 5, 15 min)",
-            load.split_whitespace()
-                .take(3)
-                .collect::<Vec<_>>()
-                .join(", "),
-        );
+    if let Some(load) = &data.load {
+        report.setting("load average at the end (1, 5, 15 min)", load);
     }
     report.setting("repetitions", repetitions);
     report.setting(
@@ -1056,9 +1234,12 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
          passed through `std::hint::black_box`."
     ));
 
-    let base = results[0].0;
+    let base = results[0];
     let mut rows = Vec::new();
-    for ((label, source, paper), (seconds, passes, _)) in labels.iter().zip(&results) {
+    for ((label, source, paper), cost) in FORMULA_TIMING_ROWS.iter().zip(&data.costs) {
+        let FormulaCost {
+            seconds, passes, ..
+        } = cost;
         rows.push(vec![
             (*label).to_string(),
             (*source).to_string(),
@@ -1081,7 +1262,7 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
         ],
         &rows,
     ));
-    let ratio = results[2].0 / base;
+    let ratio = results[2] / base;
     report.paragraph(&format!(
         "Eq. (2) costs {ratio:.1} times eq. (1) here, against 9 times in the \
          paper (0.9 s / 0.1 s). The 4,140 evaluations take {:.2} ms with eq. (2) \
@@ -1091,19 +1272,19 @@ pub fn formula_timing(context: &Context) -> Result<Report, Error> {
          included in every row; without it the ratio of eq. (2) to eq. (1) is \
          {:.1}. On a shared machine (see the load average) the absolute times \
          vary by tens of percent from run to run; the ratios less.",
-        results[2].0 * 1e3,
-        0.9 / results[2].0,
-        results[1].0 / base,
-        results[4].0 / n as f64 * 1e9,
-        (results[2].0 - results[4].0) / (base - results[4].0),
+        results[2] * 1e3,
+        0.9 / results[2],
+        results[1] / base,
+        results[4] / n as f64 * 1e9,
+        (results[2] - results[4]) / (base - results[4]),
     ));
-    let checks: Vec<String> = results[..4]
+    let checks: Vec<String> = data.costs[..4]
         .iter()
-        .map(|r| format!("{:.6e}", r.2))
+        .map(|c| format!("{:.6e}", c.checksum))
         .collect();
     report.setting(
         "checksums (sum of factors per repetition)",
         checks.join(", "),
     );
-    Ok(report)
+    report
 }

@@ -1,18 +1,27 @@
-//! Just enough plotting for the colour-scale pictures of the paper's
-//! section 4 (Figures 4.3 and 4.5): an RGB [`Canvas`], perceptual colour
-//! maps ([`ColourMap::Viridis`], [`ColourMap::Magma`] and a blue-white-red
-//! [`ColourMap::Diverging`] one), linear and logarithmic [`Scale`]s, a colour
-//! bar with tick labels, and a tiny built-in 5x7 bitmap font, so that the
-//! pictures carry their own scale without any extra dependency.
+//! The colour-scale pictures of the paper's section 4 (Figures 4.3 and
+//! 4.5) and the validation's error pictures, drawn with `plotters`' bitmap
+//! backend: perceptual colour maps ([`ColourMap::Viridis`],
+//! [`ColourMap::Magma`] and a blue-white-red [`ColourMap::Diverging`] one),
+//! linear and logarithmic [`Scale`]s, colour bars with tick marks, and
+//! [`grid`]s of pictures. The pictures hold no text: titles and tick labels
+//! go into the report beside them ([`Panel::axes`]).
 //!
 //! A [`Panel`] is a field sampled on a regular grid (row 0 at the top),
-//! drawn one pixel per sample with a title above, axis ticks below and to
-//! the left, an optional marker under the plot (the source's extent) and
-//! the colour bar on the right. Its size depends only on the grid's
-//! ([`panel_size`]), so several panels line up in a [`Canvas::grid`].
+//! drawn one pixel per sample with tick marks below and to the left, an
+//! optional marker under the plot (the source's extent) and the colour bar
+//! on the right. Its size depends only on the grid's ([`panel_size`]), so
+//! several panels line up in a [`grid`].
 
 use std::io;
 use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::{
+    BitMapBackend, BitMapElement, DrawingArea, IntoDrawingArea, RGBColor, Rectangle,
+};
+use plotters::style::ShapeStyle;
+
+use crate::Error;
 
 /// An 8-bit sRGB colour.
 pub type Rgb = [u8; 3];
@@ -24,12 +33,9 @@ pub const BLACK: Rgb = [0, 0, 0];
 /// The grey of missing values (NaN).
 pub const GREY: Rgb = [128, 128, 128];
 
-/// Width and height of a glyph of the built-in font, in font pixels.
-pub const GLYPH: (usize, usize) = (5, 7);
-
-/// An RGB picture, row 0 at the top.
+/// A finished RGB picture, row 0 at the top.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Canvas {
+pub struct Picture {
     /// Width in pixels.
     pub width: usize,
     /// Height in pixels.
@@ -38,18 +44,39 @@ pub struct Canvas {
     pub rgb: Vec<u8>,
 }
 
-impl Canvas {
-    /// A canvas filled with `background`.
-    #[must_use]
-    pub fn new(width: usize, height: usize, background: Rgb) -> Canvas {
-        Canvas {
-            width,
-            height,
-            rgb: background.repeat(width * height),
+/// A drawing area on a picture being drawn.
+pub type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Why drawing failed (the bitmap backend on a buffer hardly does).
+fn failed(e: &dyn std::fmt::Display) -> Error {
+    Error::Experiment(format!("plot: {e}"))
+}
+
+impl Picture {
+    /// A `width x height` picture on white, drawn by `paint`.
+    ///
+    /// # Errors
+    ///
+    /// If plotting fails.
+    pub fn draw(
+        width: usize,
+        height: usize,
+        paint: impl FnOnce(&Area<'_>) -> Result<(), Error>,
+    ) -> Result<Picture, Error> {
+        let size = (
+            u32::try_from(width).map_err(|e| failed(&e))?,
+            u32::try_from(height).map_err(|e| failed(&e))?,
+        );
+        let mut rgb = WHITE.repeat(width * height);
+        {
+            let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+            paint(&area)?;
+            area.present().map_err(|e| failed(&e))?;
         }
+        Ok(Picture { width, height, rgb })
     }
 
-    /// The colour at `(x, y)`; `None` outside the canvas.
+    /// The colour at `(x, y)`; `None` outside the picture.
     #[must_use]
     pub fn pixel(&self, x: usize, y: usize) -> Option<Rgb> {
         (x < self.width && y < self.height).then(|| {
@@ -58,92 +85,16 @@ impl Canvas {
         })
     }
 
-    /// Sets one pixel; coordinates outside the canvas are ignored.
-    pub fn set(&mut self, x: i64, y: i64, colour: Rgb) {
-        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
-            let i = 3 * (y as usize * self.width + x as usize);
-            self.rgb[i..i + 3].copy_from_slice(&colour);
-        }
+    /// Draws the picture onto `area` with its top-left corner at `(x, y)`.
+    ///
+    /// # Errors
+    ///
+    /// If plotting fails.
+    pub fn blit(&self, area: &Area<'_>, x: usize, y: usize) -> Result<(), Error> {
+        blit_rgb(area, (x, y), (self.width, self.height), &self.rgb)
     }
 
-    /// Fills a rectangle (clipped to the canvas).
-    pub fn fill(&mut self, x: i64, y: i64, width: usize, height: usize, colour: Rgb) {
-        for dy in 0..height as i64 {
-            for dx in 0..width as i64 {
-                self.set(x + dx, y + dy, colour);
-            }
-        }
-    }
-
-    /// Draws the one-pixel outline of a rectangle.
-    pub fn outline(&mut self, x: i64, y: i64, width: usize, height: usize, colour: Rgb) {
-        if width == 0 || height == 0 {
-            return;
-        }
-        let (w, h) = (width as i64, height as i64);
-        for dx in 0..w {
-            self.set(x + dx, y, colour);
-            self.set(x + dx, y + h - 1, colour);
-        }
-        for dy in 0..h {
-            self.set(x, y + dy, colour);
-            self.set(x + w - 1, y + dy, colour);
-        }
-    }
-
-    /// Copies `other` with its top-left corner at `(x, y)`.
-    pub fn draw(&mut self, other: &Canvas, x: i64, y: i64) {
-        for row in 0..other.height {
-            for column in 0..other.width {
-                if let Some(c) = other.pixel(column, row) {
-                    self.set(x + column as i64, y + row as i64, c);
-                }
-            }
-        }
-    }
-
-    /// Writes `text` in the built-in font, each font pixel `scale` pixels
-    /// wide, its top-left corner at `(x, y)`. Lower-case letters are drawn
-    /// as capitals; a character the font lacks is drawn as a hollow box.
-    pub fn text(&mut self, x: i64, y: i64, text: &str, scale: usize, colour: Rgb) {
-        let s = scale.max(1) as i64;
-        for (i, ch) in text.chars().enumerate() {
-            let left = x + i as i64 * advance(scale) as i64;
-            let rows = glyph(ch);
-            for (row, bits) in rows.iter().enumerate() {
-                for (column, b) in bits.bytes().enumerate() {
-                    if b == b'#' {
-                        let (gx, gy) = (left + column as i64 * s, y + row as i64 * s);
-                        self.fill(gx, gy, s as usize, s as usize, colour);
-                    }
-                }
-            }
-        }
-    }
-
-    /// Lays canvases out on a grid of `columns` columns, each cell as large
-    /// as the largest canvas, `gap` pixels apart; `None` leaves a cell
-    /// empty.
-    #[must_use]
-    pub fn grid(cells: &[Option<&Canvas>], columns: usize, gap: usize, background: Rgb) -> Canvas {
-        let columns = columns.max(1);
-        let rows = cells.len().div_ceil(columns);
-        let cell_w = cells.iter().flatten().map(|c| c.width).max().unwrap_or(0);
-        let cell_h = cells.iter().flatten().map(|c| c.height).max().unwrap_or(0);
-        let width = columns * cell_w + (columns + 1) * gap;
-        let height = rows * cell_h + (rows + 1) * gap;
-        let mut out = Canvas::new(width, height, background);
-        for (i, cell) in cells.iter().enumerate() {
-            if let Some(c) = cell {
-                let x = gap + (i % columns) * (cell_w + gap);
-                let y = gap + (i / columns) * (cell_h + gap);
-                out.draw(c, x as i64, y as i64);
-            }
-        }
-        out
-    }
-
-    /// Writes the canvas as an 8-bit RGB PNG, through a temporary file.
+    /// Writes the picture as an 8-bit RGB PNG, through a temporary file.
     pub fn write_png(&self, path: &Path) -> io::Result<()> {
         let (w, h) = (
             u32::try_from(self.width).map_err(io::Error::other)?,
@@ -156,344 +107,109 @@ impl Canvas {
     }
 }
 
-/// Horizontal distance from one character to the next at `scale`.
-#[must_use]
-pub fn advance(scale: usize) -> usize {
-    (GLYPH.0 + 1) * scale.max(1)
+/// Draws `width x height` RGB bytes onto `area` at `(x, y)`.
+fn blit_rgb(
+    area: &Area<'_>,
+    (x, y): (usize, usize),
+    (width, height): (usize, usize),
+    rgb: &[u8],
+) -> Result<(), Error> {
+    let position = (
+        i32::try_from(x).map_err(|e| failed(&e))?,
+        i32::try_from(y).map_err(|e| failed(&e))?,
+    );
+    let size = (
+        u32::try_from(width).map_err(|e| failed(&e))?,
+        u32::try_from(height).map_err(|e| failed(&e))?,
+    );
+    let element = BitMapElement::with_ref(position, size, rgb).ok_or_else(|| {
+        Error::Experiment(format!(
+            "plot: {width}x{height} bitmap of {} bytes",
+            rgb.len()
+        ))
+    })?;
+    area.draw(&element).map_err(|e| failed(&e))
 }
 
-/// Width in pixels of `text` at `scale` (no trailing space).
-#[must_use]
-pub fn text_width(text: &str, scale: usize) -> usize {
-    let n = text.chars().count();
-    if n == 0 {
-        0
-    } else {
-        n * advance(scale) - scale.max(1)
+/// Fills (`filled`) or outlines (one pixel wide) the rectangle of
+/// `width x height` pixels whose top-left corner is `(x, y)`; nothing when
+/// either side is 0.
+fn rectangle(
+    area: &Area<'_>,
+    (x, y): (i32, i32),
+    (width, height): (i32, i32),
+    colour: Rgb,
+    filled: bool,
+) -> Result<(), Error> {
+    if width <= 0 || height <= 0 {
+        return Ok(());
     }
+    let style = ShapeStyle::from(rgb_colour(colour));
+    // The bitmap backend fills up to the far corner exclusive but outlines
+    // it inclusive.
+    let (style, inclusive) = if filled {
+        (style.filled(), 0)
+    } else {
+        (style, 1)
+    };
+    let far = (x + width - inclusive, y + height - inclusive);
+    area.draw(&Rectangle::new([(x, y), far], style))
+        .map_err(|e| failed(&e))
 }
 
-/// Whether the built-in font has a glyph for `ch` (lower case counts as
-/// upper case).
-#[must_use]
-pub fn has_glyph(ch: char) -> bool {
-    let upper = ch.to_ascii_uppercase();
-    FONT.iter().any(|(c, _)| *c == upper)
+/// Fills the rectangle of `width x height` pixels at `(x, y)`.
+fn fill(
+    area: &Area<'_>,
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    colour: Rgb,
+) -> Result<(), Error> {
+    rectangle(area, (x, y), (width, height), colour, true)
 }
 
-fn glyph(ch: char) -> [&'static str; 7] {
-    let upper = ch.to_ascii_uppercase();
-    FONT.iter().find(|(c, _)| *c == upper).map_or(
-        [
-            "#####", "#...#", "#...#", "#...#", "#...#", "#...#", "#####",
-        ],
-        |(_, rows)| *rows,
-    )
+/// Outlines the rectangle of `width x height` pixels at `(x, y)`.
+fn outline(
+    area: &Area<'_>,
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    colour: Rgb,
+) -> Result<(), Error> {
+    rectangle(area, (x, y), (width, height), colour, false)
 }
 
-/// The font: 5x7 glyphs, `#` inked.
-const FONT: &[(char, [&str; 7])] = &[
-    (
-        ' ',
-        [
-            ".....", ".....", ".....", ".....", ".....", ".....", ".....",
-        ],
-    ),
-    (
-        '0',
-        [
-            ".###.", "#...#", "#..##", "#.#.#", "##..#", "#...#", ".###.",
-        ],
-    ),
-    (
-        '1',
-        [
-            "..#..", ".##..", "..#..", "..#..", "..#..", "..#..", ".###.",
-        ],
-    ),
-    (
-        '2',
-        [
-            ".###.", "#...#", "....#", "...#.", "..#..", ".#...", "#####",
-        ],
-    ),
-    (
-        '3',
-        [
-            "#####", "...#.", "..#..", "...#.", "....#", "#...#", ".###.",
-        ],
-    ),
-    (
-        '4',
-        [
-            "...#.", "..##.", ".#.#.", "#..#.", "#####", "...#.", "...#.",
-        ],
-    ),
-    (
-        '5',
-        [
-            "#####", "#....", "####.", "....#", "....#", "#...#", ".###.",
-        ],
-    ),
-    (
-        '6',
-        [
-            "..##.", ".#...", "#....", "####.", "#...#", "#...#", ".###.",
-        ],
-    ),
-    (
-        '7',
-        [
-            "#####", "....#", "...#.", "..#..", ".#...", ".#...", ".#...",
-        ],
-    ),
-    (
-        '8',
-        [
-            ".###.", "#...#", "#...#", ".###.", "#...#", "#...#", ".###.",
-        ],
-    ),
-    (
-        '9',
-        [
-            ".###.", "#...#", "#...#", ".####", "....#", "...#.", ".##..",
-        ],
-    ),
-    (
-        '.',
-        [
-            ".....", ".....", ".....", ".....", ".....", ".##..", ".##..",
-        ],
-    ),
-    (
-        ',',
-        [
-            ".....", ".....", ".....", ".....", ".##..", "..#..", ".#...",
-        ],
-    ),
-    (
-        '-',
-        [
-            ".....", ".....", ".....", "#####", ".....", ".....", ".....",
-        ],
-    ),
-    (
-        '+',
-        [
-            ".....", "..#..", "..#..", "#####", "..#..", "..#..", ".....",
-        ],
-    ),
-    (
-        '%',
-        [
-            "##...", "##..#", "...#.", "..#..", ".#...", "#..##", "...##",
-        ],
-    ),
-    (
-        '(',
-        [
-            "...#.", "..#..", ".#...", ".#...", ".#...", "..#..", "...#.",
-        ],
-    ),
-    (
-        ')',
-        [
-            ".#...", "..#..", "...#.", "...#.", "...#.", "..#..", ".#...",
-        ],
-    ),
-    (
-        ':',
-        [
-            ".....", ".##..", ".##..", ".....", ".##..", ".##..", ".....",
-        ],
-    ),
-    (
-        '=',
-        [
-            ".....", ".....", "#####", ".....", "#####", ".....", ".....",
-        ],
-    ),
-    (
-        '/',
-        [
-            ".....", "....#", "...#.", "..#..", ".#...", "#....", ".....",
-        ],
-    ),
-    (
-        '<',
-        [
-            "...#.", "..#..", ".#...", "#....", ".#...", "..#..", "...#.",
-        ],
-    ),
-    (
-        '>',
-        [
-            ".#...", "..#..", "...#.", "....#", "...#.", "..#..", ".#...",
-        ],
-    ),
-    (
-        '|',
-        [
-            "..#..", "..#..", "..#..", "..#..", "..#..", "..#..", "..#..",
-        ],
-    ),
-    (
-        'A',
-        [
-            ".###.", "#...#", "#...#", "#####", "#...#", "#...#", "#...#",
-        ],
-    ),
-    (
-        'B',
-        [
-            "####.", "#...#", "#...#", "####.", "#...#", "#...#", "####.",
-        ],
-    ),
-    (
-        'C',
-        [
-            ".###.", "#...#", "#....", "#....", "#....", "#...#", ".###.",
-        ],
-    ),
-    (
-        'D',
-        [
-            "###..", "#..#.", "#...#", "#...#", "#...#", "#..#.", "###..",
-        ],
-    ),
-    (
-        'E',
-        [
-            "#####", "#....", "#....", "####.", "#....", "#....", "#####",
-        ],
-    ),
-    (
-        'F',
-        [
-            "#####", "#....", "#....", "####.", "#....", "#....", "#....",
-        ],
-    ),
-    (
-        'G',
-        [
-            ".###.", "#...#", "#....", "#.###", "#...#", "#...#", ".####",
-        ],
-    ),
-    (
-        'H',
-        [
-            "#...#", "#...#", "#...#", "#####", "#...#", "#...#", "#...#",
-        ],
-    ),
-    (
-        'I',
-        [
-            ".###.", "..#..", "..#..", "..#..", "..#..", "..#..", ".###.",
-        ],
-    ),
-    (
-        'J',
-        [
-            "..###", "...#.", "...#.", "...#.", "...#.", "#..#.", ".##..",
-        ],
-    ),
-    (
-        'K',
-        [
-            "#...#", "#..#.", "#.#..", "##...", "#.#..", "#..#.", "#...#",
-        ],
-    ),
-    (
-        'L',
-        [
-            "#....", "#....", "#....", "#....", "#....", "#....", "#####",
-        ],
-    ),
-    (
-        'M',
-        [
-            "#...#", "##.##", "#.#.#", "#.#.#", "#...#", "#...#", "#...#",
-        ],
-    ),
-    (
-        'N',
-        [
-            "#...#", "#...#", "##..#", "#.#.#", "#..##", "#...#", "#...#",
-        ],
-    ),
-    (
-        'O',
-        [
-            ".###.", "#...#", "#...#", "#...#", "#...#", "#...#", ".###.",
-        ],
-    ),
-    (
-        'P',
-        [
-            "####.", "#...#", "#...#", "####.", "#....", "#....", "#....",
-        ],
-    ),
-    (
-        'Q',
-        [
-            ".###.", "#...#", "#...#", "#...#", "#.#.#", "#..#.", ".##.#",
-        ],
-    ),
-    (
-        'R',
-        [
-            "####.", "#...#", "#...#", "####.", "#.#..", "#..#.", "#...#",
-        ],
-    ),
-    (
-        'S',
-        [
-            ".####", "#....", "#....", ".###.", "....#", "....#", "####.",
-        ],
-    ),
-    (
-        'T',
-        [
-            "#####", "..#..", "..#..", "..#..", "..#..", "..#..", "..#..",
-        ],
-    ),
-    (
-        'U',
-        [
-            "#...#", "#...#", "#...#", "#...#", "#...#", "#...#", ".###.",
-        ],
-    ),
-    (
-        'V',
-        [
-            "#...#", "#...#", "#...#", "#...#", "#...#", ".#.#.", "..#..",
-        ],
-    ),
-    (
-        'W',
-        [
-            "#...#", "#...#", "#...#", "#.#.#", "#.#.#", "#.#.#", ".#.#.",
-        ],
-    ),
-    (
-        'X',
-        [
-            "#...#", "#...#", ".#.#.", "..#..", ".#.#.", "#...#", "#...#",
-        ],
-    ),
-    (
-        'Y',
-        [
-            "#...#", "#...#", ".#.#.", "..#..", "..#..", "..#..", "..#..",
-        ],
-    ),
-    (
-        'Z',
-        [
-            "#####", "....#", "...#.", "..#..", ".#...", "#....", "#####",
-        ],
-    ),
-];
+fn rgb_colour([r, g, b]: Rgb) -> RGBColor {
+    RGBColor(r, g, b)
+}
+
+/// Lays pictures out on a grid of `columns` columns, each cell as large as
+/// the largest picture, `gap` pixels apart on white; `None` leaves a cell
+/// empty.
+///
+/// # Errors
+///
+/// If plotting fails.
+pub fn grid(cells: &[Option<&Picture>], columns: usize, gap: usize) -> Result<Picture, Error> {
+    let columns = columns.max(1);
+    let rows = cells.len().div_ceil(columns);
+    let cell_w = cells.iter().flatten().map(|c| c.width).max().unwrap_or(0);
+    let cell_h = cells.iter().flatten().map(|c| c.height).max().unwrap_or(0);
+    let width = columns * cell_w + (columns + 1) * gap;
+    let height = rows * cell_h + (rows + 1) * gap;
+    Picture::draw(width, height, |area| {
+        for (i, cell) in cells.iter().enumerate() {
+            if let Some(c) = cell {
+                let x = gap + (i % columns) * (cell_w + gap);
+                let y = gap + (i / columns) * (cell_h + gap);
+                c.blit(area, x, y)?;
+            }
+        }
+        Ok(())
+    })
+}
 
 /// A colour map from `[0, 1]` to sRGB.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -598,8 +314,6 @@ pub type Tick = (f64, String);
 /// A field sampled on a regular grid, and how to draw it.
 #[derive(Clone, Debug)]
 pub struct Panel<'a> {
-    /// Title drawn above the plot.
-    pub title: &'a str,
     /// Samples, row-major, `width * height`, row 0 at the top.
     pub values: &'a [f64],
     /// Samples per row (pixels).
@@ -624,11 +338,11 @@ pub struct Panel<'a> {
     pub marker: Option<(f64, f64)>,
 }
 
-/// Font scale of the labels.
-const FONT_SCALE: usize = 2;
+/// Margins of a [`Panel`] around its plot (room for the tick marks).
 const LEFT: usize = 64;
 const TOP: usize = 30;
 const BOTTOM: usize = 40;
+/// From the plot to its colour bar, the bar's width, and the bar's margin.
 const BAR_GAP: usize = 16;
 const BAR_WIDTH: usize = 20;
 const RIGHT: usize = BAR_GAP + BAR_WIDTH + 6 + 7 * 12 + 8;
@@ -640,122 +354,115 @@ pub fn panel_size(width: usize, height: usize) -> (usize, usize) {
     (LEFT + width + RIGHT, TOP + height + BOTTOM)
 }
 
+/// Labels of ticks in order, `a, b, c`.
+#[must_use]
+pub fn labels(ticks: &[Tick]) -> String {
+    ticks
+        .iter()
+        .map(|(_, label)| label.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 impl Panel<'_> {
-    /// Draws the panel: plot, ticks, marker and colour bar on white.
+    /// Draws the panel: plot, tick marks, marker and colour bar on white.
+    ///
+    /// # Errors
+    ///
+    /// If plotting fails.
     ///
     /// # Panics
     ///
     /// If `values` does not hold `width * height` samples.
-    #[must_use]
-    pub fn draw(&self) -> Canvas {
+    pub fn draw(&self) -> Result<Picture, Error> {
         assert_eq!(self.values.len(), self.width * self.height, "panel size");
         let (w, h) = (self.width, self.height);
         let (cw, ch) = panel_size(w, h);
-        let mut canvas = Canvas::new(cw, ch, WHITE);
-        let (x0, y0) = (LEFT as i64, TOP as i64);
-        let glyph_h = GLYPH.1 * FONT_SCALE;
+        Picture::draw(cw, ch, |area| {
+            let field: Vec<u8> = self
+                .values
+                .iter()
+                .flat_map(|v| self.map.colour(self.scale.position(*v)))
+                .collect();
+            blit_rgb(area, (LEFT, TOP), (w, h), &field)?;
+            let (x0, y0, wi, hi) = (LEFT as i32, TOP as i32, w as i32, h as i32);
+            outline(area, x0 - 1, y0 - 1, wi + 2, hi + 2, BLACK)?;
 
-        canvas.text(
-            x0,
-            ((TOP - glyph_h) / 2) as i64,
-            self.title,
-            FONT_SCALE,
-            BLACK,
-        );
-        for (i, v) in self.values.iter().enumerate() {
-            let c = self.map.colour(self.scale.position(*v));
-            canvas.set(x0 + (i % w) as i64, y0 + (i / w) as i64, c);
-        }
-        canvas.outline(x0 - 1, y0 - 1, w + 2, h + 2, BLACK);
-
-        // Data to pixel: x from the left edge, y from the top edge.
-        let (xl, xr) = self.x_range;
-        let (yb, yt) = self.y_range;
-        let px = |x: f64| x0 + ((x - xl) / (xr - xl) * w as f64).round() as i64;
-        let py = |y: f64| y0 + ((yt - y) / (yt - yb) * h as f64).round() as i64;
-        let below = y0 + h as i64 + 1;
-        if let Some((a, b)) = self.marker {
-            let (a, b) = (px(a), px(b));
-            canvas.fill(a, below + 1, (b - a).max(1) as usize, 4, MARKER);
-        }
-        // Labels that would overlap the previous one are left out (small
-        // plots); the tick marks stay.
-        let mut free_from = i64::MIN;
-        let mut x_ticks: Vec<(i64, &String)> = self
-            .x_ticks
-            .iter()
-            .map(|(x, label)| (px(*x).clamp(x0, x0 + w as i64 - 1), label))
-            .collect();
-        x_ticks.sort_by_key(|&(p, _)| p);
-        for (p, label) in x_ticks {
-            canvas.fill(p, below + 6, 1, 4, BLACK);
-            let lw = text_width(label, FONT_SCALE) as i64;
-            let left = (p - lw / 2).clamp(0, cw as i64 - lw);
-            if left >= free_from {
-                canvas.text(left, below + 12, label, FONT_SCALE, BLACK);
-                free_from = left + lw + advance(FONT_SCALE) as i64;
+            // Data to pixel: x from the left edge, y from the top edge.
+            let (xl, xr) = self.x_range;
+            let (yb, yt) = self.y_range;
+            let px = |x: f64| x0 + ((x - xl) / (xr - xl) * w as f64).round() as i32;
+            let py = |y: f64| y0 + ((yt - y) / (yt - yb) * h as f64).round() as i32;
+            let below = y0 + hi + 1;
+            if let Some((a, b)) = self.marker {
+                let (a, b) = (px(a), px(b));
+                fill(area, a, below + 1, (b - a).max(1), 4, MARKER)?;
             }
-        }
-        let mut free_above = i64::MAX;
-        let mut y_ticks: Vec<(i64, &String)> = self
-            .y_ticks
-            .iter()
-            .map(|(y, label)| (py(*y).clamp(y0, y0 + h as i64 - 1), label))
-            .collect();
-        y_ticks.sort_by_key(|&(p, _)| std::cmp::Reverse(p));
-        for (p, label) in y_ticks {
-            canvas.fill(x0 - 6, p, 4, 1, BLACK);
-            let lw = text_width(label, FONT_SCALE) as i64;
-            let top = (p - glyph_h as i64 / 2).clamp(0, ch as i64 - glyph_h as i64);
-            if top + glyph_h as i64 <= free_above {
-                canvas.text(x0 - 9 - lw, top, label, FONT_SCALE, BLACK);
-                free_above = top - FONT_SCALE as i64;
+            for (x, _) in &self.x_ticks {
+                fill(area, px(*x).clamp(x0, x0 + wi - 1), below + 6, 1, 4, BLACK)?;
             }
-        }
+            for (y, _) in &self.y_ticks {
+                fill(area, x0 - 6, py(*y).clamp(y0, y0 + hi - 1), 4, 1, BLACK)?;
+            }
+            colour_bar(
+                area,
+                (LEFT + w + BAR_GAP, TOP),
+                self.map,
+                self.scale,
+                &self.bar_ticks,
+                h,
+            )
+        })
+    }
 
-        let bar = colour_bar(self.map, self.scale, &self.bar_ticks, h);
-        canvas.draw(&bar, x0 + (w + BAR_GAP) as i64, y0 - bar_padding() as i64);
-        canvas
+    /// The panel's axes in words, for the report: the extents, and the tick
+    /// labels of both axes and of the colour bar in order.
+    #[must_use]
+    pub fn axes(&self) -> String {
+        format!(
+            "x from {} (left) to {} (right), ticks {}; y from {} (bottom) to {} (top), ticks {}; \
+             colour bar ticks {} (bottom to top)",
+            self.x_range.0,
+            self.x_range.1,
+            labels(&self.x_ticks),
+            self.y_range.0,
+            self.y_range.1,
+            labels(&self.y_ticks),
+            labels(&self.bar_ticks),
+        )
     }
 }
 
-/// Rows of white above and below a [`colour_bar`]: half a label's height.
-#[must_use]
-pub fn bar_padding() -> usize {
-    GLYPH.1 * FONT_SCALE / 2
-}
-
-/// A vertical colour bar `height` pixels tall, bottom = the scale's minimum,
-/// with its ticks labelled on the right. The canvas has [`bar_padding`]
-/// rows above and below the bar, so the extreme labels are not cut.
-#[must_use]
-pub fn colour_bar(map: ColourMap, scale: Scale, ticks: &[Tick], height: usize) -> Canvas {
-    let glyph_h = GLYPH.1 * FONT_SCALE;
-    let width = RIGHT - BAR_GAP;
-    let pad = bar_padding();
-    let mut bar = Canvas::new(width, height + 2 * pad, WHITE);
+/// Draws a vertical colour bar `height` pixels tall with its top-left
+/// corner at `(x, y)`, bottom = the scale's minimum, outlined, with a tick
+/// mark right of it at each tick's value.
+///
+/// # Errors
+///
+/// If plotting fails.
+pub fn colour_bar(
+    area: &Area<'_>,
+    (x, y): (usize, usize),
+    map: ColourMap,
+    scale: Scale,
+    ticks: &[Tick],
+    height: usize,
+) -> Result<(), Error> {
     let h = height.max(1);
-    for row in 0..h {
-        let t = 1.0 - (row as f64 + 0.5) / h as f64;
-        bar.fill(0, (pad + row) as i64, BAR_WIDTH, 1, map.colour(t));
+    let bar: Vec<u8> = (0..h)
+        .flat_map(|row| {
+            let colour = map.colour(1.0 - (row as f64 + 0.5) / h as f64);
+            std::iter::repeat_n(colour, BAR_WIDTH).flatten()
+        })
+        .collect();
+    blit_rgb(area, (x, y), (BAR_WIDTH, h), &bar)?;
+    let (x, y, bw) = (x as i32, y as i32, BAR_WIDTH as i32);
+    outline(area, x - 1, y - 1, bw + 2, h as i32 + 2, BLACK)?;
+    for (value, _) in ticks.iter().filter(|t| !t.0.is_nan()) {
+        let row = y + ((1.0 - scale.position(*value)) * (h - 1) as f64).round() as i32;
+        fill(area, x + bw, row, 4, 1, BLACK)?;
     }
-    bar.outline(-1, pad as i64 - 1, BAR_WIDTH + 2, h + 2, BLACK);
-    // Ticks from the bottom up; a label that would overlap the one below
-    // it is left out (short bars), its tick mark stays.
-    let mut order: Vec<&Tick> = ticks.iter().filter(|t| !t.0.is_nan()).collect();
-    order.sort_by(|a, b| scale.position(a.0).total_cmp(&scale.position(b.0)));
-    let mut free_above = i64::MAX;
-    for (value, label) in order {
-        let t = scale.position(*value);
-        let row = pad as i64 + ((1.0 - t) * (h - 1) as f64).round() as i64;
-        bar.fill(BAR_WIDTH as i64, row, 4, 1, BLACK);
-        let top = row - glyph_h as i64 / 2;
-        if top + glyph_h as i64 <= free_above {
-            bar.text(BAR_WIDTH as i64 + 7, top, label, FONT_SCALE, BLACK);
-            free_above = top - FONT_SCALE as i64;
-        }
-    }
-    bar
+    Ok(())
 }
 
 #[cfg(test)]
@@ -799,25 +506,27 @@ mod tests {
     }
 
     #[test]
-    fn text_is_drawn_where_asked() {
-        assert!(
-            "0123456789.-+%E()=/<>ABCDEFGHIJKLMNOPQRSTUVWXYZ:,|"
-                .chars()
-                .all(has_glyph)
-        );
-        assert_eq!(text_width("1E-3", 2), 4 * 12 - 2);
-        let mut c = Canvas::new(20, 20, WHITE);
-        c.text(1, 1, "1", 1, BLACK);
-        // '1' has ink at column 2 of its top row.
-        assert_eq!(c.pixel(3, 1), Some(BLACK));
-        assert_eq!(c.pixel(1, 1), Some(WHITE));
+    fn rectangles_cover_exactly_their_pixels() {
+        let p = Picture::draw(20, 20, |area| {
+            fill(area, 2, 3, 4, 5, BLACK)?;
+            outline(area, 10, 10, 3, 3, GREY)
+        })
+        .unwrap();
+        assert_eq!(p.pixel(2, 3), Some(BLACK));
+        assert_eq!(p.pixel(5, 7), Some(BLACK));
+        assert_eq!(p.pixel(6, 7), Some(WHITE));
+        assert_eq!(p.pixel(5, 8), Some(WHITE));
+        assert_eq!(p.pixel(1, 3), Some(WHITE));
+        assert_eq!(p.pixel(10, 10), Some(GREY));
+        assert_eq!(p.pixel(12, 12), Some(GREY));
+        assert_eq!(p.pixel(11, 11), Some(WHITE));
+        assert_eq!(p.pixel(13, 12), Some(WHITE));
     }
 
     #[test]
     fn panels_have_their_announced_size() {
         let values = vec![0.5; 30 * 10];
         let panel = Panel {
-            title: "(A) TEST",
             values: &values,
             width: 30,
             height: 10,
@@ -830,14 +539,34 @@ mod tests {
             y_ticks: vec![(1.0, "1".into())],
             marker: Some((1.0, 2.0)),
         };
-        let c = panel.draw();
+        let c = panel.draw().unwrap();
         assert_eq!((c.width, c.height), panel_size(30, 10));
         assert_eq!(
             c.pixel(LEFT + 3, TOP + 3),
             Some(ColourMap::Viridis.colour(0.5))
         );
-        let grid = Canvas::grid(&[Some(&c), None, Some(&c)], 2, 4, WHITE);
+        // The frame, the marker under the source, the colour bar's ends.
+        assert_eq!(c.pixel(LEFT - 1, TOP - 1), Some(BLACK));
+        assert_eq!(c.pixel(LEFT + 15, TOP + 10 + 2), Some(MARKER));
+        assert_eq!(c.pixel(LEFT + 5, TOP + 10 + 2), Some(WHITE));
+        let bar_x = LEFT + 30 + BAR_GAP + 1;
+        assert_eq!(c.pixel(bar_x, TOP), Some(ColourMap::Viridis.colour(0.95)));
+        assert_eq!(
+            c.pixel(bar_x, TOP + 9),
+            Some(ColourMap::Viridis.colour(0.05))
+        );
+        assert!(
+            panel
+                .axes()
+                .contains("colour bar ticks 0, 1 (bottom to top)")
+        );
+        let grid = grid(&[Some(&c), None, Some(&c)], 2, 4).unwrap();
         assert_eq!(grid.width, 2 * c.width + 3 * 4);
         assert_eq!(grid.height, 2 * c.height + 3 * 4);
+        assert_eq!(
+            grid.pixel(4 + LEFT + 3, 4 + TOP + 3),
+            c.pixel(LEFT + 3, TOP + 3)
+        );
+        assert_eq!(grid.pixel(8 + c.width + LEFT + 3, 4 + TOP + 3), Some(WHITE));
     }
 }

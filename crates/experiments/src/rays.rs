@@ -167,14 +167,10 @@ pub(crate) fn scenes_folder(context: &Context, wanted: &[SceneSpec]) -> Result<P
             return Ok(dir.clone());
         }
     }
-    let looked: Vec<String> = candidates
-        .iter()
-        .map(|d| format!("{}", d.display()))
-        .collect();
     Err(Error::Experiment(format!(
         "the real scenes ({}) are not in {}: give the folder holding them with --scenes DIR",
         needed.join(", "),
-        looked.join(" nor in ")
+        crate::reference::nor_in(&candidates)
     )))
 }
 
@@ -185,24 +181,30 @@ pub fn rays(context: &Context) -> Result<Report, Error> {
 
 /// Timings of one accelerator on one scene.
 #[derive(Clone, Debug, Default)]
-struct Timing {
-    build_seconds: Vec<f64>,
-    ns_per_ray: Vec<f64>,
+pub struct Timing {
+    /// Seconds of each build.
+    pub build_seconds: Vec<f64>,
+    /// Nanoseconds per ray of each timed repetition.
+    pub ns_per_ray: Vec<f64>,
 }
 
 impl Timing {
-    fn build(&self) -> f64 {
+    /// The median build time in seconds.
+    #[must_use]
+    pub fn build(&self) -> f64 {
         median(&mut self.build_seconds.clone())
     }
 
-    fn per_ray(&self) -> f64 {
+    /// The median time per ray in nanoseconds.
+    #[must_use]
+    pub fn per_ray(&self) -> f64 {
         median(&mut self.ns_per_ray.clone())
     }
 }
 
 /// Our accelerators, in the tables' order: the default BSP, the BSP on
 /// surface planes only (the paper's auto-partition), the BVH.
-const OURS: [&str; 3] = ["bsp", "bsp, surface planes only", "bvh"];
+pub const OURS: [&str; 3] = ["bsp", "bsp, surface planes only", "bvh"];
 
 /// One of [`OURS`], built.
 enum Built<'a> {
@@ -235,57 +237,74 @@ impl<'a> Built<'a> {
     }
 }
 
-/// What [`measure`] found on one scene.
-struct Outcome {
+/// What `measure` found on one scene.
+#[derive(Clone, Debug)]
+pub struct Outcome {
     /// Per accelerator of [`OURS`].
-    ours: Vec<Timing>,
-    stats: Vec<Vec<(&'static str, usize)>>,
-    /// Mean surfaces tested and nodes visited per ray.
-    per_ray: Vec<[f64; 2]>,
-    brute: Timing,
-    embree: Option<Timing>,
-    blocked: usize,
-    brute_checked: usize,
-    embree_agreement: Option<f64>,
+    pub ours: Vec<Timing>,
+    /// Per accelerator of [`OURS`], its build statistics (name, value).
+    pub stats: Vec<Vec<(&'static str, usize)>>,
+    /// Per accelerator of [`OURS`], mean surfaces tested and nodes visited
+    /// per ray.
+    pub per_ray: Vec<[f64; 2]>,
+    /// Brute force on its sample of the segments.
+    pub brute: Timing,
+    /// Embree, when a Python with `embreex` was given.
+    pub embree: Option<Timing>,
+    /// Segments found blocked.
+    pub blocked: usize,
+    /// Segments checked against brute force.
+    pub brute_checked: usize,
+    /// The share of segments on which Embree agrees with us.
+    pub embree_agreement: Option<f64>,
 }
 
-/// The experiment on the given scenes.
-pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error> {
+/// One scene of the `rays` experiment.
+#[derive(Clone, Debug)]
+pub struct RaysScene {
+    /// The scene's name in [`SCENES`].
+    pub name: &'static str,
+    /// Its surfaces.
+    pub surfaces: usize,
+    /// Segments the solver cast in the recorded shots.
+    pub recorded: usize,
+    /// Segments timed (the sample of the recorded ones).
+    pub timed: usize,
+    /// What the accelerators did on them.
+    pub outcome: Outcome,
+}
+
+/// What the `rays` experiment measures, and how.
+#[derive(Clone, Debug)]
+pub struct Rays {
+    /// Repetitions of every timing (interleaved; medians).
+    pub repetitions: usize,
+    /// The shots whose segments are recorded (1-based).
+    pub recorded_shots: &'static [u64],
+    /// Whether times are the thread's CPU time (else wall time).
+    pub thread_clock: bool,
+    /// The folder of the shared scenes, if any was needed.
+    pub folder: Option<PathBuf>,
+    /// The Python that ran Embree, if any.
+    pub embree_python: Option<PathBuf>,
+    /// One entry per scene, in the order given.
+    pub scenes: Vec<RaysScene>,
+}
+
+/// Records each scene's shadow segments and times every accelerator on
+/// them.
+///
+/// # Errors
+///
+/// If a scene is missing or does not mesh, the accelerators disagree, or
+/// Embree fails.
+pub fn rays_compute(context: &Context, scenes: &[SceneSpec]) -> Result<Rays, Error> {
     let folder = if scenes.iter().any(|s| s.shared) {
         Some(scenes_folder(context, scenes)?)
     } else {
         None
     };
-    let mut report = Report::default();
-    let repetitions = context.repetitions();
-    report.setting("repetitions (interleaved; medians)", repetitions);
-    report.setting(
-        "recorded shots",
-        format!("{:?}", recorded_shots(context.quick)),
-    );
-    report.setting(
-        "clock",
-        if thread_cpu_seconds().is_some() {
-            "the timing thread's CPU time (CLOCK_THREAD_CPUTIME_ID), so time the thread waits \
-             for a core on a shared machine does not count; Embree likewise (Python's \
-             time.thread_time)"
-        } else {
-            "wall time"
-        },
-    );
-    if let Some(folder) = &folder {
-        report.setting("scenes", folder.display());
-    }
-    report.setting(
-        "embree",
-        match &context.embree_python {
-            Some(p) => format!("{} tools/embree_rays.py", p.display()),
-            None => "not measured (give --embree-python PYTHON with embreex installed)".into(),
-        },
-    );
-    let mut segment_rows = Vec::new();
-    let mut time_rows = Vec::new();
-    let mut build_rows = Vec::new();
+    let mut measured = Vec::new();
     for spec in scenes {
         let path = match (&folder, spec.shared) {
             (Some(folder), true) => folder.join(spec.source).display().to_string(),
@@ -298,14 +317,68 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         let segments = sample(&recorded, segment_budget(context.quick));
         drop(mesh);
         let outcome = measure(context, spec.name, &scene, &segments)?;
+        measured.push(RaysScene {
+            name: spec.name,
+            surfaces: scene.surfaces.len(),
+            recorded: recorded.len(),
+            timed: segments.len(),
+            outcome,
+        });
+    }
+    Ok(Rays {
+        repetitions: context.repetitions(),
+        recorded_shots: recorded_shots(context.quick),
+        thread_clock: thread_cpu_seconds().is_some(),
+        folder,
+        embree_python: context.embree_python.clone(),
+        scenes: measured,
+    })
+}
+
+/// The experiment on the given scenes.
+pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error> {
+    Ok(rays_report(&rays_compute(context, scenes)?))
+}
+
+/// The report of `rays`: the segments, the time per ray, the builds.
+#[must_use]
+pub fn rays_report(data: &Rays) -> Report {
+    let mut report = Report::default();
+    report.setting("repetitions (interleaved; medians)", data.repetitions);
+    report.setting("recorded shots", format!("{:?}", data.recorded_shots));
+    report.setting(
+        "clock",
+        if data.thread_clock {
+            "the timing thread's CPU time (CLOCK_THREAD_CPUTIME_ID), so time the thread waits \
+             for a core on a shared machine does not count; Embree likewise (Python's \
+             time.thread_time)"
+        } else {
+            "wall time"
+        },
+    );
+    if let Some(folder) = &data.folder {
+        report.setting("scenes", folder.display());
+    }
+    report.setting(
+        "embree",
+        match &data.embree_python {
+            Some(p) => format!("{} tools/embree_rays.py", p.display()),
+            None => "not measured (give --embree-python PYTHON with embreex installed)".into(),
+        },
+    );
+    let mut segment_rows = Vec::new();
+    let mut time_rows = Vec::new();
+    let mut build_rows = Vec::new();
+    for measured in &data.scenes {
+        let outcome = &measured.outcome;
         segment_rows.push(vec![
-            spec.name.to_string(),
-            scene.surfaces.len().to_string(),
-            recorded.len().to_string(),
-            segments.len().to_string(),
+            measured.name.to_string(),
+            measured.surfaces.to_string(),
+            measured.recorded.to_string(),
+            measured.timed.to_string(),
             format!(
                 "{:.1}%",
-                100.0 * outcome.blocked as f64 / segments.len().max(1) as f64
+                100.0 * outcome.blocked as f64 / measured.timed.max(1) as f64
             ),
             outcome.brute_checked.to_string(),
             outcome
@@ -316,7 +389,7 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         let embree = outcome.embree.as_ref().map(Timing::per_ray);
         let (bsp, auto, bvh) = (ns[0], ns[1], ns[2]);
         time_rows.push(vec![
-            spec.name.to_string(),
+            measured.name.to_string(),
             format!("{bsp:.0}"),
             format!("{auto:.0}"),
             format!("{bvh:.0}"),
@@ -330,7 +403,7 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
             let stat = |key: &str| stats.iter().find(|(k, _)| *k == key).map(|(_, v)| *v);
             let text = |v: Option<usize>| v.map_or("-".to_string(), |v| v.to_string());
             build_rows.push(vec![
-                spec.name.to_string(),
+                measured.name.to_string(),
                 (*name).to_string(),
                 format!("{:.2}", outcome.ours[k].build()),
                 text(stat("nodes")),
@@ -343,7 +416,7 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         }
         if let Some(e) = &outcome.embree {
             let mut row = vec![
-                spec.name.to_string(),
+                measured.name.to_string(),
                 "embree".into(),
                 format!("{:.2}", e.build()),
             ];
@@ -411,7 +484,7 @@ pub fn rays_on(context: &Context, scenes: &[SceneSpec]) -> Result<Report, Error>
         ],
         &build_rows,
     ));
-    Ok(report)
+    report
 }
 
 /// Runs a solve (the `wong-tsang93` preset, visibility by a recording BVH)

@@ -210,6 +210,15 @@ fn find_folder(
         .ok_or(folders)
 }
 
+/// The folders looked in, for an error message: `a nor in b`.
+pub(crate) fn nor_in(looked: &[PathBuf]) -> String {
+    looked
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(" nor in ")
+}
+
 /// A file of the shared scenes (`--scenes DIR`, or `../shared/scenes`).
 pub fn shared_scene(context: &Context, relative: &str) -> Result<PathBuf, Error> {
     find_folder(context.scenes.as_deref(), &DEFAULT_SCENES, relative)
@@ -218,11 +227,7 @@ pub fn shared_scene(context: &Context, relative: &str) -> Result<PathBuf, Error>
             Error::Experiment(format!(
                 "the shared scene {relative} is not in {}: give the folder holding it with \
                  --scenes DIR",
-                looked
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(" nor in ")
+                nor_in(&looked)
             ))
         })
 }
@@ -236,11 +241,7 @@ impl Harness {
                 Error::Experiment(format!(
                     "the Radiance reference harness (score.py, reference.py) is not in {}: give \
                      its folder with --reference DIR",
-                    looked
-                        .iter()
-                        .map(|p| p.display().to_string())
-                        .collect::<Vec<_>>()
-                        .join(" nor in ")
+                    nor_in(&looked)
                 ))
             },
         )?;

@@ -46,6 +46,18 @@ pub struct ScaleScene {
     pub time_limit: u64,
 }
 
+impl ScaleScene {
+    /// The solve's time limit in seconds, shortened in quick mode.
+    #[must_use]
+    pub fn effective_time_limit(&self, quick: bool) -> u64 {
+        if quick {
+            self.time_limit.min(QUICK_TIME_LIMIT)
+        } else {
+            self.time_limit
+        }
+    }
+}
+
 /// The scenes of `radiosity experiment scale`, smallest first. The time
 /// limits let the whole experiment finish in about half an hour on two
 /// cores: the built-in scenes and the measured box converge well within
@@ -303,11 +315,7 @@ pub fn measure(
         } else {
             scene.spec.source.to_string()
         };
-        let time_limit = if context.quick {
-            scene.time_limit.min(QUICK_TIME_LIMIT)
-        } else {
-            scene.time_limit
-        };
+        let time_limit = scene.effective_time_limit(context.quick);
         let mut common = vec![
             "--time-limit".to_string(),
             time_limit.to_string(),
@@ -325,7 +333,7 @@ pub fn measure(
             ]);
         }
         for configuration in configurations(scene, context.quick) {
-            let stem = format!("scale-{}-{}", scene.spec.name, slug(&configuration.name));
+            let stem = stem(scene.spec.name, &configuration.name);
             let mut args = common.clone();
             args.extend(configuration.flags.iter().cloned());
             let (wall_seconds, result) =
@@ -340,6 +348,11 @@ pub fn measure(
         }
     }
     Ok(cases)
+}
+
+/// The file name, without extension, of a case's picture and statistics.
+fn stem(scene: &str, configuration: &str) -> String {
+    format!("scale-{scene}-{}", slug(configuration))
 }
 
 /// A configuration's name as a file name's part.
@@ -445,8 +458,39 @@ fn megabytes(bytes: Option<u64>) -> String {
     bytes.map_or("-".into(), |b| format!("{:.0}", b as f64 / 1e6))
 }
 
-/// The report: the two tables and the plot.
+/// The plot's file in the output folder.
+const PLOT_FILE: &str = "scale.svg";
+
+/// The report and its files: the Markdown of [`markdown`], the plot of
+/// [`plot`] written to `scale.svg`, and every successful case's picture and
+/// statistics (written by [`measure`]) listed.
+///
+/// # Errors
+///
+/// If the plot cannot be drawn or written.
 pub fn report(context: &Context, scenes: &[ScaleScene], cases: &[Case]) -> Result<Report, Error> {
+    let mut report = markdown(context.quick, scenes, cases);
+    let svg = plot(cases)?;
+    let path = context.path(PLOT_FILE);
+    write_file(&path, svg.as_bytes())?;
+    report.files.push(path);
+    for case in cases {
+        if case.result.is_ok() {
+            let stem = stem(case.scene, &case.configuration);
+            for extension in ["png", "json"] {
+                report
+                    .files
+                    .push(context.path(&format!("{stem}.{extension}")));
+            }
+        }
+    }
+    Ok(report)
+}
+
+/// The Markdown of the report: the settings, the two tables, and the link
+/// to the plot.
+#[must_use]
+pub fn markdown(quick: bool, scenes: &[ScaleScene], cases: &[Case]) -> Report {
     let mut report = Report::default();
     report.setting(
         "cases",
@@ -456,18 +500,11 @@ pub fn report(context: &Context, scenes: &[ScaleScene], cases: &[Case]) -> Resul
     report.setting("threads", rayon::current_num_threads());
     let limits: Vec<String> = scenes
         .iter()
-        .map(|s| {
-            let limit = if context.quick {
-                s.time_limit.min(QUICK_TIME_LIMIT)
-            } else {
-                s.time_limit
-            };
-            format!("{} {limit} s", s.spec.name)
-        })
+        .map(|s| format!("{} {} s", s.spec.name, s.effective_time_limit(quick)))
         .collect();
     report.setting("solve time limits", limits.join(", "));
     report.setting("converge", DEFAULT_CONVERGE);
-    if context.quick {
+    if quick {
         report.setting(
             "quick mode",
             format!("elements {QUICK_COARSENING} times the scene's suggested size"),
@@ -571,30 +608,15 @@ pub fn report(context: &Context, scenes: &[ScaleScene], cases: &[Case]) -> Resul
         ],
         &solve_rows,
     ));
-    let file = "scale.svg";
-    let svg = plot(cases)?;
-    let path = context.path(file);
-    write_file(&path, svg.as_bytes())?;
-    report.files.push(path);
     let _ = writeln!(
         report.body,
-        "![solve time and peak memory against faces]({file})\n"
+        "![solve time and peak memory against faces]({PLOT_FILE})\n"
     );
     report.paragraph(
         "Filled markers: converged; open markers: stopped at the time limit (the solve time \
          is then the limit, not the cost of converging).",
     );
-    for case in cases {
-        if case.result.is_ok() {
-            let stem = format!("scale-{}-{}", case.scene, slug(&case.configuration));
-            for extension in ["png", "json"] {
-                report
-                    .files
-                    .push(context.path(&format!("{stem}.{extension}")));
-            }
-        }
-    }
-    Ok(report)
+    report
 }
 
 /// Colours of the configurations, in order of appearance.

@@ -92,19 +92,57 @@ fn median_first_shot(
     (median(&mut times), stats)
 }
 
-/// Figure 2.1: the time to shoot one subsource, with ray casting for every
-/// pair and with the hemicube pre-test, on scenes of about 796 and 4,311
-/// vertices (the paper's sizes), for every accelerator.
-pub fn fig2_1(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
-    let scenes: [(&str, usize, [&str; 3]); 2] = [
-        ("cornell", 796, ["1.2", "1.2", "5.3"]),
-        ("room", 4311, ["21.6", "6.8", "12.0"]),
-    ];
-    let mut rows = Vec::new();
-    let mut counts = Vec::new();
-    let mut throughput = Vec::new();
-    for (name, target, paper) in scenes {
+/// The scenes of Figure 2.1: name, the paper's vertex count, and the paper's
+/// seconds per subsource (ray casting; pre-test with hardware and with
+/// software rasterisation).
+const FIG2_1_SCENES: [(&str, usize, [&str; 3]); 2] = [
+    ("cornell", 796, ["1.2", "1.2", "5.3"]),
+    ("room", 4311, ["21.6", "6.8", "12.0"]),
+];
+
+/// One measurement of Figure 2.1: the first shot of one scene with one
+/// visibility method and accelerator.
+#[derive(Clone, Debug)]
+pub struct FirstShot {
+    /// Scene name.
+    pub scene: &'static str,
+    /// The scene's surfaces.
+    pub surfaces: usize,
+    /// The mesh's vertices (the paper's size, approximately).
+    pub vertices: usize,
+    /// The paper's seconds per subsource: ray casting, pre-test with
+    /// hardware and with software rasterisation.
+    pub paper: [&'static str; 3],
+    /// Shadow-ray accelerator.
+    pub accel: Accel,
+    /// Visibility method.
+    pub visibility: Visibility,
+    /// Median time of the shot, in seconds.
+    pub seconds: f64,
+    /// The shot's counters (of the last repetition).
+    pub stats: Stats,
+}
+
+/// What Figure 2.1 measures: every scene, accelerator and visibility
+/// method, in that nesting order.
+#[derive(Clone, Debug)]
+pub struct Fig21 {
+    /// Repetitions of each shot (the median is kept).
+    pub repetitions: usize,
+    /// One measurement per scene, accelerator and visibility method.
+    pub shots: Vec<FirstShot>,
+}
+
+/// Times the first shot, with ray casting for every pair and with the
+/// hemicube pre-test, on scenes of about 796 and 4,311 vertices (the
+/// paper's sizes), for every accelerator.
+///
+/// # Errors
+///
+/// If a scene does not load or mesh.
+pub fn fig2_1_compute(repetitions: usize) -> Result<Fig21, Error> {
+    let mut shots = Vec::new();
+    for (name, target, paper) in FIG2_1_SCENES {
         let (scene, mesh) = meshed(name, Some(target))?;
         for accel in Accel::ALL {
             for visibility in Visibility::ALL {
@@ -114,48 +152,85 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
                     form_factor: FormFactor::Analytic,
                     ..Settings::wallace89()
                 };
-                let (time, stats) =
-                    median_first_shot(&scene, &mesh, &settings, context.repetitions());
-                let per_subsource = time / stats.subsources as f64;
-                if visibility == Visibility::Ray {
-                    throughput.push(vec![
-                        format!("{name} ({} surfaces)", scene.surfaces.len()),
-                        accel.name().to_string(),
-                        format!(
-                            "{:.2} M",
-                            stats.rays_cast as f64 / stats.ray_time.as_secs_f64() / 1e6
-                        ),
-                    ]);
-                }
-                let paper_value = match (accel, visibility) {
-                    (Accel::Brute, Visibility::Ray) => paper[0].to_string(),
-                    (Accel::Brute, Visibility::HemicubePretest) => {
-                        format!("{} (hardware), {} (software)", paper[1], paper[2])
-                    }
-                    _ => "-".to_string(),
-                };
-                rows.push(vec![
-                    format!("{name} ({} vertices)", mesh.vertices.len()),
-                    visibility.name().to_string(),
-                    accel.name().to_string(),
-                    seconds(per_subsource),
-                    paper_value,
-                ]);
-                if accel == Accel::Brute {
-                    counts.push(vec![
-                        format!("{name} ({} vertices)", mesh.vertices.len()),
-                        visibility.name().to_string(),
-                        (stats.pairs / stats.subsources).to_string(),
-                        (stats.rays_cast / stats.subsources).to_string(),
-                        (stats.pretest_visible / stats.subsources).to_string(),
-                        (stats.pretest_hidden / stats.subsources).to_string(),
-                        format!(
-                            "{:.1}%",
-                            100.0 * (1.0 - stats.rays_cast as f64 / stats.pairs.max(1) as f64)
-                        ),
-                    ]);
-                }
+                let (seconds, stats) = median_first_shot(&scene, &mesh, &settings, repetitions);
+                shots.push(FirstShot {
+                    scene: name,
+                    surfaces: scene.surfaces.len(),
+                    vertices: mesh.vertices.len(),
+                    paper,
+                    accel,
+                    visibility,
+                    seconds,
+                    stats,
+                });
             }
+        }
+    }
+    Ok(Fig21 { repetitions, shots })
+}
+
+/// Figure 2.1: the time to shoot one subsource, with ray casting for every
+/// pair and with the hemicube pre-test, on scenes of about 796 and 4,311
+/// vertices (the paper's sizes), for every accelerator.
+pub fn fig2_1(context: &Context) -> Result<Report, Error> {
+    Ok(fig2_1_report(&fig2_1_compute(context.repetitions())?))
+}
+
+/// The report of Figure 2.1: time per subsource beside the paper's, the
+/// rays the pre-test avoids, and each accelerator's ray throughput.
+#[must_use]
+pub fn fig2_1_report(data: &Fig21) -> Report {
+    let mut report = Report::default();
+    let mut rows = Vec::new();
+    let mut counts = Vec::new();
+    let mut throughput = Vec::new();
+    for shot in &data.shots {
+        let FirstShot {
+            scene: name,
+            accel,
+            visibility,
+            paper,
+            ref stats,
+            ..
+        } = *shot;
+        let per_subsource = shot.seconds / stats.subsources as f64;
+        if visibility == Visibility::Ray {
+            throughput.push(vec![
+                format!("{name} ({} surfaces)", shot.surfaces),
+                accel.name().to_string(),
+                format!(
+                    "{:.2} M",
+                    stats.rays_cast as f64 / stats.ray_time.as_secs_f64() / 1e6
+                ),
+            ]);
+        }
+        let paper_value = match (accel, visibility) {
+            (Accel::Brute, Visibility::Ray) => paper[0].to_string(),
+            (Accel::Brute, Visibility::HemicubePretest) => {
+                format!("{} (hardware), {} (software)", paper[1], paper[2])
+            }
+            _ => "-".to_string(),
+        };
+        rows.push(vec![
+            format!("{name} ({} vertices)", shot.vertices),
+            visibility.name().to_string(),
+            accel.name().to_string(),
+            seconds(per_subsource),
+            paper_value,
+        ]);
+        if accel == Accel::Brute {
+            counts.push(vec![
+                format!("{name} ({} vertices)", shot.vertices),
+                visibility.name().to_string(),
+                (stats.pairs / stats.subsources).to_string(),
+                (stats.rays_cast / stats.subsources).to_string(),
+                (stats.pretest_visible / stats.subsources).to_string(),
+                (stats.pretest_hidden / stats.subsources).to_string(),
+                format!(
+                    "{:.1}%",
+                    100.0 * (1.0 - stats.rays_cast as f64 / stats.pairs.max(1) as f64)
+                ),
+            ]);
         }
     }
     report.setting("shot", "the first shot (the brightest light), 3 x 3 subsources, analytic form factor; time per subsource = median shot time / 9, hemicube rasterisation included, accelerator build excluded (it is done once per solve)");
@@ -163,7 +238,7 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
         "hemicube resolution",
         radiosity::hemicube::DEFAULT_RESOLUTION,
     );
-    report.setting("repetitions", context.repetitions());
+    report.setting("repetitions", data.repetitions);
     report.body.push_str(&table(
         &[
             "scene",
@@ -195,7 +270,7 @@ pub fn fig2_1(context: &Context) -> Result<Report, Error> {
         &["scene", "accelerator", "rays per second per core"],
         &throughput,
     ));
-    Ok(report)
+    report
 }
 
 /// The subsource counts of Figure 5.1 and the paper's times (Figure 5.2):
@@ -244,16 +319,53 @@ fn configurations() -> Vec<(&'static str, Settings)> {
     ]
 }
 
-/// Figure 5.2: solve times at 9, 48 and 72 subsources.
-pub fn fig5_2(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
+/// One configuration's solves in Figure 5.2.
+#[derive(Clone, Debug)]
+pub struct Fig52Configuration {
+    /// Its name (see `configurations`).
+    pub label: &'static str,
+    /// Median solve time in seconds at each of the paper's steps.
+    pub seconds: Vec<f64>,
+    /// Shots at each step.
+    pub shots: Vec<u64>,
+}
+
+/// What Figure 5.2 measures: solve times of every configuration at 9, 48
+/// and 72 subsources, and wong-tsang93's at 72 by thread count.
+#[derive(Clone, Debug)]
+pub struct Fig52 {
+    /// The room's surfaces.
+    pub surfaces: usize,
+    /// Its patches.
+    pub patches: usize,
+    /// Its elements.
+    pub elements: usize,
+    /// Its vertices.
+    pub vertices: usize,
+    /// Repetitions of every solve (interleaved; the median is kept).
+    pub repetitions: usize,
+    /// One entry per configuration, wallace89 first.
+    pub configurations: Vec<Fig52Configuration>,
+    /// wong-tsang93 at 72 subsources: (threads, median seconds), one
+    /// thread first.
+    pub threads: Vec<(usize, f64)>,
+}
+
+/// Solves the room with every configuration up to each of the paper's
+/// subsource counts, and wong-tsang93 at 72 on one thread and on the pool
+/// in use.
+///
+/// # Errors
+///
+/// If the room does not load or mesh, or a thread pool cannot be built.
+pub fn fig5_2_compute(repetitions: usize) -> Result<Fig52, Error> {
     let (scene, mesh) = meshed("room", None)?;
     let configurations = configurations();
     // Repetitions interleave every configuration and step, so drift in the
     // machine's speed (it is shared) falls on all of them alike.
     let mut samples = vec![vec![Vec::new(); PAPER_STEPS.len()]; configurations.len()];
     let mut shots = vec![vec![0; PAPER_STEPS.len()]; configurations.len()];
-    for _ in 0..context.repetitions() {
+    for _ in 0..repetitions {
         for (c, (_, base)) in configurations.iter().enumerate() {
             for (s, (subsources, ..)) in PAPER_STEPS.iter().enumerate() {
                 let settings = Settings {
@@ -267,28 +379,90 @@ pub fn fig5_2(context: &Context) -> Result<Report, Error> {
             }
         }
     }
-    let mut rows = Vec::new();
-    let mut ratios = Vec::new();
-    let mut totals = Vec::new();
-    for (c, (label, _)) in configurations.iter().enumerate() {
-        let mut row = vec![label.to_string()];
-        let mut times = Vec::new();
-        for s in 0..PAPER_STEPS.len() {
-            let time = median(&mut samples[c][s]);
-            row.push(format!("{} ({} shots)", seconds(time), shots[c][s]));
-            times.push(time);
+    let solves = configurations
+        .iter()
+        .zip(&mut samples)
+        .zip(shots)
+        .map(|(((label, _), samples), shots)| Fig52Configuration {
+            label,
+            seconds: samples.iter_mut().map(|s| median(s)).collect(),
+            shots,
+        })
+        .collect();
+
+    // Threads: the 72-subsource solve of wong-tsang93 on one thread and on
+    // the pool in use.
+    let settings = Settings {
+        max_subsources: Some(72),
+        converge: 0.0,
+        ..Settings::wong_tsang93()
+    };
+    let all = rayon::current_num_threads();
+    let pools = [1, all]
+        .into_iter()
+        .map(|threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map(|pool| (threads, pool))
+                .map_err(|e| Error::Experiment(format!("a pool of {threads} threads: {e}")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut thread_samples = vec![Vec::new(); pools.len()];
+    for _ in 0..repetitions {
+        for ((_, pool), samples) in pools.iter().zip(&mut thread_samples) {
+            samples.push(pool.install(|| timed_solve(&scene, &mesh, &settings).1));
         }
-        totals.push((*label, times));
-        rows.push(row);
     }
-    let wallace = &totals[0].1;
-    for (label, times) in &totals {
-        let mut row = vec![label.to_string()];
-        for (w, t) in wallace.iter().zip(times) {
-            row.push(format!("{:.2}x", w / t));
-        }
-        ratios.push(row);
-    }
+    let threads = pools
+        .iter()
+        .zip(&mut thread_samples)
+        .map(|((threads, _), samples)| (*threads, median(samples)))
+        .collect();
+    Ok(Fig52 {
+        surfaces: scene.surfaces.len(),
+        patches: mesh.patches.len(),
+        elements: mesh.elements.len(),
+        vertices: mesh.vertices.len(),
+        repetitions,
+        configurations: solves,
+        threads,
+    })
+}
+
+/// Figure 5.2: solve times at 9, 48 and 72 subsources.
+pub fn fig5_2(context: &Context) -> Result<Report, Error> {
+    Ok(fig5_2_report(&fig5_2_compute(context.repetitions())?))
+}
+
+/// The report of Figure 5.2: solve times, speed-ups over wallace89, the
+/// paper's times, and the speed-up from threads.
+#[must_use]
+pub fn fig5_2_report(data: &Fig52) -> Report {
+    let mut report = Report::default();
+    let rows: Vec<Vec<String>> = data
+        .configurations
+        .iter()
+        .map(|configuration| {
+            let mut row = vec![configuration.label.to_string()];
+            for (time, shots) in configuration.seconds.iter().zip(&configuration.shots) {
+                row.push(format!("{} ({shots} shots)", seconds(*time)));
+            }
+            row
+        })
+        .collect();
+    let wallace = &data.configurations[0].seconds;
+    let ratios: Vec<Vec<String>> = data
+        .configurations
+        .iter()
+        .map(|configuration| {
+            let mut row = vec![configuration.label.to_string()];
+            for (w, t) in wallace.iter().zip(&configuration.seconds) {
+                row.push(format!("{:.2}x", w / t));
+            }
+            row
+        })
+        .collect();
     let mut paper = vec![
         vec!["wallace89 (paper)".to_string()],
         vec!["wong-tsang93 (paper)".to_string()],
@@ -309,20 +483,14 @@ pub fn fig5_2(context: &Context) -> Result<Report, Error> {
         "scene",
         format!(
             "room: {} surfaces, {} patches, {} elements, {} vertices",
-            scene.surfaces.len(),
-            mesh.patches.len(),
-            mesh.elements.len(),
-            mesh.vertices.len()
+            data.surfaces, data.patches, data.elements, data.vertices
         ),
     );
     report.setting(
         "subsources per shot",
         "3 x 3 (the solve stops once the count is reached, so 48 means 6 shots = 54 subsources)",
     );
-    report.setting(
-        "repetitions",
-        format!("{} (interleaved)", context.repetitions()),
-    );
+    report.setting("repetitions", format!("{} (interleaved)", data.repetitions));
     report.paragraph("Solve time in seconds (median; solver construction, including the BSP build, and all shots):");
     report.body.push_str(&table(&headers, &rows));
     report.paragraph("Speed-up over wallace89:");
@@ -330,42 +498,15 @@ pub fn fig5_2(context: &Context) -> Result<Report, Error> {
     report.paragraph("The paper's Figure 5.2 (seconds on an SGI IRIS Indigo):");
     report.body.push_str(&table(&headers, &paper));
 
-    // Threads: the 72-subsource solve of wong-tsang93 on one thread and on
-    // the pool in use.
-    let settings = Settings {
-        max_subsources: Some(72),
-        converge: 0.0,
-        ..Settings::wong_tsang93()
-    };
-    let all = rayon::current_num_threads();
-    let pools = [1, all]
-        .into_iter()
-        .map(|threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .map(|pool| (threads, pool))
-                .map_err(|e| Error::Output {
-                    path: context.out.clone(),
-                    source: std::io::Error::other(e),
-                })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut thread_samples = vec![Vec::new(); pools.len()];
-    for _ in 0..context.repetitions() {
-        for ((_, pool), samples) in pools.iter().zip(&mut thread_samples) {
-            samples.push(pool.install(|| timed_solve(&scene, &mesh, &settings).1));
-        }
-    }
-    let medians: Vec<f64> = thread_samples.iter_mut().map(|s| median(s)).collect();
-    let thread_rows: Vec<Vec<String>> = pools
+    let one_thread = data.threads[0].1;
+    let thread_rows: Vec<Vec<String>> = data
+        .threads
         .iter()
-        .zip(&medians)
-        .map(|((threads, _), time)| {
+        .map(|(threads, time)| {
             vec![
                 threads.to_string(),
                 seconds(*time),
-                format!("{:.2}x", medians[0] / time),
+                format!("{:.2}x", one_thread / time),
             ]
         })
         .collect();
@@ -373,7 +514,7 @@ pub fn fig5_2(context: &Context) -> Result<Report, Error> {
     report
         .body
         .push_str(&table(&["threads", "seconds", "speed-up"], &thread_rows));
-    Ok(report)
+    report
 }
 
 /// Draws the room's display radiosity with a given exposure.
@@ -405,27 +546,57 @@ fn write_png(
     Ok(path)
 }
 
-/// Figure 5.1: the room after 9, 48 and 72 subsources, by both methods,
-/// side by side with their difference.
-pub fn fig5_1(context: &Context) -> Result<Report, Error> {
-    let mut report = Report::default();
+/// One row of Figure 5.1: both methods after `subsources` subsources.
+pub struct Fig51Step {
+    /// Subsources shot.
+    pub subsources: u64,
+    /// The paper's sources at this step.
+    pub sources: u32,
+    /// Shots of wong-tsang93.
+    pub shots: u64,
+    /// wong-tsang93's picture (linear radiance).
+    pub ours: Image,
+    /// wallace89's picture.
+    pub theirs: Image,
+    /// Mean and maximum per-vertex difference of the displayed luminance,
+    /// relative to the mean over non-emitting vertices.
+    pub vertex: (f64, f64),
+    /// Per-pixel difference of the pictures.
+    pub pixel: PixelDifference,
+}
+
+/// What Figure 5.1 shows: the room by both methods at each of the paper's
+/// steps, in the paper's order, and the one exposure of every picture.
+pub struct Fig51 {
+    /// Picture width in pixels.
+    pub width: u32,
+    /// Picture height in pixels.
+    pub height: u32,
+    /// The auto-exposure of wong-tsang93 at the largest count.
+    pub exposure: f64,
+    /// One step per row (9, 48, 72 subsources).
+    pub steps: Vec<Fig51Step>,
+}
+
+/// Solves the room with wong-tsang93 and wallace89 up to each of the
+/// paper's subsource counts and renders both.
+///
+/// # Errors
+///
+/// If the room does not load or mesh.
+pub fn fig5_1_compute(quick: bool) -> Result<Fig51, Error> {
     let (scene, mesh) = meshed("room", None)?;
-    let (width, height) = if context.quick {
-        (160, 120)
-    } else {
-        (480, 360)
-    };
-    let mut rows = Vec::new();
+    let (width, height) = if quick { (160, 120) } else { (480, 360) };
+    let mut steps = Vec::new();
     let mut exposure = None;
-    let mut sheet: Vec<Vec<u8>> = Vec::new();
     // Largest count first so its exposure serves every picture.
-    for (subsources, .., sources) in PAPER_STEPS.iter().rev() {
+    for &(subsources, .., sources) in PAPER_STEPS.iter().rev() {
         let solve = |settings: Settings| {
             timed_solve(
                 &scene,
                 &mesh,
                 &Settings {
-                    max_subsources: Some(*subsources),
+                    max_subsources: Some(subsources),
                     converge: 0.0,
                     ..settings
                 },
@@ -435,53 +606,99 @@ pub fn fig5_1(context: &Context) -> Result<Report, Error> {
         let (theirs, _) = solve(Settings::wallace89());
         let ours_image = picture(&scene, &mesh, &ours, width, height);
         let theirs_image = picture(&scene, &mesh, &theirs, width, height);
-        let scale =
-            *exposure.get_or_insert_with(|| ours_image.exposure_scale(Exposure::Auto { ev: 0.0 }));
-        let difference = difference_image(&ours_image, &theirs_image, scale);
-        let mut strip = Vec::new();
-        for (label, image) in [("wong-tsang93", &ours_image), ("wallace89", &theirs_image)] {
-            let rgb = image.to_srgb8(scale);
-            report.files.push(write_png(
-                context,
-                &format!("fig5-1-{label}-{subsources}.png"),
-                width,
-                height,
-                &rgb,
-            )?);
-            strip.push(rgb);
-        }
-        report.files.push(write_png(
-            context,
-            &format!("fig5-1-difference-{subsources}.png"),
+        exposure.get_or_insert_with(|| ours_image.exposure_scale(Exposure::Auto { ev: 0.0 }));
+        steps.push(Fig51Step {
+            subsources,
+            sources,
+            shots: ours.stats().shots,
+            pixel: pixel_difference(&ours_image, &theirs_image),
+            vertex: vertex_difference(&scene, &mesh, &ours, &theirs),
+            ours: ours_image,
+            theirs: theirs_image,
+        });
+    }
+    steps.reverse();
+    Ok(Fig51 {
+        width,
+        height,
+        exposure: exposure.unwrap_or(1.0),
+        steps,
+    })
+}
+
+/// An 8-bit RGB picture to write: file name, width, height, pixels.
+pub type Rgb8 = (String, u32, u32, Vec<u8>);
+
+/// The pictures of Figure 5.1, largest count first: each step's
+/// wong-tsang93, wallace89 and difference pictures, then `fig5-1.png`,
+/// every step's three side by side, one row per step.
+#[must_use]
+pub fn fig5_1_plot(data: &Fig51) -> Vec<Rgb8> {
+    let (width, height) = (data.width, data.height);
+    let mut pictures = Vec::new();
+    let mut sheet: Vec<Vec<u8>> = Vec::new();
+    for step in data.steps.iter().rev() {
+        let subsources = step.subsources;
+        let difference = difference_picture(&step.ours, &step.theirs, data.exposure);
+        let strip = [
+            ("wong-tsang93", step.ours.to_srgb8(data.exposure)),
+            ("wallace89", step.theirs.to_srgb8(data.exposure)),
+            ("difference", difference),
+        ];
+        sheet.push(side_by_side(
+            &strip.each_ref().map(|(_, rgb)| rgb.as_slice()),
             width,
             height,
-            &difference.1,
-        )?);
-        strip.push(difference.1);
-        sheet.push(side_by_side(&strip, width, height));
-
-        let (vertex_mean, vertex_max) = vertex_difference(&scene, &mesh, &ours, &theirs);
-        rows.push(vec![
-            format!(
-                "{subsources} ({} shots; paper: {sources} sources)",
-                ours.stats().shots
-            ),
-            format!("{:.2}%", 100.0 * vertex_mean),
-            format!("{:.2}%", 100.0 * vertex_max),
-            format!("{:.2}%", 100.0 * difference.0.mean),
-            format!("{:.2}%", 100.0 * difference.0.p99),
-        ]);
+        ));
+        for (label, rgb) in strip {
+            pictures.push((
+                format!("fig5-1-{label}-{subsources}.png"),
+                width,
+                height,
+                rgb,
+            ));
+        }
     }
-    rows.reverse();
     sheet.reverse();
-    let sheet: Vec<u8> = sheet.concat();
-    report.files.push(write_png(
-        context,
-        "fig5-1.png",
-        width * 3,
-        height * 3,
-        &sheet,
-    )?);
+    pictures.push(("fig5-1.png".into(), width * 3, height * 3, sheet.concat()));
+    pictures
+}
+
+/// Figure 5.1: the room after 9, 48 and 72 subsources, by both methods,
+/// side by side with their difference.
+pub fn fig5_1(context: &Context) -> Result<Report, Error> {
+    let data = fig5_1_compute(context.quick)?;
+    let mut report = fig5_1_report(&data);
+    for (name, width, height, rgb) in fig5_1_plot(&data) {
+        report
+            .files
+            .push(write_png(context, &name, width, height, &rgb)?);
+    }
+    Ok(report)
+}
+
+/// The report of Figure 5.1: the picture and the table of differences.
+#[must_use]
+pub fn fig5_1_report(data: &Fig51) -> Report {
+    let mut report = Report::default();
+    let (width, height) = (data.width, data.height);
+    let rows: Vec<Vec<String>> = data
+        .steps
+        .iter()
+        .map(|step| {
+            let (vertex_mean, vertex_max) = step.vertex;
+            vec![
+                format!(
+                    "{} ({} shots; paper: {} sources)",
+                    step.subsources, step.shots, step.sources
+                ),
+                format!("{:.2}%", 100.0 * vertex_mean),
+                format!("{:.2}%", 100.0 * vertex_max),
+                format!("{:.2}%", 100.0 * step.pixel.mean),
+                format!("{:.2}%", 100.0 * step.pixel.p99),
+            ]
+        })
+        .collect();
     report.setting("pictures", format!("{width} x {height}, 2 x 2 supersampling, one exposure for all (auto-exposure of wong-tsang93 at 72)"));
     report.paragraph(
         "Rows: after 9, 48 and 72 subsources. Columns: wong-tsang93 (the paper's left \
@@ -504,18 +721,19 @@ pub fn fig5_1(context: &Context) -> Result<Report, Error> {
         ],
         &rows,
     ));
-    Ok(report)
+    report
 }
 
 /// Mean and 99th percentile of a per-pixel relative difference.
-struct PixelDifference {
-    mean: f64,
-    p99: f64,
+pub struct PixelDifference {
+    /// Mean of `|a - b| / mean(a)` in luminance.
+    pub mean: f64,
+    /// Its 99th percentile.
+    pub p99: f64,
 }
 
-/// |a - b| in luminance relative to a's mean luminance, and the difference
-/// picture (x8, grey).
-fn difference_image(a: &Image, b: &Image, scale: f64) -> (PixelDifference, Vec<u8>) {
+/// |a - b| in luminance relative to a's mean luminance, per pixel.
+fn pixel_difference(a: &Image, b: &Image) -> PixelDifference {
     let lum = |p: Vec3| luminance(p.as_dvec3());
     let mean_a = a.pixels.iter().map(|p| lum(*p)).sum::<f64>() / a.pixels.len() as f64;
     let mut relative: Vec<f64> = a
@@ -524,8 +742,17 @@ fn difference_image(a: &Image, b: &Image, scale: f64) -> (PixelDifference, Vec<u
         .zip(&b.pixels)
         .map(|(p, q)| (lum(*p) - lum(*q)).abs() / mean_a.max(1e-30))
         .collect();
-    let picture: Vec<u8> = a
-        .pixels
+    let mean = relative.iter().sum::<f64>() / relative.len() as f64;
+    let k = ((relative.len() - 1) as f64 * 0.99) as usize;
+    let (_, p99, _) = relative.select_nth_unstable_by(k, f64::total_cmp);
+    PixelDifference { mean, p99: *p99 }
+}
+
+/// The difference picture: |a - b| in luminance at exposure `scale`, x8,
+/// grey.
+fn difference_picture(a: &Image, b: &Image, scale: f64) -> Vec<u8> {
+    let lum = |p: Vec3| luminance(p.as_dvec3());
+    a.pixels
         .iter()
         .zip(&b.pixels)
         .flat_map(|(p, q)| {
@@ -533,11 +760,7 @@ fn difference_image(a: &Image, b: &Image, scale: f64) -> (PixelDifference, Vec<u
             let v = (255.0 * d.powf(1.0 / 2.2)) as u8;
             [v, v, v]
         })
-        .collect();
-    let mean = relative.iter().sum::<f64>() / relative.len() as f64;
-    let k = ((relative.len() - 1) as f64 * 0.99) as usize;
-    let (_, p99, _) = relative.select_nth_unstable_by(k, f64::total_cmp);
-    (PixelDifference { mean, p99: *p99 }, picture)
+        .collect()
 }
 
 /// Mean and maximum per-vertex difference of displayed luminance, relative
@@ -561,7 +784,7 @@ fn vertex_difference(scene: &Scene, mesh: &Mesh, a: &Solver<'_>, b: &Solver<'_>)
 }
 
 /// Places equally sized RGB pictures left to right.
-fn side_by_side(pictures: &[Vec<u8>], width: u32, height: u32) -> Vec<u8> {
+fn side_by_side(pictures: &[&[u8]], width: u32, height: u32) -> Vec<u8> {
     let row = 3 * width as usize;
     let mut out = Vec::with_capacity(pictures.len() * row * height as usize);
     for y in 0..height as usize {

@@ -11,12 +11,15 @@
 //! The reference takes minutes for each new mesh (it is cached by mesh in
 //! `$REFCACHE`, default `/tmp/reference-cache`); the solves take seconds.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
 
-use super::plot::{self, BLACK, Canvas, ColourMap, GREY, Scale, WHITE};
+use plotters::prelude::{Circle, Color, RGBColor};
+
+use super::plot::{self, BLACK, ColourMap, GREY, Picture, Scale};
 use super::reference::{self, Harness};
 use super::{Context, Error, Report, table, write_file};
 use radiosity::accel::{self, Accel};
@@ -219,24 +222,24 @@ pub struct ErrorPoint {
     pub relative: Option<f64>,
 }
 
-/// Rows above an error picture's view, for its title.
-pub const TITLE_HEIGHT: usize = 24;
-
 /// Draws `points` as dots on the solution, rendered with our rasteriser
-/// from `camera` and shown in light grey, with `title` above; points the
-/// camera does not see (behind a surface, facing away, out of view) are
-/// left out. The dot colour is [`ColourMap::Diverging`] over
-/// `+-ERROR_RANGE`: blue too dark, white right, red too bright.
-#[must_use]
+/// from `camera` and shown in light grey; points the camera does not see
+/// (behind a surface, facing away, out of view) are left out. The dot
+/// colour is [`ColourMap::Diverging`] over `+-ERROR_RANGE`: blue too dark,
+/// white right, red too bright. The picture is `size` pixels; its title
+/// goes into the report.
+///
+/// # Errors
+///
+/// If plotting fails.
 pub fn error_picture(
     scene: &Scene,
     mesh: &Mesh,
     display: &[DVec3],
     camera: Camera,
     points: &[ErrorPoint],
-    title: &str,
     size: (u32, u32),
-) -> Canvas {
+) -> Result<Picture, Error> {
     let (width, height) = size;
     let image = render::render(
         scene,
@@ -250,26 +253,20 @@ pub fn error_picture(
         },
     );
     let srgb = image.to_srgb8(image.exposure_scale(Exposure::Auto { ev: 0.0 }));
-    let title_height = TITLE_HEIGHT;
-    let (w, h) = (width as usize, height as usize);
-    let mut canvas = Canvas::new(w, h + title_height, WHITE);
-    let font = if plot::text_width(title, 2) + 8 <= w {
-        2
-    } else {
-        1
+    // Lightened grey, so the dots' colours stand out.
+    let grey: Vec<u8> = srgb
+        .chunks_exact(3)
+        .flat_map(|c| {
+            let luma =
+                0.2126 * f64::from(c[0]) + 0.7152 * f64::from(c[1]) + 0.0722 * f64::from(c[2]);
+            [(110.0 + 0.55 * luma).round() as u8; 3]
+        })
+        .collect();
+    let background = Picture {
+        width: width as usize,
+        height: height as usize,
+        rgb: grey,
     };
-    canvas.text(4, 5, title, font, BLACK);
-    for y in 0..h {
-        for x in 0..w {
-            let i = 3 * (y * w + x);
-            let luma = 0.2126 * f64::from(srgb[i])
-                + 0.7152 * f64::from(srgb[i + 1])
-                + 0.0722 * f64::from(srgb[i + 2]);
-            // Lightened grey, so the dots' colours stand out.
-            let g = (110.0 + 0.55 * luma).round() as u8;
-            canvas.set(x as i64, (y + title_height) as i64, [g, g, g]);
-        }
-    }
     let occluder = Accel::Bvh.build(&scene.surfaces);
     let forward = (camera.target - camera.eye).normalize();
     let right = forward.cross(camera.up).normalize();
@@ -303,53 +300,50 @@ pub fn error_picture(
     }
     // Far dots first, so near ones are drawn over them.
     visible.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let radius = (f64::from(width) / 160.0).max(2.0);
-    for (_, x, y, colour) in visible {
-        disc(&mut canvas, x, y + title_height as f64, radius + 1.0, BLACK);
-        disc(&mut canvas, x, y + title_height as f64, radius, colour);
-    }
-    canvas
-}
-
-/// Fills a disc of `radius` pixels centred at `(x, y)`.
-fn disc(canvas: &mut Canvas, x: f64, y: f64, radius: f64, colour: plot::Rgb) {
-    let r = radius.ceil() as i64;
-    let (cx, cy) = (x.floor() as i64, y.floor() as i64);
-    for dy in -r..=r {
-        for dx in -r..=r {
-            let (px, py) = (cx + dx, cy + dy);
-            let (fx, fy) = (px as f64 + 0.5 - x, py as f64 + 0.5 - y);
-            if fx * fx + fy * fy <= radius * radius {
-                canvas.set(px, py, colour);
+    let radius = (f64::from(width) / 160.0).max(2.0).round() as u32;
+    Picture::draw(background.width, background.height, |area| {
+        background.blit(area, 0, 0)?;
+        for (_, x, y, colour) in visible {
+            let centre = (x.floor() as i32, y.floor() as i32);
+            for (r, c) in [(radius + 1, BLACK), (radius, colour)] {
+                area.draw(&Circle::new(centre, r, RGBColor(c[0], c[1], c[2]).filled()))
+                    .map_err(|e| Error::Experiment(format!("plot: {e}")))?;
             }
         }
-    }
+        Ok(())
+    })
 }
 
-/// The colour bar of the error pictures, `height` pixels tall.
-#[must_use]
-pub fn error_bar(height: usize) -> Canvas {
+/// The error pictures of one scene side by side, one per preset, with the
+/// colour bar of [`ERROR_RANGE`] on the right (tick marks at -100%, -50%,
+/// 0, 50% and 100% of it).
+///
+/// # Errors
+///
+/// If plotting fails.
+pub fn error_pictures(panels: &[Picture]) -> Result<Picture, Error> {
+    const GAP: usize = 6;
+    const BAR: usize = 40;
+    let cells: Vec<Option<&Picture>> = panels.iter().map(Some).collect();
+    let grid = plot::grid(&cells, cells.len(), GAP)?;
     let ticks: Vec<plot::Tick> = [-1.0, -0.5, 0.0, 0.5, 1.0]
         .iter()
-        .map(|&f| {
-            let v = f * ERROR_RANGE;
-            let label = if v == 0.0 {
-                "0".to_string()
-            } else {
-                format!("{:+.0}%", 100.0 * v)
-            };
-            (v, label)
-        })
+        .map(|&f| (f * ERROR_RANGE, String::new()))
         .collect();
-    plot::colour_bar(
-        ColourMap::Diverging,
-        Scale::Linear {
-            min: -ERROR_RANGE,
-            max: ERROR_RANGE,
-        },
-        &ticks,
-        height,
-    )
+    Picture::draw(grid.width + BAR, grid.height, |area| {
+        grid.blit(area, 0, 0)?;
+        plot::colour_bar(
+            area,
+            (grid.width + GAP, 2 * GAP),
+            ColourMap::Diverging,
+            Scale::Linear {
+                min: -ERROR_RANGE,
+                max: ERROR_RANGE,
+            },
+            &ticks,
+            grid.height - 4 * GAP,
+        )
+    })
 }
 
 /// Percent with two decimals.
@@ -371,15 +365,152 @@ pub fn seconds(s: f64) -> String {
     }
 }
 
-/// `radiosity experiment validate`.
-pub fn validate(context: &Context) -> Result<Report, Error> {
-    let harness = Harness::find(context)?;
-    let accuracy = if context.quick { "medium" } else { "high" };
+/// One scene solved with one preset and scored against the reference.
+pub struct Validated {
+    /// The scene.
+    pub case: SceneCase,
+    /// The preset's name.
+    pub preset: &'static str,
+    /// The solution.
+    pub solved: Solved,
+    /// What the harness sampled and `score.py` said.
+    pub scored: reference::Scored,
+    /// Our score of the same points (checked against `scored`).
+    pub ours: reference::Score,
+}
+
+/// The reference's accuracy: `high`, or `medium` in quick mode.
+fn accuracy(context: &Context) -> &'static str {
+    if context.quick { "medium" } else { "high" }
+}
+
+/// Solves every scene (only the built-in Cornell box in quick mode) with
+/// each preset, writes its vertices CSV (`validate-SCENE-PRESET.csv`) and
+/// has the harness score it (`.json` beside it); checks our score against
+/// `score.py`'s.
+///
+/// # Errors
+///
+/// If a scene does not load, the harness fails, or the scores disagree.
+pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Validated>, Error> {
     let cases: &[SceneCase] = if context.quick {
         &SCENES[1..2]
     } else {
         &SCENES
     };
+    let mut results = Vec::new();
+    for case in cases {
+        let path = scene_file(context, case)?;
+        for (preset, settings) in presets() {
+            let solved = solve(&path, &settings, None, &[])?;
+            let stem = format!("validate-{}-{preset}", case.name);
+            let csv = context.path(&format!("{stem}.csv"));
+            write_vertices(&csv, &solved)?;
+            let scored = harness.score(
+                &path,
+                &csv,
+                accuracy(context),
+                &context.path(&format!("{stem}.json")),
+            )?;
+            let b: Vec<DVec3> = scored.rows.iter().map(|&r| solved.radiosity[r]).collect();
+            let ours = reference::score(&b, &scored.reference);
+            ours.check_against(&scored, &format!("{} {preset}", case.name))?;
+            results.push(Validated {
+                case: *case,
+                preset,
+                solved,
+                scored,
+                ours,
+            });
+        }
+    }
+    Ok(results)
+}
+
+/// The error picture of one scene: its results' panels (see
+/// [`error_picture`]) side by side with the colour bar.
+///
+/// # Errors
+///
+/// If plotting fails.
+pub fn validate_plot(results: &[&Validated], size: (u32, u32)) -> Result<Picture, Error> {
+    let panels = results
+        .iter()
+        .map(|v| {
+            let points: Vec<ErrorPoint> = v
+                .scored
+                .rows
+                .iter()
+                .zip(&v.ours.relative)
+                .map(|(&r, relative)| {
+                    let vertex = &v.solved.mesh.vertices[r];
+                    ErrorPoint {
+                        position: vertex.position,
+                        normal: vertex.normal,
+                        group: vertex.group,
+                        relative: *relative,
+                    }
+                })
+                .collect();
+            error_picture(
+                &v.solved.scene,
+                &v.solved.mesh,
+                &v.solved.display,
+                camera_of(&v.case, &v.solved.scene),
+                &points,
+                size,
+            )
+        })
+        .collect::<Result<Vec<_>, Error>>()?;
+    error_pictures(&panels)
+}
+
+/// The results of each scene, in order.
+fn by_scene(results: &[Validated]) -> Vec<Vec<&Validated>> {
+    let mut scenes: Vec<Vec<&Validated>> = Vec::new();
+    for v in results {
+        match scenes.last_mut() {
+            Some(last) if last[0].case.name == v.case.name => last.push(v),
+            _ => scenes.push(vec![v]),
+        }
+    }
+    scenes
+}
+
+/// The picture file of a scene.
+fn picture_file(case: &SceneCase) -> String {
+    format!("validate-{}.png", case.name)
+}
+
+/// `radiosity experiment validate`: [`validate_compute`], a picture per
+/// scene ([`validate_plot`]) and [`validate_report`].
+pub fn validate(context: &Context) -> Result<Report, Error> {
+    let harness = Harness::find(context)?;
+    let results = validate_compute(context, &harness)?;
+    let mut report = validate_report(context, &harness, &results);
+    let size = if context.quick {
+        (240, 180)
+    } else {
+        (480, 360)
+    };
+    for scene in by_scene(&results) {
+        let path = context.path(&picture_file(&scene[0].case));
+        validate_plot(&scene, size)?
+            .write_png(&path)
+            .map_err(|source| Error::Output {
+                path: path.clone(),
+                source,
+            })?;
+        report.files.push(path);
+    }
+    Ok(report)
+}
+
+/// The report of `validate`: the settings, the table of scores and the
+/// error pictures with their panels' titles.
+#[must_use]
+pub fn validate_report(context: &Context, harness: &Harness, results: &[Validated]) -> Report {
+    let accuracy = accuracy(context);
     let mut report = Report::default();
     report.setting("reference harness", harness.dir.display());
     report.setting(
@@ -394,28 +525,13 @@ pub fn validate(context: &Context) -> Result<Report, Error> {
         "adaptive (the default) and wong-tsang93 (the paper's), each at its default settings",
     );
     report.setting("threads", rayon::current_num_threads());
-    let mut rows = Vec::new();
-    let mut pictures = Vec::new();
-    for case in cases {
-        let path = scene_file(context, case)?;
-        let mut panels = Vec::new();
-        for (preset, settings) in presets() {
-            let solved = solve(&path, &settings, None, &[])?;
-            let stem = format!("validate-{}-{preset}", case.name);
-            let csv = context.path(&format!("{stem}.csv"));
-            write_vertices(&csv, &solved)?;
-            let scored = harness.score(
-                &path,
-                &csv,
-                accuracy,
-                &context.path(&format!("{stem}.json")),
-            )?;
-            let b: Vec<DVec3> = scored.rows.iter().map(|&r| solved.radiosity[r]).collect();
-            let ours = reference::score(&b, &scored.reference);
-            ours.check_against(&scored, &format!("{} {preset}", case.name))?;
-            rows.push(vec![
-                case.name.to_string(),
-                preset.to_string(),
+    let rows: Vec<Vec<String>> = results
+        .iter()
+        .map(|v| {
+            let (solved, ours) = (&v.solved, &v.ours);
+            vec![
+                v.case.name.to_string(),
+                v.preset.to_string(),
                 solved.mesh.vertices.len().to_string(),
                 percent(ours.l1),
                 signed_percent(ours.bias),
@@ -423,54 +539,12 @@ pub fn validate(context: &Context) -> Result<Report, Error> {
                 percent(ours.p90),
                 format!("{} / {:.2}%", solved.shots, 100.0 * solved.unshot),
                 seconds(solved.solve_seconds),
-                scored.reference_seconds.map_or_else(|| "-".into(), seconds),
-            ]);
-            let points: Vec<ErrorPoint> = scored
-                .rows
-                .iter()
-                .zip(&ours.relative)
-                .map(|(&r, relative)| {
-                    let v = &solved.mesh.vertices[r];
-                    ErrorPoint {
-                        position: v.position,
-                        normal: v.normal,
-                        group: v.group,
-                        relative: *relative,
-                    }
-                })
-                .collect();
-            let title = format!("{} {preset}: L1 {}", case.name, percent(ours.l1));
-            panels.push(error_picture(
-                &solved.scene,
-                &solved.mesh,
-                &solved.display,
-                camera_of(case, &solved.scene),
-                &points,
-                &title,
-                if context.quick {
-                    (240, 180)
-                } else {
-                    (480, 360)
-                },
-            ));
-        }
-        let bar = error_bar(panels[0].height - 40);
-        let cells: Vec<Option<&Canvas>> = panels.iter().map(Some).collect();
-        let grid = Canvas::grid(&cells, cells.len(), 6, WHITE);
-        let mut picture = Canvas::new(grid.width + bar.width + 12, grid.height, WHITE);
-        picture.draw(&grid, 0, 0);
-        picture.draw(&bar, (grid.width + 6) as i64, 20);
-        let file = format!("validate-{}.png", case.name);
-        let picture_path = context.path(&file);
-        picture
-            .write_png(&picture_path)
-            .map_err(|source| Error::Output {
-                path: picture_path.clone(),
-                source,
-            })?;
-        report.files.push(picture_path);
-        pictures.push((case.name, file));
-    }
+                v.scored
+                    .reference_seconds
+                    .map_or_else(|| "-".into(), seconds),
+            ]
+        })
+        .collect();
     report.body.push_str(&table(
         &[
             "scene",
@@ -497,12 +571,22 @@ pub fn validate(context: &Context) -> Result<Report, Error> {
     report.paragraph(
         "Error pictures: each sampled vertex the scene's camera sees, as a dot coloured by B / \
          Bref - 1 (blue: too dark, white: right, red: too bright; the bar spans -20% to +20%, \
-         beyond which the end colours stay), on the solution in grey. Grey dots: vertices \
+         tick marks every 10%, beyond which the end colours stay), on the solution in grey. Grey dots: vertices \
          darker than 2% of the 95th percentile, which score.py leaves out of the median and \
          p90. The measured Cornell box is seen from the built-in box's camera.",
     );
-    for (name, file) in pictures {
-        report.body.push_str(&format!("![{name}]({file})\n\n"));
+    for scene in by_scene(results) {
+        let titles: Vec<String> = scene
+            .iter()
+            .map(|v| format!("{} (L1 {})", v.preset, percent(v.ours.l1)))
+            .collect();
+        let name = scene[0].case.name;
+        let _ = write!(
+            report.body,
+            "{name}, left to right: {}.\n\n![{name}]({})\n\n",
+            titles.join(", "),
+            picture_file(&scene[0].case)
+        );
     }
-    Ok(report)
+    report
 }

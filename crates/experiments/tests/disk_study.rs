@@ -2,6 +2,7 @@
 //! and 4.6): equations (1) and (3) against the exact disk factor, their
 //! fall-off with distance, and the paper's published numbers.
 
+use approx::abs_diff_eq;
 use radiosity::form_factor::FormFactor;
 use radiosity_experiments::form_factor_accuracy::{DiskStudy, Tilt};
 
@@ -36,11 +37,11 @@ fn disk_formulas_tend_to_the_exact_factor_far_away() {
         // Both errors fall like (R/r)^2: a quarter at twice the distance.
         let (w_mean_60, w_max_60, _, d_max_60) = wallace_and_disk(study(60.0));
         assert!(
-            (w_max_60 / w_max - 0.25).abs() < 0.01,
+            abs_diff_eq!(w_max_60 / w_max, 0.25, epsilon = 0.01),
             "{w_max_60} / {w_max}"
         );
         assert!(
-            (w_mean_60 / w_mean - 0.25).abs() < 0.01,
+            abs_diff_eq!(w_mean_60 / w_mean, 0.25, epsilon = 0.01),
             "{w_mean_60} / {w_mean}"
         );
         assert!(d_max_60 <= d_max * 0.26 + 1e-12, "{d_max_60} / {d_max}");
@@ -96,7 +97,7 @@ fn the_error_study_reproduces_the_papers_figures_4_2_and_4_6() {
             ("eq. 3 max", disk.max, d_max),
         ] {
             assert!(
-                (100.0 * measured - published).abs() < 0.02,
+                abs_diff_eq!(100.0 * measured, published, epsilon = 0.02),
                 "{distance} R {name}: {:.4}% vs {published}%",
                 100.0 * measured
             );

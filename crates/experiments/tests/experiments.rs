@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use approx::{assert_abs_diff_eq, relative_eq};
 use radiosity_experiments::form_factors::{self, CrossSection};
 use radiosity_experiments::{Context, Report, plot};
 
@@ -111,12 +112,15 @@ fn figure_4_5_equals_the_exact_factor() {
     assert_eq!(section.exact.len(), w * h);
     for (i, (c, a)) in section.analytic.iter().zip(&section.exact).enumerate() {
         assert!(*a > 0.0 && *a <= 1.0, "sample {i}: {a}");
-        assert!((c - a).abs() <= 1e-9 * a, "sample {i}: {c} vs {a}");
+        assert!(
+            relative_eq!(c, a, epsilon = 0.0, max_relative = 1e-9),
+            "sample {i}: {c} vs {a}"
+        );
     }
     // The closed form of a parallel rectangle agrees with (a) as well, and
     // the disk formulas are visibly off near the source.
     for (a, r) in section.exact.iter().zip(&section.closed_form) {
-        assert!((a - r).abs() <= 1e-9 * a);
+        assert_abs_diff_eq!(a, r, epsilon = 1e-9 * a);
     }
     let worst = |f: &[f64]| {
         f.iter()

@@ -12,6 +12,7 @@
 
 mod common;
 
+use approx::relative_eq;
 use common::{quad, scene_of};
 use glam::DVec3;
 use radiosity::form_factor::{analytic, closed_form};
@@ -69,7 +70,7 @@ fn energy_is_conserved_to_round_off() {
             let balance = s.unshot_power() + e.absorbed + e.escaped;
             for c in 0..3 {
                 assert!(
-                    (balance[c] - e.emitted[c]).abs() <= 1e-9 * e.emitted[c],
+                    relative_eq!(balance[c], e.emitted[c], epsilon = 0.0, max_relative = 1e-9),
                     "{name}, shot {}: {balance} against {}",
                     s.stats().shots,
                     e.emitted

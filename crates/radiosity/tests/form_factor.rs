@@ -4,37 +4,15 @@
 //! The paper's error study of equations (1) and (3) is tested with the
 //! experiments (`crates/experiments/tests/disk_study.rs`).
 
+mod common;
+
 use std::f64::consts::PI;
 
+use approx::abs_diff_eq;
+use common::rng::Rng;
 use glam::DVec3;
 use proptest::prelude::*;
 use radiosity::form_factor::{FormFactor, analytic, closed_form};
-
-/// Deterministic uniform numbers in `[0, 1)` (SplitMix64), so a failure
-/// reproduces.
-struct Sampler(u64);
-
-impl Sampler {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1_u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.uniform()
-    }
-
-    fn unit_vector(&mut self) -> DVec3 {
-        let z = self.range(-1.0, 1.0);
-        let phi = self.range(0.0, 2.0 * PI);
-        let s = (1.0 - z * z).sqrt();
-        DVec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
-}
 
 /// Log-spaced values from `lo` to `hi`.
 fn log_range(lo: f64, hi: f64, count: usize) -> Vec<f64> {
@@ -71,7 +49,7 @@ fn assert_close(value: f64, exact: f64, terms: f64, what: &str) -> bool {
     let rounding = 32.0 * f64::EPSILON * terms;
     let relative = 1e-9 * exact.abs();
     assert!(
-        (value - exact).abs() <= relative.max(rounding),
+        abs_diff_eq!(value, exact, epsilon = relative.max(rounding)),
         "{what}: {value} vs {exact} (error {:e}, rounding bound {rounding:e})",
         (value - exact).abs()
     );
@@ -115,7 +93,7 @@ fn analytic_matches_the_parallel_rectangle_anywhere_below() {
     // The foot of the receiver's normal inside, on the edge line of, and
     // outside the rectangle, in all directions; the closed form is a signed
     // sum of four corner rectangles.
-    let mut sampler = Sampler(11);
+    let mut sampler = Rng(11);
     for _ in 0..2000 {
         let (x0, y0) = (sampler.range(-2.0, 2.0), sampler.range(-2.0, 2.0));
         let (x1, y1) = (x0 + sampler.range(0.05, 3.0), y0 + sampler.range(0.05, 3.0));
@@ -167,7 +145,7 @@ fn analytic_matches_the_perpendicular_rectangle() {
             }
         }
     }
-    let mut sampler = Sampler(12);
+    let mut sampler = Rng(12);
     for _ in 0..2000 {
         let s0 = sampler.range(-2.0, 2.0);
         let s1 = s0 + sampler.range(0.05, 3.0);
@@ -227,7 +205,7 @@ fn exact_disk_matches_a_many_sided_polygon_in_any_orientation() {
     // disk_exact (closed form, including disks cut by the receiver's tangent
     // plane) against analytic on a 2048-gon of equal area. The polygon's
     // error is of order F (pi/N)^4 except within about R/N of the rim.
-    let mut sampler = Sampler(13);
+    let mut sampler = Rng(13);
     let mut cut = 0;
     for _ in 0..1000 {
         let centre = DVec3::new(
@@ -248,7 +226,7 @@ fn exact_disk_matches_a_many_sided_polygon_in_any_orientation() {
         let numeric =
             closed_form::disk_numeric(receiver, normal, centre, disk_normal, radius, 2048);
         assert!(
-            (exact - numeric).abs() < 1e-9,
+            abs_diff_eq!(exact, numeric, epsilon = 1e-9),
             "{receiver} {normal}: {exact} vs {numeric}"
         );
     }
@@ -257,7 +235,7 @@ fn exact_disk_matches_a_many_sided_polygon_in_any_orientation() {
 
 #[test]
 fn exact_disk_matches_the_offset_parallel_disk() {
-    let mut sampler = Sampler(14);
+    let mut sampler = Rng(14);
     for _ in 0..1000 {
         let (radius, h, a) = (
             sampler.range(0.1, 2.0),
@@ -313,7 +291,7 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         let normal = radiosity::geometry::normal(face).unwrap();
         assert!((normal - *inward).length() < 1e-15);
     }
-    let mut sampler = Sampler(15);
+    let mut sampler = Rng(15);
     for _ in 0..2000 {
         let receiver = DVec3::new(
             sampler.range(0.0, size.x),
@@ -322,15 +300,21 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         );
         let normal = sampler.unit_vector();
         let sum = box_sum(&faces, receiver, normal);
-        assert!((sum - 1.0).abs() < 1e-9, "{receiver} {normal}: {sum}");
+        assert!(
+            abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+            "{receiver} {normal}: {sum}"
+        );
     }
     // Receivers on a face, facing in.
     for _ in 0..500 {
-        let (face, inward) = &faces[(sampler.uniform() * 6.0) as usize];
-        let (u, v) = (sampler.uniform(), sampler.uniform());
+        let (face, inward) = &faces[(sampler.unit() * 6.0) as usize];
+        let (u, v) = (sampler.unit(), sampler.unit());
         let receiver = face[0] + (face[1] - face[0]) * u + (face[3] - face[0]) * v;
         let sum = box_sum(&faces, receiver, *inward);
-        assert!((sum - 1.0).abs() < 1e-9, "{receiver} {inward}: {sum}");
+        assert!(
+            abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+            "{receiver} {inward}: {sum}"
+        );
     }
     // Receivers on an edge where two faces meet (a vertex of one of them):
     // the adjacent face's factor is the limit along the receiving face, so
@@ -340,12 +324,18 @@ fn factors_to_the_inside_of_a_closed_box_sum_to_one() {
         let receiver = DVec3::new(t * size.x, 0.0, 0.0);
         for normal in [DVec3::Y, DVec3::Z] {
             let sum = box_sum(&faces, receiver, normal);
-            assert!((sum - 1.0).abs() < 1e-9, "{receiver} {normal}: {sum}");
+            assert!(
+                abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+                "{receiver} {normal}: {sum}"
+            );
         }
         let receiver = DVec3::new(size.x, size.y, t * size.z);
         for normal in [-DVec3::X, -DVec3::Y] {
             let sum = box_sum(&faces, receiver, normal);
-            assert!((sum - 1.0).abs() < 1e-9, "{receiver} {normal}: {sum}");
+            assert!(
+                abs_diff_eq!(sum, 1.0, epsilon = 1e-9),
+                "{receiver} {normal}: {sum}"
+            );
         }
     }
 }
@@ -374,11 +364,11 @@ fn a_receiver_on_a_source_edge_is_finite_and_continuous() {
             assert!(f.is_finite() && (0.0..=1.0).contains(&f), "{f}");
         }
         assert!(
-            (on_edge - near).abs() < 1e-8,
+            abs_diff_eq!(on_edge, near, epsilon = 1e-8),
             "tilt {tilt}: {on_edge} vs {near}"
         );
         assert!(
-            (near - farther).abs() < 1e-5,
+            abs_diff_eq!(near, farther, epsilon = 1e-5),
             "tilt {tilt}: {near} vs {farther}"
         );
     }
@@ -387,7 +377,7 @@ fn a_receiver_on_a_source_edge_is_finite_and_continuous() {
     let f = analytic(base, DVec3::Y, &wall);
     let exact = closed_form::perpendicular_rectangle(-1.3, 1.7, 0.0, 1.5, 0.0);
     assert!(
-        (f - 0.5).abs() < 1e-12 && (exact - 0.5).abs() < 1e-12,
+        abs_diff_eq!(f, 0.5, epsilon = 1e-12) && abs_diff_eq!(exact, 0.5, epsilon = 1e-12),
         "{f} {exact}"
     );
     // Approaching from other directions (off the tangent plane) the values
@@ -401,7 +391,10 @@ fn a_receiver_on_a_source_edge_is_finite_and_continuous() {
         let near = analytic(base + d * 1e-9, DVec3::Y, &wall);
         let farther = analytic(base + d * 1e-6, DVec3::Y, &wall);
         assert!(near.is_finite() && near >= 0.0);
-        assert!((near - farther).abs() < 1e-5, "{d}: {near} vs {farther}");
+        assert!(
+            abs_diff_eq!(near, farther, epsilon = 1e-5),
+            "{d}: {near} vs {farther}"
+        );
     }
 }
 
@@ -421,13 +414,19 @@ fn a_receiver_in_a_corner_is_finite_and_continuous() {
     // the perpendicular-rectangle corner factor as c -> 0, 1/4.
     let (wall, _) = &faces[4];
     let at_corner = analytic(corner, DVec3::Y, wall);
-    assert!((at_corner - 0.25).abs() < 1e-12, "{at_corner}");
+    assert!(
+        abs_diff_eq!(at_corner, 0.25, epsilon = 1e-12),
+        "{at_corner}"
+    );
     for delta in [1e-9, 1e-6] {
         let f = analytic(corner + DVec3::Z * delta, DVec3::Y, wall);
         let exact = closed_form::perpendicular_rectangle_corner(size.y, size.x, delta);
-        assert!((f - exact).abs() < 1e-9, "{delta}: {f} vs {exact}");
         assert!(
-            (f - at_corner).abs() < 2.0 * delta,
+            abs_diff_eq!(f, exact, epsilon = 1e-9),
+            "{delta}: {f} vs {exact}"
+        );
+        assert!(
+            abs_diff_eq!(f, at_corner, epsilon = 2.0 * delta),
             "{delta}: {f} vs {at_corner}"
         );
     }
@@ -437,11 +436,14 @@ fn a_receiver_in_a_corner_is_finite_and_continuous() {
     let diagonal = DVec3::new(1.0, 0.0, 1.0).normalize();
     let near = analytic(corner + diagonal * 1e-9, DVec3::Y, wall);
     let farther = analytic(corner + diagonal * 1e-6, DVec3::Y, wall);
-    assert!((near - 0.375).abs() < 1e-8, "{near}");
-    assert!((near - farther).abs() < 1e-5, "{near} vs {farther}");
+    assert!(abs_diff_eq!(near, 0.375, epsilon = 1e-8), "{near}");
+    assert!(
+        abs_diff_eq!(near, farther, epsilon = 1e-5),
+        "{near} vs {farther}"
+    );
     // And the box still sums to one just inside the corner.
     let sum = box_sum(&faces, corner + diagonal * 1e-9, DVec3::Y);
-    assert!((sum - 1.0).abs() < 1e-9, "{sum}");
+    assert!(abs_diff_eq!(sum, 1.0, epsilon = 1e-9), "{sum}");
 }
 
 /// A convex quadrilateral: four points at increasing angles on a circle,

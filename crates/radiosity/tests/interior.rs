@@ -4,6 +4,7 @@
 
 mod common;
 
+use approx::abs_diff_eq;
 use glam::DVec3;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, RenderSettings};
@@ -94,7 +95,7 @@ fn a_closed_room_is_seen_from_inside_at_eye_height() {
     let camera = scene.camera_or_framing();
     assert!(inside(camera.eye, DVec3::ZERO, size), "{camera:?}");
     assert!(
-        (camera.eye.y - interior::EYE_HEIGHT).abs() < 1e-9,
+        abs_diff_eq!(camera.eye.y, interior::EYE_HEIGHT, epsilon = 1e-9),
         "{camera:?}"
     );
     // Along the long (x) axis, from near one end towards the other.
@@ -117,7 +118,10 @@ fn a_room_in_centimetres_puts_the_eye_at_half_height() {
     let scene = common::scene_of(room(size));
     let camera = scene.camera_or_framing();
     assert!(inside(camera.eye, DVec3::ZERO, size), "{camera:?}");
-    assert!((camera.eye.y - 150.0).abs() < 1e-9, "{camera:?}");
+    assert!(
+        abs_diff_eq!(camera.eye.y, 150.0, epsilon = 1e-9),
+        "{camera:?}"
+    );
     assert!(coverage(&scene, camera) > 0.995);
 }
 

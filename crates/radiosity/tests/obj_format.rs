@@ -5,8 +5,11 @@
 //! of its plain spelling; and random mutations of a valid file either load
 //! or fail with an error naming the file, never panic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::rng::Rng;
 use proptest::prelude::*;
 use radiosity::scene::obj;
 use radiosity::scene::{Limits, Scene, SceneError};
@@ -78,29 +81,12 @@ fn plain(faces: &[Face]) -> String {
     text
 }
 
-/// A small deterministic generator driving the formatting choices.
-struct Choices(u64);
-
-impl Choices {
-    fn below(&mut self, n: u64) -> u64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 33) % n
-    }
-
-    fn pick<'a>(&mut self, options: &[&'a str]) -> &'a str {
-        options[self.below(options.len() as u64) as usize]
-    }
-}
-
 /// The same scene in a random spelling.
 fn fancy(faces: &[Face], seed: u64) -> String {
-    let mut r = Choices(seed);
+    let mut r = Rng(seed);
     let mut lines: Vec<String> = Vec::new();
-    let gap = |r: &mut Choices| r.pick(&[" ", "  ", "\t", " \t "]).to_string();
-    let number = |r: &mut Choices, v: f64| match r.below(4) {
+    let gap = |r: &mut Rng| r.pick(&[" ", "  ", "\t", " \t "]).to_string();
+    let number = |r: &mut Rng, v: f64| match r.below(4) {
         0 => format!("{v}"),
         1 => format!("{v:e}"),
         2 => format!("{v:.6}"),
