@@ -217,7 +217,7 @@ fn hemicube(c: &mut Criterion) {
     let mut group = c.benchmark_group("hemicube");
     group.throughput(Throughput::Elements(room.shooters.len() as u64));
     for resolution in RESOLUTIONS {
-        let mut buffer = ItemBuffer::new(resolution);
+        let mut buffer = ItemBuffer::for_scene(resolution, room.scene.bounds());
         group.bench_with_input(
             BenchmarkId::new("render", resolution),
             &resolution,
@@ -245,7 +245,7 @@ fn hemicube(c: &mut Criterion) {
             .shooters
             .iter()
             .map(|shooter| {
-                let mut buffer = ItemBuffer::new(resolution);
+                let mut buffer = ItemBuffer::for_scene(resolution, room.scene.bounds());
                 buffer.render(
                     surfaces,
                     shooter.sub.centroid,

@@ -10,6 +10,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::geometry::clip;
 use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::{Camera, Scene};
@@ -147,7 +148,7 @@ fn project(scene: &Scene, mesh: &Mesh, colours: &[DVec3], view: &View) -> Vec<Sc
                 colours[c as usize],
             ));
         }
-        clip_near(&polygon, view.near, &mut clipped);
+        clip::clip_into(&polygon, |(p, _)| p.z - view.near, &mut clipped);
         if clipped.len() < 3 {
             continue;
         }
@@ -177,25 +178,6 @@ fn project(scene: &Scene, mesh: &Mesh, colours: &[DVec3], view: &View) -> Vec<Sc
         }
     }
     out
-}
-
-/// Keeps the part of a camera-space polygon with depth >= `near`.
-fn clip_near(polygon: &[(DVec3, DVec3)], near: f64, out: &mut Vec<(DVec3, DVec3)>) {
-    out.clear();
-    let n = polygon.len();
-    for i in 0..n {
-        let (a, ca) = polygon[i];
-        let (b, cb) = polygon[(i + 1) % n];
-        let a_in = a.z >= near;
-        let b_in = b.z >= near;
-        if a_in {
-            out.push((a, ca));
-        }
-        if a_in != b_in {
-            let t = (near - a.z) / (b.z - a.z);
-            out.push((a + (b - a) * t, ca + (cb - ca) * t));
-        }
-    }
 }
 
 /// Rasterises one triangle into a band of rows starting at `y0`, with the

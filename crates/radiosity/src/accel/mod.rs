@@ -14,7 +14,7 @@ pub mod bvh;
 
 use glam::{DVec2, DVec3};
 
-use crate::geometry;
+use crate::geometry::{self, clip};
 use crate::scene::Surface;
 
 crate::choice::named_choice! {
@@ -273,8 +273,10 @@ impl AcceptanceRegion {
                 DVec2::new(half, half),
                 DVec2::new(-half, half),
             ];
+            let mut clipped = Vec::with_capacity(region.len() + edges.len());
             for &(inward, c) in &edges {
-                region = clip_2d(&region, inward, c);
+                clip::clip_into(&region, |q| inward.dot(q) - c, &mut clipped);
+                std::mem::swap(&mut region, &mut clipped);
             }
             if region.is_empty() {
                 return AcceptanceRegion::Empty;
@@ -294,25 +296,6 @@ impl AcceptanceRegion {
         }
         AcceptanceRegion::Unbounded
     }
-}
-
-/// Keeps the part of a convex 2-D polygon with `n . q >= c`.
-fn clip_2d(polygon: &[DVec2], n: DVec2, c: f64) -> Vec<DVec2> {
-    let mut out = Vec::with_capacity(polygon.len() + 1);
-    let count = polygon.len();
-    for i in 0..count {
-        let a = polygon[i];
-        let b = polygon[(i + 1) % count];
-        let da = n.dot(a) - c;
-        let db = n.dot(b) - c;
-        if da >= 0.0 {
-            out.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    out
 }
 
 #[cfg(test)]

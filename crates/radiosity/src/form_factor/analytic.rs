@@ -11,14 +11,15 @@
 //! counter-clockwise polygon in front of a receiver that faces it,
 //! `sum n . Gamma_g` is negative. The formula only holds for the part of the
 //! polygon in front of the receiver's tangent plane, so the polygon is clipped
-//! to `n . (p - x) >= 0` first (design.md section 4); the clip is streamed
-//! edge by edge, so a call never allocates and accepts any number of corners.
+//! to `n . (p - x) >= 0` first (design.md section 4); the clip
+//! ([`crate::geometry::clip::clip_each`]) streams its corners into the sum,
+//! so a call never allocates and accepts any number of corners.
 
 use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
 
-use crate::geometry;
+use crate::geometry::{self, clip};
 
 /// Relative distance (to the farthest corner) under which the receiver
 /// counts as sitting on a corner, or on an edge seen at about 180 degrees;
@@ -101,24 +102,14 @@ pub fn analytic(receiver: DVec3, receiver_normal: DVec3, polygon: &[DVec3]) -> f
         previous: DVec3::ZERO,
         sum: 0.0,
     };
-    let n = polygon.len();
-    for i in 0..n {
-        let a = polygon[i];
-        let b = polygon[(i + 1) % n];
-        let da = receiver_normal.dot(a - receiver);
-        let db = receiver_normal.dot(b - receiver);
-        let a_in = da >= -tolerance;
-        let b_in = db >= -tolerance;
-        if a_in {
-            contour.push(a);
-        }
-        if a_in != b_in {
-            // Cut where the edge crosses the tangent plane itself (not the
-            // tolerance band), so the cut points lie on the plane.
-            let t = da / (da - db);
-            contour.push(a + (b - a) * t.clamp(0.0, 1.0));
-        }
-    }
+    // Cuts lie where an edge crosses the tangent plane itself (not the
+    // tolerance band), so they are on the plane.
+    clip::clip_each(
+        polygon,
+        |p| receiver_normal.dot(p - receiver),
+        tolerance,
+        |p| contour.push(p),
+    );
     let sum = contour.close();
     super::clamp_factor(-sum / TAU)
 }

@@ -214,17 +214,25 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
+/// Axis-aligned bounding box `(lo, hi)` of the surfaces' corners; for no
+/// surfaces, `lo` is `+inf` and `hi` is `-inf`. The one place the scene's
+/// extent is measured: the BSP and the hemicube take it from here.
+#[must_use]
+pub fn bounds_of(surfaces: &[Surface]) -> (DVec3, DVec3) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in surfaces.iter().flat_map(|s| &s.polygon) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo, hi)
+}
+
 impl Scene {
-    /// Axis-aligned bounding box of all surfaces.
+    /// Axis-aligned bounding box of all surfaces ([`bounds_of`]).
     #[must_use]
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for p in self.surfaces.iter().flat_map(|s| &s.polygon) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        (lo, hi)
+        bounds_of(&self.surfaces)
     }
 
     /// Patch and element sizes for this scene when the user gives none: the

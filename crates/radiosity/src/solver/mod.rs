@@ -293,8 +293,8 @@ pub fn item_buffer_bytes(subsources: u32, resolution: u32) -> u64 {
 /// Most memory the item buffers of a shot may take.
 pub const MAX_ITEM_BUFFER_BYTES: u64 = 4 << 30;
 
-/// Largest `--hemicube-resolution`.
-pub const MAX_HEMICUBE_RESOLUTION: u32 = 4096;
+/// Largest `--hemicube-resolution`: the item buffer's own limit.
+pub const MAX_HEMICUBE_RESOLUTION: u32 = hemicube::MAX_RESOLUTION;
 
 /// Largest `--subsources` (per side): 64 x 64 = 4,096 subsources a shot.
 pub const MAX_SUBSOURCES_PER_SIDE: u32 = 64;

@@ -43,9 +43,12 @@ impl PatchShooting {
                 .collect(),
             item_buffers: match settings.visibility {
                 Visibility::Ray => Vec::new(),
-                Visibility::HemicubePretest => (0..settings.subsources * settings.subsources)
-                    .map(|_| ItemBuffer::new(settings.hemicube_resolution))
-                    .collect(),
+                Visibility::HemicubePretest => {
+                    let bounds = scene.bounds();
+                    (0..settings.subsources * settings.subsources)
+                        .map(|_| ItemBuffer::for_scene(settings.hemicube_resolution, bounds))
+                        .collect()
+                }
             },
         }
     }

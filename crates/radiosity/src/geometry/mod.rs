@@ -1,5 +1,7 @@
 //! Planar-polygon geometry shared by every stage: Newell normals, areas,
-//! centroids, clipping to a half-space and point-in-convex-polygon tests.
+//! centroids, clipping to a half-space and point-in-convex-polygon tests;
+//! the one polygon clipper ([`clip`]) and the triangulation of simple
+//! polygons ([`triangulate`]).
 //!
 //! These are the primitives behind the subsource split and receiver-side
 //! clipping of design.md section 2 (step 3) and behind the shadow-segment test
@@ -7,6 +9,9 @@
 //! (paper section 4) lose digits quickly in `f32`.
 
 use glam::DVec3;
+
+pub mod clip;
+pub mod triangulate;
 
 /// Newell's normal of a polygon: twice the vector area, robust for slightly
 /// non-planar or nearly collinear input. Zero for a degenerate polygon.
@@ -77,9 +82,9 @@ pub fn diameter(polygon: &[DVec3]) -> f64 {
     d2.sqrt()
 }
 
-/// Clips `polygon` to the half-space `normal . (p - point) >= 0`
-/// (Sutherland-Hodgman against one plane), writing the result to `out`.
-/// Corners within `tolerance` of the plane count as inside.
+/// Clips `polygon` to the half-space `normal . (p - point) >= 0`, writing
+/// the result to `out`. Corners within `tolerance` of the plane count as
+/// inside; cuts lie on the plane ([`clip::clip_each`]).
 pub fn clip_to_half_space(
     polygon: &[DVec3],
     point: DVec3,
@@ -88,22 +93,14 @@ pub fn clip_to_half_space(
     out: &mut Vec<DVec3>,
 ) {
     out.clear();
-    let n = polygon.len();
-    for i in 0..n {
-        let a = polygon[i];
-        let b = polygon[(i + 1) % n];
-        let da = normal.dot(a - point);
-        let db = normal.dot(b - point);
-        let a_in = da >= -tolerance;
-        let b_in = db >= -tolerance;
-        if a_in {
-            out.push(a);
-        }
-        if a_in != b_in && (da - db).abs() > 0.0 {
-            let t = da / (da - db);
-            out.push(a + (b - a) * t);
-        }
-    }
+    clip::clip_each(
+        polygon,
+        |p| normal.dot(p - point),
+        tolerance,
+        |p| {
+            out.push(p);
+        },
+    );
 }
 
 /// True when `p` (assumed on the polygon's plane) lies inside the convex

@@ -1,0 +1,111 @@
+//! The BVH's `validate`: the invariants of the built tree against its
+//! primitives' boxes (see [`super::Bvh::validate`]).
+
+use super::*;
+
+impl Tree {
+    /// Checks the structure against the primitives' boxes: see
+    /// [`Bvh::validate`].
+    pub(super) fn validate(
+        &self,
+        boxes: &[Aabb],
+        settings: &BvhSettings,
+        stats: &BvhStats,
+    ) -> Result<(), String> {
+        let nodes = &self.nodes;
+        if boxes.is_empty() {
+            return if nodes.is_empty()
+                && self.primitives.is_empty()
+                && *stats == BvhStats::default()
+            {
+                Ok(())
+            } else {
+                Err("an empty scene has a non-empty tree".into())
+            };
+        }
+        if nodes.is_empty() {
+            return Err("no nodes".into());
+        }
+        let mut parent = vec![u32::MAX; nodes.len()];
+        let mut depth = vec![0usize; nodes.len()];
+        depth[0] = 1;
+        let mut next_primitive = 0usize;
+        let mut leaves = 0;
+        let mut largest = 0;
+        let mut seen = vec![false; boxes.len()];
+        for (i, node) in nodes.iter().enumerate() {
+            if i > 0 && parent[i] == u32::MAX {
+                return Err(format!("node {i} has no parent (or comes before it)"));
+            }
+            if node.is_leaf() {
+                let range = node.primitives();
+                if range.is_empty()
+                    || range.start != next_primitive
+                    || range.end > self.primitives.len()
+                {
+                    return Err(format!(
+                        "leaf {i}: primitive range {range:?} is out of order"
+                    ));
+                }
+                if range.len() > settings.max_leaf_size {
+                    return Err(format!("leaf {i} holds {} primitives", range.len()));
+                }
+                next_primitive = range.end;
+                leaves += 1;
+                largest = largest.max(range.len());
+                for &p in &self.primitives[range] {
+                    let Some(b) = boxes.get(p as usize) else {
+                        return Err(format!("leaf {i}: primitive {p} out of range"));
+                    };
+                    if std::mem::replace(&mut seen[p as usize], true) {
+                        return Err(format!("primitive {p} is in two leaves"));
+                    }
+                    if !node.contains(&Node::new(*b, 0, 1)) {
+                        return Err(format!("leaf {i}'s box does not contain primitive {p}'s"));
+                    }
+                }
+                continue;
+            }
+            if node.axis() > 2 {
+                return Err(format!("node {i}: split axis {}", node.axis()));
+            }
+            let right = node.link as usize;
+            if right <= i + 1 || right >= nodes.len() {
+                return Err(format!(
+                    "node {i}: right child {right} out of depth-first order"
+                ));
+            }
+            for child in [i + 1, right] {
+                if parent[child] != u32::MAX {
+                    return Err(format!("node {child} has two parents"));
+                }
+                parent[child] = i as u32;
+                depth[child] = depth[i] + 1;
+                if !node.contains(&nodes[child]) {
+                    return Err(format!("node {i}'s box does not contain child {child}'s"));
+                }
+            }
+        }
+        if next_primitive != self.primitives.len() || self.primitives.len() != boxes.len() {
+            return Err("leaves do not cover the primitive list exactly".into());
+        }
+        if let Some(p) = seen.iter().position(|s| !s) {
+            return Err(format!("primitive {p} is in no leaf"));
+        }
+        let max_depth = depth.iter().copied().max().unwrap_or(0);
+        if max_depth > MAX_DEPTH {
+            return Err(format!("depth {max_depth} exceeds {MAX_DEPTH}"));
+        }
+        let actual = BvhStats {
+            nodes: nodes.len(),
+            leaves,
+            depth: max_depth,
+            max_leaf_size: largest,
+            wide_nodes: stats.wide_nodes,
+        };
+        if actual != *stats {
+            return Err(format!("statistics {stats:?}, tree {actual:?}"));
+        }
+        Ok(())
+    }
+}
