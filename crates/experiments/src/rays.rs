@@ -86,7 +86,7 @@ impl Occluder for Recorder<'_> {
         self.inner.occluded_counting(from, to, skip)
     }
 
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), radiosity::accel::InvalidTree> {
         self.inner.validate()
     }
 }

@@ -20,14 +20,14 @@ use radiosity::accel::bsp::{self, Bsp};
 use radiosity::accel::bvh::{self, Bvh};
 use radiosity::accel::{Occluder, shorten};
 use radiosity::mesh::{Mesh, MeshSettings, subsources};
-use radiosity::scene::Surface;
+use radiosity::scene::{Surface, bounds_of};
 
 mod common;
 
 use common::soup::{
-    Rng, bounds, bsp_settings, builtin, bvh_settings, coplanar_grid, geometric_stack, needle,
-    numbered, offset, one_triangle, parallel_squares, random_point, random_polygon_of_size,
-    random_skip, real_file_soup, soup, surface, varied_soup,
+    Rng, bsp_settings, builtin, bvh_settings, coplanar_grid, geometric_stack, needle, numbered,
+    offset, one_triangle, parallel_squares, random_point, random_polygon_of_size, random_skip,
+    real_file_soup, soup, surface, varied_soup,
 };
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
@@ -178,7 +178,7 @@ fn agree_on_random_segments(
     what: &str,
 ) -> (usize, u64) {
     let brute = BruteForce::new(surfaces);
-    let (lo, hi) = bounds(surfaces);
+    let (lo, hi) = bounds_of(surfaces);
     let (mut blocked, mut tested) = (0, 0u64);
     for _ in 0..count {
         let a = random_point(rng, surfaces, lo, hi);
@@ -210,7 +210,7 @@ fn agree_on_segments_ending_on_surfaces(
     what: &str,
 ) {
     let brute = BruteForce::new(surfaces);
-    let (lo, hi) = bounds(surfaces);
+    let (lo, hi) = bounds_of(surfaces);
     let step = surfaces.len().div_ceil(limit).max(1);
     for (id, s) in surfaces.iter().enumerate().step_by(step) {
         let n = s.polygon.len();
@@ -413,7 +413,7 @@ fn queries_from_many_threads_agree() {
             for t in 0..4u64 {
                 scope.spawn(move || {
                     let mut rng = Rng(100 + t);
-                    let (lo, hi) = bounds(surfaces);
+                    let (lo, hi) = bounds_of(surfaces);
                     for _ in 0..5_000 {
                         let from = random_point(&mut rng, surfaces, lo, hi);
                         let to = random_point(&mut rng, surfaces, lo, hi);

@@ -7,12 +7,13 @@
 use glam::DVec3;
 use radiosity::accel::Occluder;
 use radiosity::accel::bvh::{Bvh, BvhSettings, MAX_DEPTH, SplitMethod};
+use radiosity::scene::bounds_of;
 
 mod common;
 
 use common::soup::{
-    Rng, bounds, builtin, bvh_settings, geometric_stack, one_triangle, parallel_squares,
-    random_point, varied_soup,
+    Rng, builtin, bvh_settings, geometric_stack, one_triangle, parallel_squares, random_point,
+    varied_soup,
 };
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
@@ -134,7 +135,7 @@ fn builds_are_deterministic() {
         let b = Bvh::with_settings(&surfaces, settings);
         assert_eq!(a.stats(), b.stats(), "{preset}");
         let mut rng = Rng(23);
-        let (lo, hi) = bounds(&surfaces);
+        let (lo, hi) = bounds_of(&surfaces);
         for _ in 0..500 {
             let from = random_point(&mut rng, &surfaces, lo, hi);
             let to = random_point(&mut rng, &surfaces, lo, hi);

@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use super::{Occluder, PreparedSurfaces};
+use super::{InvalidTree, Occluder, PreparedSurfaces};
 use crate::scene::Surface;
 
 /// Tests every surface.
@@ -43,7 +43,7 @@ impl Occluder for BruteForce {
     }
 
     /// A flat list has no invariants beyond its construction.
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), InvalidTree> {
         Ok(())
     }
 }

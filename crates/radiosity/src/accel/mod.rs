@@ -42,6 +42,12 @@ impl Accel {
     }
 }
 
+/// A broken invariant of a built accelerator, found by
+/// [`Occluder::validate`]: what is wrong and where.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct InvalidTree(pub String);
+
 /// A shadow-segment query structure.
 pub trait Occluder: Sync {
     /// True when a surface whose [`Surface::group`] is neither `skip[0]` nor
@@ -61,7 +67,7 @@ pub trait Occluder: Sync {
     /// Checks the structure's invariants (see each accelerator's own
     /// `validate`); the accelerator tests call it on every structure they
     /// build.
-    fn validate(&self) -> Result<(), String>;
+    fn validate(&self) -> Result<(), InvalidTree>;
 
     /// Build statistics worth reporting (name, value), e.g. a tree's node
     /// count and depth; none by default.
@@ -338,5 +344,33 @@ mod tests {
             }
         }
         assert!(crossings > 1000);
+    }
+}
+
+/// Small hand-made scenes for the accelerators' own unit tests (the suite
+/// over every accelerator is `tests/accel.rs`).
+#[cfg(test)]
+pub(crate) mod test_scenes {
+    use glam::DVec3;
+
+    use crate::scene::Surface;
+
+    /// No surface skipped.
+    pub(crate) const NONE_SKIPPED: [u32; 2] = [u32::MAX; 2];
+
+    /// A grey quad with the given corners, surface id 0.
+    pub(crate) fn quad(corners: [[f64; 3]; 4]) -> Surface {
+        let p = corners.iter().map(|c| DVec3::from_array(*c)).collect();
+        Surface::new(p, DVec3::splat(0.5), DVec3::ZERO, 0).unwrap()
+    }
+
+    /// The square `[-half, half]^2` at height `z`, facing `+z`.
+    pub(crate) fn square_at_z(z: f64, half: f64) -> Surface {
+        quad([
+            [-half, -half, z],
+            [half, -half, z],
+            [half, half, z],
+            [-half, half, z],
+        ])
     }
 }

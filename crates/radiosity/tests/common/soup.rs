@@ -29,16 +29,6 @@ pub fn builtin(name: &str) -> Scene {
         .expect("the scene loads")
 }
 
-pub fn bounds(surfaces: &[Surface]) -> (DVec3, DVec3) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in surfaces.iter().flat_map(|s| &s.polygon) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    (lo, hi)
-}
-
 /// Interesting points of a scene: corners, edge points, interior points of
 /// surfaces, and points anywhere in (a little beyond) the bounding box,
 /// often on a grid so they fall exactly on axis-aligned planes.

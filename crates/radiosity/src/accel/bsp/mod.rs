@@ -127,7 +127,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{AcceptanceRegion, Occluder, PreparedSurfaces};
+use super::{AcceptanceRegion, InvalidTree, Occluder, PreparedSurfaces};
 use crate::geometry::{self, clip};
 use crate::scene::{self, Surface};
 
@@ -322,7 +322,7 @@ impl Default for BspSettings {
 }
 
 /// Size of a built tree.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BspStats {
     /// Nodes, leaves included.
     pub nodes: usize,
@@ -515,7 +515,7 @@ impl Occluder for Bsp<'_> {
         Bsp::occluded_counting(self, from, to, skip)
     }
 
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), InvalidTree> {
         Bsp::validate(self)
     }
 
@@ -539,21 +539,7 @@ mod tests {
     use super::*;
     use crate::accel::brute::BruteForce;
 
-    const NONE_SKIPPED: [u32; 2] = [u32::MAX; 2];
-
-    fn quad(corners: [[f64; 3]; 4]) -> Surface {
-        let p = corners.iter().map(|c| DVec3::from_array(*c)).collect();
-        Surface::new(p, DVec3::splat(0.5), DVec3::ZERO, 0).unwrap()
-    }
-
-    fn square_at_z(z: f64, half: f64) -> Surface {
-        quad([
-            [-half, -half, z],
-            [half, -half, z],
-            [half, half, z],
-            [-half, half, z],
-        ])
-    }
+    use crate::accel::test_scenes::{NONE_SKIPPED, quad, square_at_z};
 
     #[test]
     fn empty_scene_blocks_nothing() {

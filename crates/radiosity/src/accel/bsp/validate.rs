@@ -13,22 +13,24 @@ impl Bsp<'_> {
     /// areas computed about the polygon's first corner to keep their digits);
     /// node tolerances
     /// covering the surfaces below them; statistics matching the tree.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), InvalidTree> {
         let nodes = &self.nodes;
         let mut parent = vec![NONE; nodes.len()];
         let mut depth = vec![0usize; nodes.len()];
         let mut expected_first = 0u32;
         for (i, node) in nodes.iter().enumerate() {
             if node.first != expected_first || node.end < node.first {
-                return Err(format!(
+                return Err(InvalidTree(format!(
                     "node {i}: fragment range does not follow its predecessor's"
-                ));
+                )));
             }
             expected_first = node.end;
             if i == 0 {
                 depth[0] = 1;
             } else if parent[i] == NONE {
-                return Err(format!("node {i} has no parent (or comes before it)"));
+                return Err(InvalidTree(format!(
+                    "node {i} has no parent (or comes before it)"
+                )));
             }
             for &child in &node.children {
                 if child == NONE {
@@ -36,30 +38,36 @@ impl Bsp<'_> {
                 }
                 let c = child as usize;
                 if c <= i || c >= nodes.len() {
-                    return Err(format!("node {i}: child {child} out of depth-first order"));
+                    return Err(InvalidTree(format!(
+                        "node {i}: child {child} out of depth-first order"
+                    )));
                 }
                 if parent[c] != NONE {
-                    return Err(format!("node {c} has two parents"));
+                    return Err(InvalidTree(format!("node {c} has two parents")));
                 }
                 parent[c] = i as u32;
                 depth[c] = depth[i] + 1;
             }
             if node.is_leaf() && node.children != [NONE; 2] {
-                return Err(format!("leaf bucket {i} has children"));
+                return Err(InvalidTree(format!("leaf bucket {i} has children")));
             }
             if !node.is_leaf() && (node.normal.length() - 1.0).abs() > 1e-9 {
-                return Err(format!("node {i}: normal is not a unit vector"));
+                return Err(InvalidTree(format!(
+                    "node {i}: normal is not a unit vector"
+                )));
             }
         }
         if expected_first as usize != self.entries.len() {
-            return Err("node ranges do not cover the fragment list exactly".into());
+            return Err(InvalidTree(
+                "node ranges do not cover the fragment list exactly".into(),
+            ));
         }
         let max_depth = depth.iter().copied().max().unwrap_or(0);
         if max_depth != self.stats.depth || max_depth > self.settings.max_depth {
-            return Err(format!(
+            return Err(InvalidTree(format!(
                 "depth {max_depth}, statistics say {}, limit {}",
                 self.stats.depth, self.settings.max_depth
-            ));
+            )));
         }
         let leaves = nodes.iter().filter(|n| n.is_leaf()).count();
         let largest = nodes
@@ -74,7 +82,10 @@ impl Bsp<'_> {
             || self.stats.leaves != leaves
             || self.stats.largest_leaf != largest
         {
-            return Err(format!("statistics {:?} do not match the tree", self.stats));
+            return Err(InvalidTree(format!(
+                "statistics {:?} do not match the tree",
+                self.stats
+            )));
         }
 
         let slack = self.coplanar + self.round_off;
@@ -86,22 +97,24 @@ impl Bsp<'_> {
                 let entry = self.entries[k as usize];
                 let id = (entry & !SPLIT_FLAG) as usize;
                 let Some(surface) = self.surfaces.get(id) else {
-                    return Err(format!("node {i}: surface id {id} out of range"));
+                    return Err(InvalidTree(format!(
+                        "node {i}: surface id {id} out of range"
+                    )));
                 };
                 let polygon = &self.replay(id as u32, i, &parent);
                 if polygon.len() < 3 {
-                    return Err(format!(
+                    return Err(InvalidTree(format!(
                         "node {i}: fragment of surface {id} has fewer than 3 corners"
-                    ));
+                    )));
                 }
                 area[id] += local_area(polygon);
                 count[id] += 1;
                 let (lo, hi) = distance_range(polygon, surface.normal, surface.offset);
                 let off_plane = self.reach[id] + self.round_off;
                 if lo < -off_plane || hi > off_plane {
-                    return Err(format!(
+                    return Err(InvalidTree(format!(
                         "a fragment of surface {id} leaves the surface's plane"
-                    ));
+                    )));
                 }
                 // Containment about the polygon's first corner, with the
                 // normal computed there: far from the origin, a tiny
@@ -115,9 +128,9 @@ impl Bsp<'_> {
                     .iter()
                     .all(|p| geometry::convex_contains(&local, local_normal, *p - origin, inside))
                 {
-                    return Err(format!(
+                    return Err(InvalidTree(format!(
                         "a fragment of surface {id} leaves the surface's polygon"
-                    ));
+                    )));
                 }
                 // The fragment lies on its node's plane and on the right side
                 // of every ancestor's.
@@ -137,9 +150,9 @@ impl Bsp<'_> {
                             hi <= slack
                         };
                         if !ok {
-                            return Err(format!(
+                            return Err(InvalidTree(format!(
                                 "a fragment of surface {id} stored at node {i} is on the wrong side of node {at}'s plane"
-                            ));
+                            )));
                         }
                     }
                     if parent[at] == NONE {
@@ -152,14 +165,14 @@ impl Bsp<'_> {
         }
         for (i, node) in nodes.iter().enumerate() {
             if node.tolerance < self.coplanar + 2.0 * max_reach[i] {
-                return Err(format!(
+                return Err(InvalidTree(format!(
                     "node {i}: tolerance does not cover the surfaces below it"
-                ));
+                )));
             }
         }
         for (id, surface) in self.surfaces.iter().enumerate() {
             if count[id] == 0 {
-                return Err(format!("surface {id} has no fragment"));
+                return Err(InvalidTree(format!("surface {id} has no fragment")));
             }
             let expected = local_area(&surface.polygon);
             // Split corners are rounded to the coordinates' precision, which
@@ -185,17 +198,17 @@ impl Bsp<'_> {
             };
             let slack = (1e-9 + 0.5 * tilt * tilt) * expected + corner_round_off * perimeter;
             if (area[id] - expected).abs() > slack {
-                return Err(format!(
+                return Err(InvalidTree(format!(
                     "surface {id}: fragments cover {} m^2 of {expected} m^2",
                     area[id]
-                ));
+                )));
             }
         }
         for k in 0..self.entries.len() {
             let entry = self.entries[k];
             let split = count[(entry & !SPLIT_FLAG) as usize] > 1;
             if (entry & SPLIT_FLAG != 0) != split {
-                return Err(format!("entry {k}: split flag is wrong"));
+                return Err(InvalidTree(format!("entry {k}: split flag is wrong")));
             }
         }
         Ok(())

@@ -63,7 +63,7 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::{AcceptanceRegion, Occluder, PreparedSurfaces};
+use super::{AcceptanceRegion, InvalidTree, Occluder, PreparedSurfaces};
 use crate::scene::Surface;
 
 mod build;
@@ -184,7 +184,7 @@ impl Default for BvhSettings {
 }
 
 /// Size of a built tree.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BvhStats {
     /// Nodes, leaves included.
     pub nodes: usize,
@@ -321,7 +321,7 @@ impl<'a> Bvh<'a> {
     /// containing the surfaces' corners; statistics matching the tree; the
     /// four-wide tree the queries walk reaching every wide node once and
     /// every surface once, each child box containing everything below it.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), InvalidTree> {
         let boxes: Vec<Aabb> = self.surfaces.iter().map(crossing_box).collect();
         for (id, (surface, b)) in self.surfaces.iter().zip(&boxes).enumerate() {
             let inside = surface
@@ -329,22 +329,24 @@ impl<'a> Bvh<'a> {
                 .iter()
                 .all(|p| p.cmpge(b.min).all() && p.cmple(b.max).all());
             if !inside {
-                return Err(format!("surface {id}'s box does not contain its corners"));
+                return Err(InvalidTree(format!(
+                    "surface {id}'s box does not contain its corners"
+                )));
             }
         }
         self.tree.validate(&boxes, &self.settings, &self.stats)?;
         self.validate_wide(&boxes)
     }
 
-    fn validate_wide(&self, boxes: &[Aabb]) -> Result<(), String> {
+    fn validate_wide(&self, boxes: &[Aabb]) -> Result<(), InvalidTree> {
         let wide = &self.wide;
         if wide.len() != self.stats.wide_nodes || wide.is_empty() != boxes.is_empty() {
-            return Err(format!(
+            return Err(InvalidTree(format!(
                 "{} wide nodes for {} surfaces, statistics say {}",
                 wide.len(),
                 boxes.len(),
                 self.stats.wide_nodes
-            ));
+            )));
         }
         let mut reached = vec![false; wide.len()];
         let mut seen = vec![false; boxes.len()];
@@ -358,7 +360,7 @@ impl<'a> Bvh<'a> {
         };
         while let Some(i) = todo.pop() {
             if std::mem::replace(&mut reached[i], true) {
-                return Err(format!("wide node {i} is reached twice"));
+                return Err(InvalidTree(format!("wide node {i} is reached twice")));
             }
             let node = &wide[i];
             for k in 0..WIDTH {
@@ -369,7 +371,9 @@ impl<'a> Bvh<'a> {
                 if node.count[k] == 0 {
                     let c = link as usize;
                     let Some(child) = wide.get(c) else {
-                        return Err(format!("wide node {i}: child {c} out of range"));
+                        return Err(InvalidTree(format!(
+                            "wide node {i}: child {c} out of range"
+                        )));
                     };
                     for j in 0..WIDTH {
                         let (min, max) = (
@@ -377,7 +381,9 @@ impl<'a> Bvh<'a> {
                             [0, 1, 2].map(|a| child.max[a][j]),
                         );
                         if child.link[j] != EMPTY_SLOT && !within(node, k, min, max) {
-                            return Err(format!("wide node {i}: box {k} does not contain {c}'s"));
+                            return Err(InvalidTree(format!(
+                                "wide node {i}: box {k} does not contain {c}'s"
+                            )));
                         }
                     }
                     todo.push(c);
@@ -385,26 +391,26 @@ impl<'a> Bvh<'a> {
                 }
                 let range = link as usize..link as usize + node.count[k] as usize;
                 let Some(primitives) = self.tree.primitives.get(range) else {
-                    return Err(format!("wide node {i}: leaf {k} out of range"));
+                    return Err(InvalidTree(format!("wide node {i}: leaf {k} out of range")));
                 };
                 for &p in primitives {
                     if std::mem::replace(&mut seen[p as usize], true) {
-                        return Err(format!("surface {p} is in two wide leaves"));
+                        return Err(InvalidTree(format!("surface {p} is in two wide leaves")));
                     }
                     let n = Node::new(boxes[p as usize], 0, 1);
                     if !within(node, k, n.min, n.max) {
-                        return Err(format!(
+                        return Err(InvalidTree(format!(
                             "wide node {i}: box {k} does not contain surface {p}"
-                        ));
+                        )));
                     }
                 }
             }
         }
         if let Some(i) = reached.iter().position(|r| !r) {
-            return Err(format!("wide node {i} is not reached"));
+            return Err(InvalidTree(format!("wide node {i} is not reached")));
         }
         if let Some(p) = seen.iter().position(|s| !s) {
-            return Err(format!("surface {p} is in no wide leaf"));
+            return Err(InvalidTree(format!("surface {p} is in no wide leaf")));
         }
         Ok(())
     }
@@ -419,7 +425,7 @@ impl Occluder for Bvh<'_> {
         Bvh::occluded_counting(self, from, to, skip)
     }
 
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), InvalidTree> {
         Bvh::validate(self)
     }
 
@@ -441,21 +447,7 @@ mod tests {
     use super::*;
     use crate::accel::brute::BruteForce;
 
-    const NONE_SKIPPED: [u32; 2] = [u32::MAX; 2];
-
-    fn quad(corners: [[f64; 3]; 4]) -> Surface {
-        let p = corners.iter().map(|c| DVec3::from_array(*c)).collect();
-        Surface::new(p, DVec3::splat(0.5), DVec3::ZERO, 0).unwrap()
-    }
-
-    fn square_at_z(z: f64, half: f64) -> Surface {
-        quad([
-            [-half, -half, z],
-            [half, -half, z],
-            [half, half, z],
-            [-half, half, z],
-        ])
-    }
+    use crate::accel::test_scenes::{NONE_SKIPPED, square_at_z};
 
     #[test]
     fn empty_scene_blocks_nothing() {

@@ -11,7 +11,7 @@ impl Tree {
         boxes: &[Aabb],
         settings: &BvhSettings,
         stats: &BvhStats,
-    ) -> Result<(), String> {
+    ) -> Result<(), InvalidTree> {
         let nodes = &self.nodes;
         if boxes.is_empty() {
             return if nodes.is_empty()
@@ -20,11 +20,11 @@ impl Tree {
             {
                 Ok(())
             } else {
-                Err("an empty scene has a non-empty tree".into())
+                Err(InvalidTree("an empty scene has a non-empty tree".into()))
             };
         }
         if nodes.is_empty() {
-            return Err("no nodes".into());
+            return Err(InvalidTree("no nodes".into()));
         }
         let mut parent = vec![u32::MAX; nodes.len()];
         let mut depth = vec![0usize; nodes.len()];
@@ -35,7 +35,9 @@ impl Tree {
         let mut seen = vec![false; boxes.len()];
         for (i, node) in nodes.iter().enumerate() {
             if i > 0 && parent[i] == u32::MAX {
-                return Err(format!("node {i} has no parent (or comes before it)"));
+                return Err(InvalidTree(format!(
+                    "node {i} has no parent (or comes before it)"
+                )));
             }
             if node.is_leaf() {
                 let range = node.primitives();
@@ -43,58 +45,69 @@ impl Tree {
                     || range.start != next_primitive
                     || range.end > self.primitives.len()
                 {
-                    return Err(format!(
+                    return Err(InvalidTree(format!(
                         "leaf {i}: primitive range {range:?} is out of order"
-                    ));
+                    )));
                 }
                 if range.len() > settings.max_leaf_size {
-                    return Err(format!("leaf {i} holds {} primitives", range.len()));
+                    return Err(InvalidTree(format!(
+                        "leaf {i} holds {} primitives",
+                        range.len()
+                    )));
                 }
                 next_primitive = range.end;
                 leaves += 1;
                 largest = largest.max(range.len());
                 for &p in &self.primitives[range] {
                     let Some(b) = boxes.get(p as usize) else {
-                        return Err(format!("leaf {i}: primitive {p} out of range"));
+                        return Err(InvalidTree(format!("leaf {i}: primitive {p} out of range")));
                     };
                     if std::mem::replace(&mut seen[p as usize], true) {
-                        return Err(format!("primitive {p} is in two leaves"));
+                        return Err(InvalidTree(format!("primitive {p} is in two leaves")));
                     }
                     if !node.contains(&Node::new(*b, 0, 1)) {
-                        return Err(format!("leaf {i}'s box does not contain primitive {p}'s"));
+                        return Err(InvalidTree(format!(
+                            "leaf {i}'s box does not contain primitive {p}'s"
+                        )));
                     }
                 }
                 continue;
             }
             if node.axis() > 2 {
-                return Err(format!("node {i}: split axis {}", node.axis()));
+                return Err(InvalidTree(format!("node {i}: split axis {}", node.axis())));
             }
             let right = node.link as usize;
             if right <= i + 1 || right >= nodes.len() {
-                return Err(format!(
+                return Err(InvalidTree(format!(
                     "node {i}: right child {right} out of depth-first order"
-                ));
+                )));
             }
             for child in [i + 1, right] {
                 if parent[child] != u32::MAX {
-                    return Err(format!("node {child} has two parents"));
+                    return Err(InvalidTree(format!("node {child} has two parents")));
                 }
                 parent[child] = i as u32;
                 depth[child] = depth[i] + 1;
                 if !node.contains(&nodes[child]) {
-                    return Err(format!("node {i}'s box does not contain child {child}'s"));
+                    return Err(InvalidTree(format!(
+                        "node {i}'s box does not contain child {child}'s"
+                    )));
                 }
             }
         }
         if next_primitive != self.primitives.len() || self.primitives.len() != boxes.len() {
-            return Err("leaves do not cover the primitive list exactly".into());
+            return Err(InvalidTree(
+                "leaves do not cover the primitive list exactly".into(),
+            ));
         }
         if let Some(p) = seen.iter().position(|s| !s) {
-            return Err(format!("primitive {p} is in no leaf"));
+            return Err(InvalidTree(format!("primitive {p} is in no leaf")));
         }
         let max_depth = depth.iter().copied().max().unwrap_or(0);
         if max_depth > MAX_DEPTH {
-            return Err(format!("depth {max_depth} exceeds {MAX_DEPTH}"));
+            return Err(InvalidTree(format!(
+                "depth {max_depth} exceeds {MAX_DEPTH}"
+            )));
         }
         let actual = BvhStats {
             nodes: nodes.len(),
@@ -104,7 +117,9 @@ impl Tree {
             wide_nodes: stats.wide_nodes,
         };
         if actual != *stats {
-            return Err(format!("statistics {stats:?}, tree {actual:?}"));
+            return Err(InvalidTree(format!(
+                "statistics {stats:?}, tree {actual:?}"
+            )));
         }
         Ok(())
     }
