@@ -149,14 +149,7 @@ const EXITANCE: f64 = 3.0;
 /// height 1 m facing down. Nothing the floor reflects comes back to it, so
 /// its irradiance is the light's direct light alone.
 fn square_light() -> Scene {
-    let floor = quad(
-        DVec3::new(-2.0, 0.0, -2.0),
-        DVec3::Z * 4.0,
-        DVec3::X * 4.0,
-        0.5,
-        0.0,
-        0,
-    );
+    let floor = common::floor(0.5);
     let h = SIDE / 2.0;
     let light = quad(
         DVec3::new(-h, HEIGHT, -h),

@@ -86,14 +86,7 @@ fn scores_follow_score_py_on_a_hand_made_reference() {
 /// behind it (x and z from 0.83 to 1.67).
 #[test]
 fn the_error_picture_colours_visible_points_by_their_error() {
-    let floor = quad(
-        DVec3::new(-2.0, 0.0, -2.0),
-        DVec3::Z * 4.0,
-        DVec3::X * 4.0,
-        0.5,
-        0.0,
-        0,
-    );
+    let floor = common::floor(0.5);
     let light = quad(
         DVec3::new(-3.0, 6.0, -3.0),
         DVec3::X * 6.0,

@@ -123,14 +123,7 @@ fn furnace_at_the_default_settings() {
 #[test]
 fn direct_light_matches_the_closed_form() {
     let h = 0.25;
-    let floor = quad(
-        DVec3::new(-2.0, 0.0, -2.0),
-        DVec3::Z * 4.0,
-        DVec3::X * 4.0,
-        0.5,
-        0.0,
-        0,
-    );
+    let floor = common::floor(0.5);
     let light = quad(
         DVec3::new(-h, 1.0, -h),
         DVec3::X * 0.5,

@@ -18,14 +18,7 @@ const SUBSOURCES: u32 = 3;
 /// A 4 x 4 m floor at y = 0 under a square emitter of side 0.5 m at
 /// height 1 m facing down, plus `extra` surfaces.
 fn scene(extra: Vec<radiosity::scene::Surface>) -> Scene {
-    let floor = quad(
-        DVec3::new(-2.0, 0.0, -2.0),
-        DVec3::Z * 4.0,
-        DVec3::X * 4.0,
-        RHO,
-        0.0,
-        0,
-    );
+    let floor = common::floor(RHO);
     let h = SIDE / 2.0;
     let light = quad(
         DVec3::new(-h, HEIGHT, -h),

@@ -43,6 +43,19 @@ pub fn quad(origin: DVec3, u: DVec3, v: DVec3, rho: f64, emission: f64, face: u3
     .expect("quad has area")
 }
 
+/// The 4 x 4 m floor of the light tests: centred on the origin in the
+/// plane y = 0, facing up, reflectance `rho`, surface id 0.
+pub fn floor(rho: f64) -> Surface {
+    quad(
+        DVec3::new(-2.0, 0.0, -2.0),
+        DVec3::Z * 4.0,
+        DVec3::X * 4.0,
+        rho,
+        0.0,
+        0,
+    )
+}
+
 /// The six inward faces of the cube `[0, side]^3`, all with the same
 /// reflectance and emission (the furnace).
 pub fn furnace(side: f64, rho: f64, emission: f64) -> Scene {
