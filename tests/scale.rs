@@ -2,28 +2,15 @@
 //! as a child, so this test lives with the command (the other experiment
 //! tests are in `crates/experiments/tests`).
 
+#[path = "../crates/experiments/tests/common/mod.rs"]
+mod common;
+
 use std::path::Path;
 
-use radiosity_experiments::{Context, Report};
+use common::assert_table;
 
-fn context(dir: &Path) -> Context {
-    Context {
-        out: dir.to_path_buf(),
-        quick: true,
-        command: "cargo test --test scale".into(),
-        scenes: None,
-        embree_python: None,
-        reference: None,
-    }
-}
-
-fn assert_table(report: &Report, header: &str) {
-    assert!(
-        report.body.contains(header),
-        "no table headed {header:?} in:\n{}",
-        report.body
-    );
-    assert!(report.body.contains("| --- |"), "no Markdown table");
+fn context(dir: &Path) -> radiosity_experiments::Context {
+    common::context(dir, "cargo test --test scale")
 }
 
 /// The scale experiment on the built-in scenes (quick: coarser meshes),

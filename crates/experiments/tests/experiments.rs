@@ -3,21 +3,17 @@
 //! their tables and pictures, the pictures decode at the size announced,
 //! and Figure 4.5's sum over 3x3 sub-squares equals the exact factor.
 
+mod common;
+
 use std::path::Path;
 
 use approx::{assert_abs_diff_eq, relative_eq};
+use common::assert_table;
 use radiosity_experiments::form_factors::{self, CrossSection};
-use radiosity_experiments::{Context, Report, plot};
+use radiosity_experiments::{Context, plot};
 
 fn context(dir: &Path) -> Context {
-    Context {
-        out: dir.to_path_buf(),
-        quick: true,
-        command: "cargo test --test experiments".into(),
-        scenes: None,
-        embree_python: None,
-        reference: None,
-    }
+    common::context(dir, "cargo test --test experiments")
 }
 
 /// Decodes a PNG and returns its width and height.
@@ -29,15 +25,6 @@ fn png_size(path: &Path) -> (u32, u32) {
     let info = reader.next_frame(&mut buffer).expect("PNG data");
     assert_eq!(info.color_type, png::ColorType::Rgb);
     (info.width, info.height)
-}
-
-fn assert_table(report: &Report, header: &str) {
-    assert!(
-        report.body.contains(header),
-        "no table headed {header:?} in:\n{}",
-        report.body
-    );
-    assert!(report.body.contains("| --- |"), "no Markdown table");
 }
 
 #[test]
