@@ -17,6 +17,7 @@ use radiosity::export::gltf::BakeMode;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::Exposure;
 use radiosity::scene::{self, LoadOptions, Scene, gltf};
+use radiosity::solver::patches::PatchSettings;
 use radiosity::solver::{Flow, Settings, Solver, Visibility};
 use serde_json::{Value, json};
 
@@ -271,8 +272,12 @@ fn blender_export_renders_like_the_builtin_box() {
                 bisect_triangles: false,
             },
             converge: 0.01,
-            subsources: 2,
-            hemicube_resolution: 96,
+            method: PatchSettings {
+                visibility: Visibility::HemicubePretest,
+                subsources: 2,
+                hemicube_resolution: 96,
+            }
+            .into(),
             ..Settings::wong_tsang93()
         };
         let mesh = Mesh::build(scene, &settings.mesh).unwrap();
@@ -373,7 +378,11 @@ fn double_sided_faces_receive_on_both_sides_without_leaks() {
                 max_elements: 100_000,
                 bisect_triangles: false,
             },
-            visibility,
+            method: PatchSettings {
+                visibility,
+                ..PatchSettings::default()
+            }
+            .into(),
             max_shots: Some(40),
             ..Settings::wong_tsang93()
         };

@@ -17,7 +17,8 @@ use radiosity::form_factor::closed_form;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::{self, Scene};
 use radiosity::sensors::{self, SensorPoint};
-use radiosity::solver::{Flow, Settings, Shooting, Solver};
+use radiosity::solver::adaptive::AdaptiveSettings;
+use radiosity::solver::{Flow, MethodSettings, Settings, Shooting, Solver};
 
 /// A closed 2 x 1.5 x 1.8 m box (floor, ceiling, four walls facing in)
 /// with a 0.6 m square light 0.1 m below the ceiling, facing down: no two
@@ -87,10 +88,14 @@ fn sensors_at_vertices_get_the_vertex_values() {
         Settings::wallace89(),
         Settings::adaptive(),
     ] {
-        let exact = settings.shooting == Shooting::Patches;
+        let exact = settings.method.shooting() == Shooting::Patches;
         let settings = Settings {
             converge: 0.02,
-            tolerance: if exact { settings.tolerance } else { 1e-5 },
+            method: if exact {
+                settings.method.clone()
+            } else {
+                AdaptiveSettings { tolerance: 1e-5 }.into()
+            },
             ..settings
         };
         let mesh = box_mesh(&scene, &settings);
@@ -112,9 +117,10 @@ fn sensors_at_vertices_get_the_vertex_values() {
             worst = worst.max(difference);
             if exact {
                 assert_eq!(
-                    sensor_e[i], vertex_e[i],
+                    sensor_e[i],
+                    vertex_e[i],
                     "vertex {i}, {:?}",
-                    settings.shooting
+                    settings.method.shooting()
                 );
                 // B = Ke + Kd E at once, against the vertex's B accumulated
                 // shot by shot: equal to round-off.
@@ -136,7 +142,7 @@ fn sensors_at_vertices_get_the_vertex_values() {
         assert!(sensor_e.iter().all(|e| e.max_element() > 0.0));
         eprintln!(
             "{:?}: worst relative difference sensor - vertex {worst:.2e}",
-            settings.shooting
+            settings.method.shooting()
         );
     }
 }
@@ -216,14 +222,14 @@ fn sensors_under_a_square_light_get_the_closed_form() {
             // Patches: the analytic factor of every unoccluded subsource is
             // exact. Adaptive: a far part of the source may be taken as a
             // corrected point source, within the tolerance.
-            let allowed = match settings.shooting {
-                Shooting::Patches => 1e-9,
-                Shooting::Adaptive => settings.tolerance,
+            let allowed = match &settings.method {
+                MethodSettings::Patches(_) => 1e-9,
+                MethodSettings::Adaptive(a) => a.tolerance,
             };
             assert!(
                 error < allowed,
                 "{:?} at {x}: E = {}, exact {exact}",
-                settings.shooting,
+                settings.method.shooting(),
                 e.x
             );
             assert_eq!(e.x, e.z);
@@ -237,7 +243,10 @@ fn sensors_under_a_square_light_get_the_closed_form() {
                 max_relative = 1e-12
             );
         }
-        eprintln!("{:?}: worst relative error {worst:.2e}", settings.shooting);
+        eprintln!(
+            "{:?}: worst relative error {worst:.2e}",
+            settings.method.shooting()
+        );
     }
 }
 

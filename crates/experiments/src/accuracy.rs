@@ -28,7 +28,8 @@ use super::reference::{self, Harness, Scored};
 use super::validate::{self, SceneCase, seconds, solve, write_rows};
 use super::{Context, Error, Report, median, table, write_file};
 use radiosity::sensors::SensorPoint;
-use radiosity::solver::Settings;
+use radiosity::solver::adaptive::AdaptiveSettings;
+use radiosity::solver::{MethodSettings, Settings};
 
 /// The scenes of the curve.
 pub const SCENES: [SceneCase; 2] = [
@@ -89,7 +90,7 @@ fn ours(quick: bool) -> Vec<Ours> {
                 series,
                 setting: format!("--tolerance {tolerance:e} --converge {converge:e}"),
                 settings: Settings {
-                    tolerance,
+                    method: MethodSettings::Adaptive(AdaptiveSettings { tolerance }),
                     converge,
                     ..Settings::adaptive()
                 },

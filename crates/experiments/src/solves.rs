@@ -14,7 +14,10 @@ use radiosity::form_factor::FormFactor;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, Exposure, Image, RenderSettings};
 use radiosity::scene::{self, Scene};
-use radiosity::solver::{Flow, Preset, Settings, Solver, Stats, Visibility};
+use radiosity::solver::patches::PatchSettings;
+use radiosity::solver::{
+    Counter, Flow, MethodSettings, Preset, Settings, Solver, Stats, Visibility,
+};
 use radiosity::{app, luminance};
 
 /// A scene meshed with its suggested sizes, or with an element size chosen
@@ -79,17 +82,22 @@ fn median_first_shot(
     mesh: &Mesh,
     settings: &Settings,
     repetitions: usize,
-) -> (f64, Stats) {
+) -> (f64, Stats, [u64; 2]) {
     let mut times = Vec::with_capacity(repetitions);
     let mut stats = Stats::default();
+    let mut pretest = [0; 2];
     for _ in 0..repetitions {
         let mut solver = Solver::new(scene, mesh, settings.clone());
         let start = Instant::now();
         solver.shoot();
         times.push(start.elapsed().as_secs_f64());
         stats = solver.stats().clone();
+        pretest = ["pretest_visible", "pretest_hidden"].map(|name| match solver.counter(name) {
+            Some(Counter::Count(n)) => n,
+            _ => 0,
+        });
     }
-    (median(&mut times), stats)
+    (median(&mut times), stats, pretest)
 }
 
 /// The scenes of Figure 2.1: name, the paper's vertex count, and the paper's
@@ -121,6 +129,9 @@ pub struct FirstShot {
     pub seconds: f64,
     /// The shot's counters (of the last repetition).
     pub stats: Stats,
+    /// Pairs the pre-test found visible and hidden (of the last
+    /// repetition).
+    pub pretest: [u64; 2],
 }
 
 /// What Figure 2.1 measures: every scene, accelerator and visibility
@@ -148,11 +159,15 @@ pub fn fig2_1_compute(repetitions: usize) -> Result<Fig21, Error> {
             for visibility in Visibility::ALL {
                 let settings = Settings {
                     accel,
-                    visibility,
+                    method: MethodSettings::Patches(PatchSettings {
+                        visibility,
+                        ..PatchSettings::default()
+                    }),
                     form_factor: FormFactor::Analytic,
                     ..Settings::wallace89()
                 };
-                let (seconds, stats) = median_first_shot(&scene, &mesh, &settings, repetitions);
+                let (seconds, stats, pretest) =
+                    median_first_shot(&scene, &mesh, &settings, repetitions);
                 shots.push(FirstShot {
                     scene: name,
                     surfaces: scene.surfaces.len(),
@@ -162,6 +177,7 @@ pub fn fig2_1_compute(repetitions: usize) -> Result<Fig21, Error> {
                     visibility,
                     seconds,
                     stats,
+                    pretest,
                 });
             }
         }
@@ -224,8 +240,8 @@ pub fn fig2_1_report(data: &Fig21) -> Report {
                 visibility.name().to_string(),
                 (stats.pairs / stats.subsources).to_string(),
                 (stats.rays_cast / stats.subsources).to_string(),
-                (stats.pretest_visible / stats.subsources).to_string(),
-                (stats.pretest_hidden / stats.subsources).to_string(),
+                (shot.pretest[0] / stats.subsources).to_string(),
+                (shot.pretest[1] / stats.subsources).to_string(),
                 format!(
                     "{:.1}%",
                     100.0 * (1.0 - stats.rays_cast as f64 / stats.pairs.max(1) as f64)
@@ -290,7 +306,10 @@ fn configurations() -> Vec<(&'static str, Settings)> {
         (
             "+ hemicube pre-test only",
             Settings {
-                visibility: Visibility::HemicubePretest,
+                method: MethodSettings::Patches(PatchSettings {
+                    visibility: Visibility::HemicubePretest,
+                    ..PatchSettings::default()
+                }),
                 ..base.clone()
             },
         ),

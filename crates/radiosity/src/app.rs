@@ -18,7 +18,9 @@ use crate::scene::{
     self, Camera, CameraError, LoadOptions, LoadOptionsError, MeshHint, Scene, SceneError,
 };
 use crate::sensors;
-use crate::solver::{Flow, Settings, SettingsError, Solver, Stats, StopReason};
+use crate::solver::{
+    Counter, Flow, MethodSettings, Settings, SettingsError, Solver, Stats, StopReason,
+};
 
 /// What to draw and where.
 #[derive(Clone, Debug, PartialEq)]
@@ -335,6 +337,8 @@ pub struct Outcome {
     pub counts: Counts,
     /// Solver counters.
     pub stats: Stats,
+    /// The method's own counters ([`Solver::counters`]).
+    pub counters: Vec<(&'static str, Counter)>,
     /// Why the solve stopped.
     pub stop: StopReason,
     /// Unshot fraction at the end.
@@ -651,6 +655,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         scene: scene.name.clone(),
         counts,
         stats: solver.stats().clone(),
+        counters: solver.counters(),
         stop,
         unshot_fraction: solver.unshot_fraction(),
         load_time,
@@ -902,12 +907,16 @@ pub struct StatsFile {
     /// `vertices`.
     #[serde(flatten)]
     pub counts: Counts,
-    /// `shots`, `subsources`, `pairs`, `rays_cast`, `pretest_visible`,
-    /// `pretest_hidden` and the solver's times: `hemicube_seconds`,
+    /// `shots`, `subsources`, `pairs`, `rays_cast` and the solver's times:
     /// `gather_seconds`, `pretest_thread_seconds`, `ray_thread_seconds`,
     /// `form_factor_thread_seconds`, `bookkeeping_seconds`.
     #[serde(flatten)]
     pub solver: Stats,
+    /// Every method's own counters: the run's method's, and the others' at
+    /// zero, so the keys are the same whatever the method (`pretest_visible`,
+    /// `pretest_hidden`, `hemicube_seconds` are patch shooting's).
+    #[serde(flatten, serialize_with = "all_counters")]
+    pub counters: Vec<(&'static str, Counter)>,
     /// Unshot power left over emitted power.
     pub unshot_fraction: f64,
     /// Why the solve stopped ([`StopReason::describe`]).
@@ -938,6 +947,26 @@ pub struct StatsFile {
     pub settings: Settings,
 }
 
+/// A run's method counters with every other method's at zero, as a map.
+fn all_counters<S: serde::Serializer>(
+    counters: &[(&'static str, Counter)],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut all = MethodSettings::all_zero_counters();
+    for (name, value) in counters {
+        match all.iter_mut().find(|c| c.0 == *name) {
+            Some(slot) => slot.1 = *value,
+            None => all.push((name, *value)),
+        }
+    }
+    let mut map = serializer.serialize_map(Some(all.len()))?;
+    for (name, value) in all {
+        map.serialize_entry(name, &value.json())?;
+    }
+    map.end()
+}
+
 impl StatsFile {
     /// The statistics of a run that used `settings`.
     #[must_use]
@@ -946,6 +975,7 @@ impl StatsFile {
             scene: outcome.scene.clone(),
             counts: outcome.counts,
             solver: outcome.stats.clone(),
+            counters: outcome.counters.clone(),
             unshot_fraction: outcome.unshot_fraction,
             stop_reason: outcome.stop.describe(),
             load_seconds: outcome.load_time.as_secs_f64(),

@@ -1,4 +1,4 @@
-//! Memory (issue 9, item 5; beyond the paper): the peak resident set of
+//! Memory (beyond the paper): the peak resident set of
 //! this process, what the machine has available, and an estimate of a run's
 //! peak from the counts known once the scene is meshed, so a run that would
 //! exhaust the machine is refused before its solve, naming the setting to
@@ -15,8 +15,7 @@
 //! | scene | [`SURFACE`] a surface (polygon, plane, material) |
 //! | mesh | [`ELEMENT`] an element, [`VERTEX`] a vertex, [`PATCH`] a patch (the structures with their vectors' growth slack) |
 //! | accelerator | [`ACCEL`] a surface, BVH or BSP alike |
-//! | solver | per vertex (receiver, radiosity, irradiance; patch shooting keeps more per receiver), per element (adaptive shooting's unshot radiosity and cluster hierarchy), per surface (the prepared surfaces of the segment test): [`SolverCosts`] |
-//! | item buffers | the hemicube pre-test's buffers, [`crate::solver::item_buffer_bytes`] |
+//! | solver | the method's own ([`crate::solver::Method::memory`]): per vertex (receiver, radiosity, irradiance; patch shooting keeps more per receiver), per element (adaptive shooting's unshot radiosity and cluster hierarchy), per surface (the prepared surfaces of the segment test), and lumps such as the hemicube pre-test's item buffers: [`SolverCosts`] |
 //! | last stage | the largest of: a shot's buffers ([`SHOT_VERTEX`] a vertex), the picture (samples at [`SAMPLE`], pixels at [`PIXEL`], [`SCREEN_ELEMENT`] an element projected), the default view's BVH ([`VIEW_SURFACE`] a surface, when the scene brings no camera), the glTF bake ([`BAKE_VERTEX`], [`BAKE_ELEMENT`]) |
 //!
 //! Everything but the last stage lives until the outputs are written, so
@@ -26,7 +25,7 @@
 
 use std::fmt;
 
-use crate::solver::{Settings, Shooting, Visibility, item_buffer_bytes};
+use crate::solver::Settings;
 
 /// The process before any scene: binary, libraries, thread stacks.
 pub const BASE: u64 = 6 << 20;
@@ -59,8 +58,9 @@ pub const BAKE_VERTEX: f64 = 80.0;
 /// The glTF bake, per element (indices).
 pub const BAKE_ELEMENT: f64 = 48.0;
 
-/// The solver's own memory per item, for one way of shooting.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A solving method's own memory: per item, added to the shared parts of
+/// those items, and lumps of its own.
+#[derive(Clone, Debug, PartialEq)]
 pub struct SolverCosts {
     /// Per vertex.
     pub vertex: f64,
@@ -68,25 +68,8 @@ pub struct SolverCosts {
     pub element: f64,
     /// Per surface.
     pub surface: f64,
-}
-
-impl SolverCosts {
-    /// Measured costs of a way of shooting.
-    #[must_use]
-    pub fn of(shooting: Shooting) -> SolverCosts {
-        match shooting {
-            Shooting::Adaptive => SolverCosts {
-                vertex: 104.0,
-                element: 270.0,
-                surface: 400.0,
-            },
-            Shooting::Patches => SolverCosts {
-                vertex: 264.0,
-                element: 0.0,
-                surface: 260.0,
-            },
-        }
-    }
+    /// Parts of its own that live until the outputs are written.
+    pub parts: Vec<Part>,
 }
 
 /// What a run holds, for the estimate.
@@ -188,7 +171,7 @@ impl fmt::Display for Estimate {
 /// Estimates a run's peak from its sizes and settings.
 #[must_use]
 pub fn estimate(sizes: &Sizes, settings: &Settings) -> Estimate {
-    let solver = SolverCosts::of(settings.shooting);
+    let solver = settings.method.method().memory();
     let element_remedy = "raise --element-size";
     let mut kept = vec![
         Part {
@@ -222,14 +205,7 @@ pub fn estimate(sizes: &Sizes, settings: &Settings) -> Estimate {
             remedy: "raise --patch-size",
         },
     ];
-    if settings.visibility == Visibility::HemicubePretest {
-        kept.push(Part {
-            name: "item buffers",
-            count: 1,
-            each: item_buffer_bytes(settings.subsources, settings.hemicube_resolution) as f64,
-            remedy: "lower --hemicube-resolution or --subsources",
-        });
-    }
+    kept.extend(solver.parts);
     let mut last = vec![Part {
         name: "shot buffers",
         count: sizes.vertices,

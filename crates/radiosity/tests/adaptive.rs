@@ -19,7 +19,7 @@ use radiosity::form_factor::{analytic, closed_form};
 use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::{self, Scene};
-use radiosity::solver::{Flow, Settings, Shooting, Solver};
+use radiosity::solver::{Flow, MethodSettings, Settings, Shooting, Solver};
 
 /// The default settings with these mesh sizes, and the mesh they make.
 fn adaptive(scene: &Scene, patch_size: f64, element_size: f64) -> (Settings, Mesh) {
@@ -215,7 +215,7 @@ fn a_radiosity_gradient_reaches_nearby_receivers() {
 
     let solve = |shooting: Shooting| {
         let mut settings = Settings {
-            shooting,
+            method: MethodSettings::default_for(shooting),
             converge: 1e-9,
             max_shots: Some(60),
             ..Settings::adaptive()

@@ -8,6 +8,7 @@ use glam::DVec3;
 use radiosity::form_factor::closed_form;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::Scene;
+use radiosity::solver::patches::PatchSettings;
 use radiosity::solver::{Flow, Settings, Solver};
 
 const HEIGHT: f64 = 1.0;
@@ -44,7 +45,11 @@ fn first_shot(scene: &Scene) -> (Mesh, Vec<DVec3>) {
             max_elements: 100_000,
             bisect_triangles: false,
         },
-        subsources: SUBSOURCES,
+        method: PatchSettings {
+            subsources: SUBSOURCES,
+            ..PatchSettings::default()
+        }
+        .into(),
         max_shots: Some(1),
         ..Settings::wallace89()
     };

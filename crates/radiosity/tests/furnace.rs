@@ -8,7 +8,7 @@ mod common;
 use approx::abs_diff_eq;
 use radiosity::form_factor::{self, FormFactor, Source};
 use radiosity::mesh::{self, Mesh, MeshSettings};
-use radiosity::solver::{Flow, Settings, Solver};
+use radiosity::solver::{Flow, MethodSettings, Settings, Solver};
 
 const RHO: f64 = 0.5;
 
@@ -54,10 +54,13 @@ fn furnace_with_wallace_eq1_stays_within_the_bounds_its_closure_implies() {
     let mut solver = Solver::new(&scene, &mesh, settings.clone());
     solver.run(|_| Flow::Continue);
 
+    let MethodSettings::Patches(patches) = &settings.method else {
+        panic!("the closure is of patch shooting's subsources");
+    };
     let subsources: Vec<(u32, Vec<mesh::Subsource>)> = mesh
         .patches
         .iter()
-        .map(|p| (p.surface, mesh::subsources(&p.polygon, settings.subsources)))
+        .map(|p| (p.surface, mesh::subsources(&p.polygon, patches.subsources)))
         .collect();
     let closure: Vec<f64> = mesh
         .vertices

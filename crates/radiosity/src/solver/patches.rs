@@ -14,28 +14,228 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{Received, Receiver, Settings, Shot, ShotInputs, Stats, Visibility};
+use super::method::{
+    Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot, ShotInputs,
+    Stats, VISIBILITY, Value, Visibility,
+};
+use super::{Receiver, Settings};
 use crate::accel::{self, Occluder};
 use crate::form_factor::{self, FormFactor, Source};
 use crate::geometry;
-use crate::hemicube::{ItemBuffer, Pretest};
+use crate::hemicube::{self, ItemBuffer, Pretest};
 use crate::luminance;
+use crate::memory;
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
 
+/// The paper's method's own parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PatchSettings {
+    /// How visibility is decided.
+    pub visibility: Visibility,
+    /// Pixels across the top face of the pre-test hemicube.
+    pub hemicube_resolution: u32,
+    /// A shooting patch is split into `subsources x subsources`
+    /// subsources.
+    pub subsources: u32,
+}
+
+impl Default for PatchSettings {
+    /// Wallace et al.'s: rays for every pair, 3 x 3 subsources.
+    fn default() -> Self {
+        PatchSettings {
+            visibility: Visibility::Ray,
+            hemicube_resolution: hemicube::DEFAULT_RESOLUTION,
+            subsources: 3,
+        }
+    }
+}
+
+/// `--hemicube-resolution`.
+const HEMICUBE_RESOLUTION: Parameter = Parameter {
+    name: "hemicube_resolution",
+    value_name: "N",
+    help: "Pixels across the top face of the pre-test hemicube",
+    kind: Kind::Count,
+};
+
+/// `--subsources`.
+const SUBSOURCES: Parameter = Parameter {
+    name: "subsources",
+    value_name: "N",
+    help: "A shooting patch is split into N x N subsources",
+    kind: Kind::Count,
+};
+
+/// Memory of the item buffers of one shot: one buffer per subsource, each
+/// `3 resolution^2` pixels of a surface id and a depth.
+#[must_use]
+pub fn item_buffer_bytes(subsources: u32, resolution: u32) -> u64 {
+    let pixels = 3 * u64::from(resolution) * u64::from(resolution);
+    u64::from(subsources) * u64::from(subsources) * pixels * 8
+}
+
+/// Most memory the item buffers of a shot may take.
+pub const MAX_ITEM_BUFFER_BYTES: u64 = 4 << 30;
+
+/// Largest `--hemicube-resolution`: the item buffer's own limit.
+pub const MAX_HEMICUBE_RESOLUTION: u32 = hemicube::MAX_RESOLUTION;
+
+/// Largest `--subsources` (per side): 64 x 64 = 4,096 subsources a shot.
+pub const MAX_SUBSOURCES_PER_SIDE: u32 = 64;
+
+/// Settings patch shooting cannot run with.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PatchSettingsError {
+    /// Subsources per side out of range.
+    #[error("--subsources must be between 1 and {MAX_SUBSOURCES_PER_SIDE}, not {0}")]
+    Subsources(u64),
+    /// Hemicube resolution out of range.
+    #[error("--hemicube-resolution must be between 8 and {MAX_HEMICUBE_RESOLUTION}, not {0}")]
+    HemicubeResolution(u64),
+    /// The pre-test's item buffers would exceed [`MAX_ITEM_BUFFER_BYTES`].
+    #[error(
+        "{subsources} x {subsources} subsources with hemicubes of {resolution} pixels need \
+         {gib:.1} GiB of item buffers (limit {limit} GiB): lower --subsources or \
+         --hemicube-resolution",
+        gib = *bytes as f64 / (1u64 << 30) as f64,
+        limit = MAX_ITEM_BUFFER_BYTES >> 30
+    )]
+    ItemBuffers {
+        /// Subsources per side.
+        subsources: u32,
+        /// Hemicube resolution.
+        resolution: u32,
+        /// Bytes the buffers would take.
+        bytes: u64,
+    },
+}
+
+impl Method for PatchSettings {
+    fn parameters(&self) -> &'static [Parameter] {
+        &[VISIBILITY, HEMICUBE_RESOLUTION, SUBSOURCES]
+    }
+
+    fn set(&mut self, name: &str, value: &Value) -> Result<(), SetError> {
+        // A count beyond u32 is out of range: refused with validate's words.
+        let count = |error: fn(u64) -> PatchSettingsError| {
+            let v = value.count(name)?;
+            u32::try_from(v).map_err(|_| SetError::Refused(MethodError::new(error(v))))
+        };
+        match name {
+            "visibility" => self.visibility = value.choice(name)?,
+            "hemicube_resolution" => {
+                self.hemicube_resolution = count(PatchSettingsError::HemicubeResolution)?;
+            }
+            "subsources" => self.subsources = count(PatchSettingsError::Subsources)?,
+            _ => return Err(SetError::NotMine),
+        }
+        Ok(())
+    }
+
+    fn values(&self) -> Vec<(&'static str, serde_json::Value)> {
+        vec![
+            ("visibility", self.visibility.name().into()),
+            ("hemicube_resolution", self.hemicube_resolution.into()),
+            ("subsources", self.subsources.into()),
+        ]
+    }
+
+    fn validate(&self) -> Result<(), MethodError> {
+        if !(1..=MAX_SUBSOURCES_PER_SIDE).contains(&self.subsources) {
+            return Err(MethodError::new(PatchSettingsError::Subsources(
+                self.subsources.into(),
+            )));
+        }
+        if !(8..=MAX_HEMICUBE_RESOLUTION).contains(&self.hemicube_resolution) {
+            return Err(MethodError::new(PatchSettingsError::HemicubeResolution(
+                self.hemicube_resolution.into(),
+            )));
+        }
+        if self.visibility == Visibility::HemicubePretest {
+            let bytes = item_buffer_bytes(self.subsources, self.hemicube_resolution);
+            if bytes > MAX_ITEM_BUFFER_BYTES {
+                return Err(MethodError::new(PatchSettingsError::ItemBuffers {
+                    subsources: self.subsources,
+                    resolution: self.hemicube_resolution,
+                    bytes,
+                }));
+            }
+        }
+        Ok(())
+    }
+
+    fn zero_counters(&self) -> Vec<(&'static str, Counter)> {
+        PatchCounters::default().list()
+    }
+
+    fn memory(&self) -> memory::SolverCosts {
+        let mut parts = Vec::new();
+        if self.visibility == Visibility::HemicubePretest {
+            parts.push(memory::Part {
+                name: "item buffers",
+                count: 1,
+                each: item_buffer_bytes(self.subsources, self.hemicube_resolution) as f64,
+                remedy: "lower --hemicube-resolution or --subsources",
+            });
+        }
+        // Measured on the shared scenes (EXPERIMENTS.md, "Memory").
+        memory::SolverCosts {
+            vertex: 264.0,
+            element: 0.0,
+            surface: 260.0,
+            parts,
+        }
+    }
+
+    fn start<'a>(
+        &self,
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        _settings: &Settings,
+        _receivers: &[Receiver],
+    ) -> Box<dyn Shooter + 'a> {
+        Box::new(PatchShooting::new(scene, mesh, self))
+    }
+}
+
+/// The pre-test's counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct PatchCounters {
+    /// Pairs the hemicube pre-test found visible without a ray.
+    pretest_visible: u64,
+    /// Pairs the hemicube pre-test found hidden without a ray.
+    pretest_hidden: u64,
+    /// Wall time rasterising the hemicube item buffers.
+    hemicube_time: Duration,
+}
+
+impl PatchCounters {
+    fn list(&self) -> Vec<(&'static str, Counter)> {
+        vec![
+            ("pretest_visible", Counter::Count(self.pretest_visible)),
+            ("pretest_hidden", Counter::Count(self.pretest_hidden)),
+            ("hemicube_seconds", Counter::Seconds(self.hemicube_time)),
+        ]
+    }
+}
+
 /// The state of patch shooting.
-pub(crate) struct PatchShooting {
+struct PatchShooting {
+    settings: PatchSettings,
     /// Unshot radiosity of each patch.
     unshot: Vec<DVec3>,
     /// One item buffer per subsource, reused from shot to shot.
     item_buffers: Vec<ItemBuffer>,
+    counters: PatchCounters,
 }
 
 impl PatchShooting {
     /// Unshot radiosity `E` of each patch's surface; item buffers allocated
     /// up front so no shot pays for them.
-    pub(crate) fn new(scene: &Scene, mesh: &Mesh, settings: &Settings) -> PatchShooting {
+    fn new(scene: &Scene, mesh: &Mesh, settings: &PatchSettings) -> PatchShooting {
         PatchShooting {
+            settings: settings.clone(),
             unshot: mesh
                 .patches
                 .iter()
@@ -50,16 +250,8 @@ impl PatchShooting {
                         .collect()
                 }
             },
+            counters: PatchCounters::default(),
         }
-    }
-
-    /// Unshot power, per channel.
-    pub(crate) fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
-        mesh.patches
-            .iter()
-            .zip(&self.unshot)
-            .map(|(p, u)| *u * p.area)
-            .sum()
     }
 
     /// The patch with the largest unshot power `lum(dB_i) A_i`.
@@ -75,20 +267,34 @@ impl PatchShooting {
         }
         best
     }
+}
+
+impl Shooter for PatchShooting {
+    fn shooters(&self) -> usize {
+        self.unshot.len()
+    }
+
+    fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
+        mesh.patches
+            .iter()
+            .zip(&self.unshot)
+            .map(|(p, u)| *u * p.area)
+            .sum()
+    }
 
     /// One shot of the brightest patch; its unshot radiosity is zeroed.
-    pub(crate) fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
+    fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
         let start = Instant::now();
-        let (scene, mesh, settings) = (inputs.scene, inputs.mesh, inputs.settings);
+        let (scene, mesh) = (inputs.scene, inputs.mesh);
         let shooter = self.brightest_patch(mesh);
         let patch = &mesh.patches[shooter];
         let surface_index = patch.surface;
         let surface = &scene.surfaces[surface_index as usize];
         let unshot = self.unshot[shooter];
-        let subsources = mesh::subsources(&patch.polygon, settings.subsources);
+        let subsources = mesh::subsources(&patch.polygon, self.settings.subsources);
 
         let hemicube_start = Instant::now();
-        let item_buffers = match settings.visibility {
+        let item_buffers = match self.settings.visibility {
             Visibility::Ray => None,
             Visibility::HemicubePretest => {
                 // One buffer per subsource, allocated by `new`.
@@ -106,7 +312,7 @@ impl PatchShooting {
         let context = ShotContext {
             occluder: inputs.occluder,
             item_buffers,
-            form_factor: settings.form_factor,
+            form_factor: inputs.settings.form_factor,
             subsources: &subsources,
             source_polygon: &patch.polygon,
             source_normal: surface.normal,
@@ -143,13 +349,13 @@ impl PatchShooting {
                 irradiance.push(unshot * g.factor);
                 stats.pairs += u64::from(g.pairs);
                 stats.rays_cast += u64::from(g.rays);
-                stats.pretest_visible += u64::from(g.pretest_visible);
-                stats.pretest_hidden += u64::from(g.pretest_hidden);
+                self.counters.pretest_visible += u64::from(g.pretest_visible);
+                self.counters.pretest_hidden += u64::from(g.pretest_hidden);
             }
         }
         self.unshot[shooter] = DVec3::ZERO;
         stats.subsources += subsources.len() as u64;
-        stats.hemicube_time += gather_start - hemicube_start;
+        self.counters.hemicube_time += gather_start - hemicube_start;
         stats.gather_time += gather_end - gather_start;
         Some(Shot {
             irradiance,
@@ -160,16 +366,21 @@ impl PatchShooting {
 
     /// Adds the reflected part of what the elements received to their
     /// patches' unshot radiosity (the area-weighted mean over the patch).
-    pub(crate) fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received {
+    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received {
         let mut reflected = vec![DVec3::ZERO; mesh.patches.len()];
-        let received = super::receive_at_elements(scene, mesh, irradiance, |e, radiosity| {
-            let element = &mesh.elements[e];
-            reflected[element.patch as usize] += radiosity * element.area;
-        });
+        let received =
+            super::method::receive_at_elements(scene, mesh, irradiance, |e, radiosity| {
+                let element = &mesh.elements[e];
+                reflected[element.patch as usize] += radiosity * element.area;
+            });
         for ((u, r), p) in self.unshot.iter_mut().zip(reflected).zip(&mesh.patches) {
             *u += r / p.area;
         }
         received
+    }
+
+    fn counters(&self) -> Vec<(&'static str, Counter)> {
+        self.counters.list()
     }
 }
 

@@ -1,0 +1,421 @@
+//! Adaptive shooting, beyond the paper: shooters carry their radiosity at
+//! element resolution, and each transfer is refined until it is accurate.
+//!
+//! The paper's patches shoot one uniform unshot radiosity, so a receiver
+//! near a large patch whose radiosity varies across it (a wall brighter near
+//! the light) gets the patch's average. Here:
+//!
+//! * **Unshot radiosity per element.** An element's share of a shot is the
+//!   mean of its vertices' irradiance times its reflectance; a shooter sends
+//!   each element's own unshot radiosity. Book-keeping is exact: the power
+//!   shot, received, absorbed and reflected balance to round-off
+//!   ([`super::Energy`]).
+//! * **What shoots** ([`hierarchy`]): the shooter (a node of the element
+//!   tree no larger than the patch size) with the most unshot power, as in
+//!   Wallace et al. (1989) and Cohen et al. (1988).
+//! * **Groups of receivers** ([`gather`]; clusters at both ends as in
+//!   Smits, Arvo & Greenberg 1994): a group of receivers (a node of the
+//!   receivers' tree) takes a source node as one *link* when every receiver
+//!   is beyond [`FAR_RATIO`] of the source's radius, the group spans at
+//!   most [`LINK_SPREAD`] of its distance, the source can send it little
+//!   (below [`LINK_FACTOR`] times the negligible irradiance), and shadow
+//!   rays between points spread over both agree on their visibility; each
+//!   receiver then takes the source's corrected point sources
+//!   ([`sources`]) with that shared visibility, without rays of its own.
+//!   Otherwise the group is split, never the source: each receiver refines
+//!   the source for itself far more cheaply than pairs of pieces could.
+//! * **Per-receiver refinement** (the adaptive source subdivision of
+//!   Wallace, Elmquist & Haines 1989, section 4): a single receiver walks
+//!   the source's tree, accepting a node as one source when the irradiance
+//!   it can send is negligible, or when the receiver is beyond
+//!   [`FAR_RATIO`] of its radius and either that irradiance is below
+//!   [`FAR_FACTOR`] times negligible or four shadow rays spread over the
+//!   node agree; otherwise it visits the node's children. Elements are the
+//!   finest sources: the analytic factor of the paper's equation (2) on the
+//!   element's polygon (clipped to the receiver's front), a shadow ray from
+//!   its centre. So the near field sees element resolution and the far
+//!   field a few sources.
+//! * **Negligible** is the tolerance ([`AdaptiveSettings::tolerance`]) times
+//!   what the receiver has gathered so far (or the scene's mean radiosity,
+//!   if more): a bright source is shot carefully everywhere, a dim one
+//!   coarsely where it adds little.
+//!
+//! How accurate an accepted node's geometry is, is said once, at
+//! [`sources::point_factor`].
+
+mod gather;
+pub mod hierarchy;
+mod sources;
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use self::gather::{Counters, Gatherer};
+use self::hierarchy::{Hierarchy, Tree};
+use self::sources::Sources;
+use super::method::{
+    self, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
+    ShotInputs, Stats, VISIBILITY, Value, Visibility,
+};
+use super::{Receiver, Settings};
+use crate::luminance;
+use crate::memory;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// Adaptive shooting's own parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdaptiveSettings {
+    /// Accuracy: a receiver accepts a part of the shooter as one source when
+    /// the irradiance that part can send is below this fraction of the
+    /// scene's mean radiosity (or of what the receiver has gathered, if
+    /// more), or when it is far and below [`FAR_FACTOR`] times that.
+    pub tolerance: f64,
+}
+
+/// Default `--tolerance`.
+pub const DEFAULT_TOLERANCE: f64 = 1e-3;
+
+impl Default for AdaptiveSettings {
+    fn default() -> Self {
+        AdaptiveSettings {
+            tolerance: DEFAULT_TOLERANCE,
+        }
+    }
+}
+
+/// `--tolerance`.
+const TOLERANCE: Parameter = Parameter {
+    name: "tolerance",
+    value_name: "FRACTION",
+    help: "Adaptive shooting's accuracy: a receiver takes a part of a shooter as one source \
+           when the irradiance it can send is below this fraction of the scene's mean radiosity \
+           (default 1e-3)",
+    kind: Kind::Number,
+};
+
+/// Settings adaptive shooting cannot run with.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AdaptiveSettingsError {
+    /// Tolerance outside (0, 1].
+    #[error("--tolerance must be a fraction in (0, 1], not {0}")]
+    Tolerance(f64),
+    /// The hemicube pre-test asked of adaptive shooting.
+    #[error(
+        "the hemicube pre-test places a hemicube at each subsource of a patch: use it with \
+         --shooting patches (adaptive shooting picks its sources per receiver)"
+    )]
+    Pretest,
+}
+
+impl Method for AdaptiveSettings {
+    /// Its tolerance, and visibility, which is rays only: it takes
+    /// `--visibility ray` and refuses the pre-test.
+    fn parameters(&self) -> &'static [Parameter] {
+        &[TOLERANCE, VISIBILITY]
+    }
+
+    fn set(&mut self, name: &str, value: &Value) -> Result<(), SetError> {
+        match name {
+            "tolerance" => self.tolerance = value.number(name)?,
+            "visibility" => match value.choice(name)? {
+                Visibility::Ray => {}
+                Visibility::HemicubePretest => {
+                    return Err(SetError::Refused(MethodError::new(
+                        AdaptiveSettingsError::Pretest,
+                    )));
+                }
+            },
+            _ => return Err(SetError::NotMine),
+        }
+        Ok(())
+    }
+
+    fn values(&self) -> Vec<(&'static str, serde_json::Value)> {
+        vec![
+            ("tolerance", self.tolerance.into()),
+            ("visibility", Visibility::Ray.name().into()),
+        ]
+    }
+
+    fn validate(&self) -> Result<(), MethodError> {
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance <= 1.0) {
+            return Err(MethodError::new(AdaptiveSettingsError::Tolerance(
+                self.tolerance,
+            )));
+        }
+        Ok(())
+    }
+
+    fn zero_counters(&self) -> Vec<(&'static str, Counter)> {
+        Vec::new()
+    }
+
+    fn memory(&self) -> memory::SolverCosts {
+        // Measured on the shared scenes (EXPERIMENTS.md, "Memory").
+        memory::SolverCosts {
+            vertex: 104.0,
+            element: 270.0,
+            surface: 400.0,
+            parts: Vec::new(),
+        }
+    }
+
+    fn start<'a>(
+        &self,
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: &Settings,
+        receivers: &[Receiver],
+    ) -> Box<dyn Shooter + 'a> {
+        Box::new(AdaptiveShooting::new(
+            scene,
+            mesh,
+            settings,
+            self.tolerance,
+            receivers,
+        ))
+    }
+}
+
+/// A node is far from a receiver beyond this many of its radii, where its
+/// corrected point sources are accurate ([`sources::point_factor`]).
+pub const FAR_RATIO: f64 = 3.0;
+
+/// A far node is accepted with one shadow ray a bin while the irradiance
+/// it can send is below this many times the negligible irradiance.
+pub const FAR_FACTOR: f64 = 30.0;
+
+/// A link's receivers may spread over at most this fraction of their
+/// distance from the source: its shared visibility is judged by rays to
+/// four of them.
+pub const LINK_SPREAD: f64 = 0.5;
+
+/// Receiver groups smaller than this are not linked: a link's four shadow
+/// rays would cost as much as theirs.
+pub const LINK_MIN_RECEIVERS: u32 = 16;
+
+/// A link shares its visibility among its receivers only while the
+/// irradiance it can send is below this many times the negligible
+/// irradiance; brighter transfers go down to each receiver's own rays.
+pub const LINK_FACTOR: f64 = 30.0;
+
+/// An accepted node's geometry is integrated over pieces at least this
+/// many of their radii from the receiver, each a corrected point source
+/// ([`point_factor`]).
+pub const QUADRATURE_RATIO: f64 = 4.0;
+
+/// Receiver groups at least this large check whether the shot is to be
+/// abandoned before they are refined.
+pub(super) const ABORT_CHECK_RECEIVERS: u32 = 64;
+
+/// Receiver groups at least this large are refined in parallel.
+pub(super) const PARALLEL_RECEIVERS: u32 = 1024;
+
+/// One ray or factor in this many is timed, for the statistics' phase
+/// times (a clock read costs a tenth of a ray).
+pub(super) const TIMING_SAMPLE: u64 = 16;
+
+/// The state of adaptive shooting.
+struct AdaptiveShooting {
+    hierarchy: Hierarchy,
+    /// The receivers' tree (vertices, then sensors).
+    receiver_tree: Tree,
+    /// Unshot radiosity of each element.
+    unshot: Vec<DVec3>,
+    /// Unshot power (luminance) of each shooter.
+    shooter_power: Vec<f64>,
+    /// Irradiance (luminance, W/m^2) a source may send and still be
+    /// accepted whole, for a receiver with no more than the scene's mean
+    /// radiosity: the tolerance times that mean.
+    negligible: f64,
+    /// The scene's mean radiosity, estimated (luminance).
+    mean_radiosity: f64,
+    /// The current shot's sources.
+    sources: Sources,
+}
+
+impl AdaptiveShooting {
+    /// Unshot radiosity `E` on every element; the trees over the mesh and
+    /// the receivers.
+    fn new(
+        scene: &Scene,
+        mesh: &Mesh,
+        settings: &Settings,
+        tolerance: f64,
+        receivers: &[Receiver],
+    ) -> AdaptiveShooting {
+        let hierarchy = Hierarchy::build(scene, mesh, settings.mesh.patch_size);
+        let receiver_tree = hierarchy::receiver_tree(receivers, settings.mesh.patch_size);
+        let unshot: Vec<DVec3> = mesh
+            .elements
+            .iter()
+            .map(|e| scene.surfaces[e.surface as usize].emission)
+            .collect();
+        // The mean radiosity of the converged solution, estimated from the
+        // emitted power and the mean reflectance as the ambient term is.
+        let (mut area, mut power, mut rho) = (0.0, 0.0, 0.0);
+        for (e, u) in mesh.elements.iter().zip(&unshot) {
+            area += e.area;
+            power += luminance(*u) * e.area;
+            rho += luminance(scene.surfaces[e.surface as usize].rho) * e.area;
+        }
+        let mean_radiosity = if area > 0.0 {
+            power / area / (1.0 - rho / area).max(1e-3)
+        } else {
+            0.0
+        };
+        let mut shooting = AdaptiveShooting {
+            shooter_power: vec![0.0; hierarchy.shooters.len()],
+            hierarchy,
+            receiver_tree,
+            unshot,
+            negligible: tolerance * mean_radiosity,
+            mean_radiosity: mean_radiosity.max(f64::MIN_POSITIVE),
+            sources: Sources::default(),
+        };
+        shooting.total_shooter_power(mesh);
+        shooting
+    }
+
+    fn total_shooter_power(&mut self, mesh: &Mesh) {
+        self.shooter_power.fill(0.0);
+        for ((e, u), s) in mesh
+            .elements
+            .iter()
+            .zip(&self.unshot)
+            .zip(&self.hierarchy.shooter_of)
+        {
+            self.shooter_power[*s as usize] += luminance(*u) * e.area;
+        }
+    }
+
+    /// The node that shoots next: the shooter with the most unshot power
+    /// (the first of equals).
+    fn choose_shooting_node(&self) -> u32 {
+        let (best, _) =
+            self.shooter_power
+                .iter()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
+                    if p > best.1 { (i, p) } else { best }
+                });
+        self.hierarchy.shooters[best]
+    }
+
+    /// The negligible irradiance of each receiver-tree node: the smallest
+    /// of its receivers', each the tolerance times what it has gathered (or
+    /// the scene's mean radiosity, if more). A receiver that has gathered
+    /// much takes a dim source's small errors in its stride.
+    fn receiver_negligible(&self, irradiance: &[DVec3]) -> Vec<f64> {
+        let nodes = &self.receiver_tree.nodes;
+        let mut out = vec![0.0; nodes.len()];
+        for n in (0..nodes.len()).rev() {
+            let node = &nodes[n];
+            out[n] = if node.is_leaf() {
+                let r = self.receiver_tree.items[node.first as usize] as usize;
+                self.negligible * (luminance(irradiance[r]) / self.mean_radiosity).max(1.0)
+            } else {
+                out[n + 1].min(out[node.second as usize])
+            };
+        }
+        out
+    }
+}
+
+impl Shooter for AdaptiveShooting {
+    fn shooters(&self) -> usize {
+        self.hierarchy.shooters.len()
+    }
+
+    fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
+        mesh.elements
+            .iter()
+            .zip(&self.unshot)
+            .map(|(e, u)| *u * e.area)
+            .sum()
+    }
+
+    /// One shot of the chosen node; its elements' unshot radiosity is
+    /// zeroed.
+    fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
+        let start = Instant::now();
+        let (scene, mesh) = (inputs.scene, inputs.mesh);
+        let root = self.choose_shooting_node();
+        self.sources
+            .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);
+        let mut power = DVec3::ZERO;
+        let mut elements = 0u64;
+        for &e in self.hierarchy.tree.items_of(root) {
+            power += self.unshot[e as usize] * mesh.elements[e as usize].area;
+            elements += 1;
+        }
+        let negligible = self.receiver_negligible(inputs.irradiance);
+
+        let gather_start = Instant::now();
+        let gatherer = Gatherer {
+            scene,
+            mesh,
+            hierarchy: &self.hierarchy,
+            receiver_tree: &self.receiver_tree,
+            receivers: inputs.receivers,
+            negligible: &negligible,
+            unshot: &self.unshot,
+            sources: &self.sources,
+            root,
+            origin: self.hierarchy.tree.nodes[root as usize].centre,
+            occluder: inputs.occluder,
+            form_factor: inputs.settings.form_factor,
+            abort: inputs.abort,
+        };
+        // Irradiance in the receiver tree's order, then put back in order.
+        let mut gathered = vec![DVec3::ZERO; inputs.receivers.len()];
+        let counters = if gathered.is_empty() {
+            Counters::default()
+        } else {
+            gatherer.refine(root, 0, &mut gathered)
+        };
+        if inputs.abort.fired() {
+            return None;
+        }
+        let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
+        for (&r, e) in self.receiver_tree.items.iter().zip(gathered) {
+            irradiance[r as usize] = e;
+        }
+        let gather_end = Instant::now();
+
+        stats.pairs += counters.pairs;
+        stats.rays_cast += counters.rays;
+        stats.ray_time += counters.ray_time;
+        stats.form_factor_time += counters.form_factor_time;
+        stats.pretest_time += (gather_end - gather_start)
+            .mul_f64(rayon::current_num_threads() as f64)
+            .saturating_sub(counters.ray_time + counters.form_factor_time);
+        for &e in self.hierarchy.tree.items_of(root) {
+            self.unshot[e as usize] = DVec3::ZERO;
+        }
+        stats.subsources += elements;
+        stats.gather_time += gather_end - gather_start;
+        Some(Shot {
+            irradiance,
+            power,
+            selection_time: gather_start - start,
+        })
+    }
+
+    /// Adds the reflected part of what the elements received to their
+    /// unshot radiosity.
+    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received {
+        let unshot = &mut self.unshot;
+        let received = method::receive_at_elements(scene, mesh, irradiance, |e, radiosity| {
+            unshot[e] += radiosity;
+        });
+        self.total_shooter_power(mesh);
+        received
+    }
+
+    fn counters(&self) -> Vec<(&'static str, Counter)> {
+        Vec::new()
+    }
+}

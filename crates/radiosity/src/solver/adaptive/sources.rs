@@ -1,0 +1,309 @@
+//! A shooting node's unshot power as a source ([`super`]): its elements'
+//! unshot power kept in up to six bins by the dominant axis of their normals
+//! (one for a node within one surface), each bin a point source of its
+//! power, power-weighted centre, mean normal and second moment, corrected
+//! for its extent to second order ([`point_factor`]). Its visibility is a
+//! shadow ray from the centre of its element nearest that centre (a point
+//! on a real surface, not in the air between a cluster's members).
+
+use std::f64::consts::PI;
+
+use glam::{DMat3, DVec3};
+
+use super::hierarchy::Hierarchy;
+use crate::luminance;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// The sources of one shot: per node of the shooting subtree (indexed from
+/// its root), its power and bins.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Sources {
+    /// Per node, children before parents.
+    pub(super) nodes: Vec<NodeSource>,
+    /// Their bins.
+    pub(super) bins: Vec<Bin>,
+}
+
+/// A node's unshot power, in bins by normal direction.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct NodeSource {
+    /// Total luminance power.
+    pub(super) weight: f64,
+    /// First of its bins in [`Sources::bins`].
+    pub(super) first_bin: u32,
+    /// Number of its bins.
+    pub(super) bins: u8,
+}
+
+/// Unshot power of elements whose normals share a dominant axis, with the
+/// power-weighted sums that make it a point source with a second-order
+/// correction for its extent.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Bin {
+    /// Power per channel, `sum A_e dB_e`.
+    pub(super) power: DVec3,
+    /// Luminance of the power: the weight of the sums below.
+    pub(super) weight: f64,
+    /// Weighted sum of normals.
+    pub(super) normal: DVec3,
+    /// Weighted sum of element centroids, relative to the shooting node's
+    /// centre (so the spread below loses no digits far from the origin).
+    pub(super) position: DVec3,
+    /// Weighted sum of the outer products of those offsets, each element's
+    /// own second moment included.
+    pub(super) moment: DMat3,
+    /// The element whose centroid the shadow rays start from.
+    pub(super) representative: u32,
+    /// The dominant axis and sign of its normals (0..6).
+    pub(super) axis: u8,
+}
+
+impl Sources {
+    /// Fills the sources and their bins for the nodes of the subtree at `root`,
+    /// children before parents.
+    pub(super) fn prepare(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        hierarchy: &Hierarchy,
+        unshot: &[DVec3],
+        root: u32,
+    ) {
+        let nodes = &hierarchy.tree.nodes;
+        let end = nodes[root as usize].end;
+        let origin = nodes[root as usize].centre;
+        self.nodes.clear();
+        self.nodes
+            .resize((end - root) as usize, NodeSource::default());
+        self.bins.clear();
+        let mut merged: Vec<Bin> = Vec::with_capacity(6);
+        for n in (root..end).rev() {
+            let node = &nodes[n as usize];
+            merged.clear();
+            if node.is_leaf() {
+                let e = hierarchy.tree.items[node.first as usize];
+                let element = &mesh.elements[e as usize];
+                let power = unshot[e as usize] * element.area;
+                let weight = luminance(power);
+                if weight > 0.0 {
+                    let normal = scene.surfaces[element.surface as usize].normal;
+                    let offset = hierarchy.centroids[e as usize] - origin;
+                    merged.push(Bin {
+                        power,
+                        weight,
+                        normal: normal * weight,
+                        position: offset * weight,
+                        moment: (outer(offset) + hierarchy.covariances[e as usize]) * weight,
+                        representative: e,
+                        axis: axis_of(normal),
+                    });
+                }
+            } else {
+                let a = self.nodes[(n + 1 - root) as usize];
+                let b = self.nodes[(node.second - root) as usize];
+                let bins_of = |s: &NodeSource| {
+                    &self.bins[s.first_bin as usize..s.first_bin as usize + s.bins as usize]
+                };
+                merge_bins(
+                    bins_of(&a),
+                    bins_of(&b),
+                    &hierarchy.centroids,
+                    origin,
+                    &mut merged,
+                );
+            }
+            self.nodes[(n - root) as usize] = NodeSource {
+                weight: merged.iter().map(|b| b.weight).sum(),
+                first_bin: self.bins.len() as u32,
+                bins: merged.len() as u8,
+            };
+            self.bins.extend_from_slice(&merged);
+        }
+    }
+}
+
+/// The bin of a normal: the axis and sign of its largest component.
+fn axis_of(normal: DVec3) -> u8 {
+    let a = normal.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    2 * axis as u8 + u8::from(normal[axis] < 0.0)
+}
+
+/// The bins of a node from its children's (each sorted by axis).
+fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mut Vec<Bin>) {
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() || j < b.len() {
+        let take_a = j == b.len() || (i < a.len() && a[i].axis < b[j].axis);
+        let take_b = i == a.len() || (j < b.len() && b[j].axis < a[i].axis);
+        if take_a {
+            out.push(a[i]);
+            i += 1;
+        } else if take_b {
+            out.push(b[j]);
+            j += 1;
+        } else {
+            let (x, y) = (&a[i], &b[j]);
+            let weight = x.weight + y.weight;
+            let position = x.position + y.position;
+            let centre = origin + position / weight;
+            let nearer = |p: &Bin| centroids[p.representative as usize].distance_squared(centre);
+            out.push(Bin {
+                power: x.power + y.power,
+                weight,
+                normal: x.normal + y.normal,
+                position,
+                moment: x.moment + y.moment,
+                representative: if nearer(y) < nearer(x) {
+                    y.representative
+                } else {
+                    x.representative
+                },
+                axis: x.axis,
+            });
+            i += 1;
+            j += 1;
+        }
+    }
+}
+
+/// `v v^T`.
+pub(super) fn outer(v: DVec3) -> DMat3 {
+    DMat3::from_cols(v * v.x, v * v.y, v * v.z)
+}
+
+/// Irradiance at the receiver per unit power of `bin` seen as a point:
+/// the kernel `K = cos(theta_s) cos(theta_r) / (pi r^2)` at the bin's
+/// centre, times `1 + c`, `c` the second-order term of its Taylor expansion
+/// over the bin's points, `tr(H C) / 2K` with `H` the kernel's Hessian in
+/// the source point and `C` the covariance of the bin's points (its second
+/// moment about its centre). With `d` from the centre to the receiver,
+/// `a = s.d`, `b = n_r.d`, `q = d.d` (`s` the source normal, `n_r` the
+/// receiver's):
+///
+/// `c = n_r.C s / (a b) - 4 d.C(a n_r + b s) / (a b q) - 2 tr(C) / q + 12 d.C d / q^2`.
+///
+/// On the axis of a disk of radius `R` it gives `R^2 / (r^2 + R^2)` to
+/// fourth order; a square or a strip seen from three of its radii is within
+/// 1.5% of its exact factor, from four within 0.6%, where the plain point
+/// errs by several per cent and equation (1) by up to twelve (tested). Clamped where the expansion fails
+/// (a receiver seeing the source almost edge-on, whose factor is then small
+/// anyway).
+pub(super) fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
+    let w = bin.weight;
+    let centre = bin.position / w;
+    let d = point - origin - centre;
+    let q = d.length_squared();
+    let mean_normal = bin.normal / w;
+    let length = mean_normal.length();
+    if q <= 0.0 || length <= 0.0 {
+        return 0.0;
+    }
+    let s = mean_normal / length;
+    let (a, b) = (s.dot(d), normal.dot(d));
+    if a <= 0.0 || b >= 0.0 {
+        return 0.0;
+    }
+    let covariance = bin.moment * (1.0 / w) - outer(centre);
+    let c = normal.dot(covariance * s) / (a * b)
+        - 4.0 * d.dot(covariance * (normal * a + s * b)) / (a * b * q)
+        - 2.0 * (covariance.x_axis.x + covariance.y_axis.y + covariance.z_axis.z) / q
+        + 12.0 * d.dot(covariance * d) / (q * q);
+    -length * a * b / (PI * q * q) * (1.0 + c.clamp(-0.5, 0.5))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::hierarchy;
+    use super::*;
+
+    /// The corrected point source against the exact factor of a small
+    /// square (the analytic formula), from three to twelve of its radii in
+    /// random directions and receiver orientations: within 0.5% where the
+    /// plain point formula errs by several per cent.
+    /// The corrected point source against the exact factor (the analytic
+    /// formula) of a square and of a 4:1 strip, from three to twelve of
+    /// their radii, in random directions and receiver orientations (facing
+    /// the source, or tilted as far as a floor under a ceiling lamp): within
+    /// 1.5% from three radii and 0.6% beyond four (where the quadrature takes
+    /// its pieces), where the plain point formula errs by several per cent.
+    #[test]
+    fn corrected_point_source_matches_the_exact_factor() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut random = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (hx, hy) in [(0.5, 0.5), (1.0, 0.25)] {
+            let rectangle = [
+                DVec3::new(-hx, -hy, 0.0),
+                DVec3::new(hx, -hy, 0.0),
+                DVec3::new(hx, hy, 0.0),
+                DVec3::new(-hx, hy, 0.0),
+            ];
+            let area = 4.0 * hx * hy;
+            let bin = Bin {
+                power: DVec3::splat(area),
+                weight: area,
+                normal: DVec3::Z * area,
+                position: DVec3::ZERO,
+                moment: hierarchy::second_moment(&rectangle, DVec3::ZERO) * area,
+                representative: 0,
+                axis: 4,
+            };
+            let radius = (hx * hx + hy * hy).sqrt();
+            let (mut worst, mut worst_near, mut worst_plain): (f64, f64, f64) = (0.0, 0.0, 0.0);
+            let mut tested = 0;
+            while tested < 400 {
+                let direction =
+                    DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
+                let distance = radius * (3.0 + 9.0 * random());
+                let point = direction * distance;
+                // Half the receivers face the source, half face the source's
+                // plane (a floor under a lamp), each tilted at random.
+                let facing = if tested % 2 == 0 {
+                    -direction
+                } else {
+                    -DVec3::Z
+                };
+                let normal = (facing
+                    + 0.5 * DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5))
+                .normalize();
+                let exact = crate::form_factor::analytic(point, normal, &rectangle);
+                if exact < 0.1 * area / (PI * distance * distance) {
+                    continue;
+                }
+                let corrected = area * point_factor(&bin, DVec3::ZERO, point, normal);
+                let d = point.normalize();
+                let plain = area * d.z * (-normal.dot(d)).max(0.0) / (PI * distance * distance);
+                if distance >= 4.0 * radius {
+                    worst = worst.max((corrected / exact - 1.0).abs());
+                } else {
+                    worst_near = worst_near.max((corrected / exact - 1.0).abs());
+                }
+                worst_plain = worst_plain.max((plain / exact - 1.0).abs());
+                tested += 1;
+            }
+            assert!(
+                worst < 6e-3,
+                "{hx} x {hy}: beyond four radii, errs by {worst}"
+            );
+            assert!(
+                worst_near < 1.5e-2,
+                "{hx} x {hy}: at three radii, errs by {worst_near}"
+            );
+            assert!(
+                worst_plain > 3e-2,
+                "{hx} x {hy}: plain point source errs by {worst_plain}"
+            );
+        }
+    }
+}

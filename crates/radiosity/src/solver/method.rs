@@ -1,0 +1,381 @@
+//! The seam between the shooting loop and a way of solving (a *method*),
+//! after pbrt's integrators and Mitsuba's plugins: the loop of design.md
+//! section 2 (choose, shoot, gather, book-keep, stop) is the same for every
+//! method; what a shooter is, how it sends its unshot radiosity to the
+//! receivers and how their reflected light becomes unshot again is the
+//! method's.
+//!
+//! A method is two things:
+//!
+//! * its **settings** ([`Method`]): a type of its own holding only the
+//!   parameters it reads, which it declares ([`Parameter`]), parses
+//!   ([`Method::set`]), checks, reports for the statistics file and costs
+//!   in memory; the registry ([`super::registry`]) lists the methods;
+//! * its **state during a solve** ([`Shooter`]), started from the settings:
+//!   the unshot radiosity it keeps and the shots it makes, each returning
+//!   the irradiance gathered at every receiver ([`Shot`]), plus the
+//!   counters only it keeps ([`Counter`]).
+//!
+//! The loop ([`super::Solver`]) owns what every method shares: the
+//! receivers, their irradiance and radiosity, the energy ledger, the shared
+//! counters ([`Stats`]) and the stopping rules.
+
+use std::time::Duration;
+
+use glam::DVec3;
+
+use super::{Abort, Receiver, Settings};
+use crate::accel::Occluder;
+use crate::memory;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// A way of solving, as its settings: what the registry lists and a
+/// [`Settings`] carries.
+pub trait Method: std::fmt::Debug + Send + Sync {
+    /// The parameters it takes, in the order a command line lists them.
+    fn parameters(&self) -> &'static [Parameter];
+
+    /// Sets the parameter named `name` (a [`Parameter::name`]) from a
+    /// front end's value; [`SetError::NotMine`] for a parameter it does not
+    /// take. Values are checked by [`Method::validate`], not here, so a
+    /// preset and a command line are checked alike.
+    fn set(&mut self, name: &str, value: &Value) -> Result<(), SetError>;
+
+    /// Its parameters' values, named as in [`Method::parameters`], for the
+    /// statistics file.
+    fn values(&self) -> Vec<(&'static str, serde_json::Value)>;
+
+    /// Checks the values a user can get wrong.
+    fn validate(&self) -> Result<(), MethodError>;
+
+    /// The counters its solves keep beside the shared [`Stats`], all zero:
+    /// their names and kinds, for a statistics file that lists every
+    /// method's counters.
+    fn zero_counters(&self) -> Vec<(&'static str, Counter)>;
+
+    /// Its own memory, measured per item and in lumps ([`memory::estimate`]
+    /// adds the shared parts).
+    fn memory(&self) -> memory::SolverCosts;
+
+    /// Starts a solve of `scene` meshed as `mesh`, gathering at `receivers`
+    /// (the mesh's vertices, then any sensors): unshot radiosity is the
+    /// emission.
+    fn start<'a>(
+        &self,
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: &Settings,
+        receivers: &[Receiver],
+    ) -> Box<dyn Shooter + 'a>;
+}
+
+/// A method's state during a solve.
+pub trait Shooter: Send {
+    /// Its shooting units: how many there are.
+    fn shooters(&self) -> usize;
+
+    /// Unshot power left, per channel (W).
+    fn unshot_power(&self, mesh: &Mesh) -> DVec3;
+
+    /// One shot: the shooter it chooses sends its unshot radiosity to every
+    /// receiver. Returns `None`, having changed nothing, when
+    /// [`ShotInputs::abort`] fires during it.
+    fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot>;
+
+    /// Takes the reflected part of what the mesh's vertices gathered in a
+    /// shot (`irradiance`, one per vertex) as unshot radiosity; returns the
+    /// power received and absorbed.
+    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received;
+
+    /// Its own counters so far (the names of [`Method::zero_counters`]).
+    fn counters(&self) -> Vec<(&'static str, Counter)>;
+}
+
+/// A parameter a method takes, as a front end offers it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Parameter {
+    /// Its name in the statistics file (`hemicube_resolution`); the flag is
+    /// the name with dashes (`--hemicube-resolution`).
+    pub name: &'static str,
+    /// What its value is called in help (`N`, `FRACTION`).
+    pub value_name: &'static str,
+    /// One paragraph of help.
+    pub help: &'static str,
+    /// What values it takes.
+    pub kind: Kind,
+}
+
+impl Parameter {
+    /// The command-line flag, without its dashes: the name with `-` for
+    /// `_`.
+    #[must_use]
+    pub fn flag(&self) -> String {
+        self.name.replace('_', "-")
+    }
+}
+
+/// The values a parameter takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// An integer, 1 or more ([`Value::Count`]).
+    Count,
+    /// A real number ([`Value::Number`]).
+    Number,
+    /// One of these names ([`Value::Choice`]).
+    Choice(&'static [&'static str]),
+}
+
+/// A parameter's value from a front end.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value {
+    /// For [`Kind::Count`].
+    Count(u64),
+    /// For [`Kind::Number`].
+    Number(f64),
+    /// For [`Kind::Choice`]: one of its names.
+    Choice(String),
+}
+
+/// Why [`Method::set`] did not take a value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SetError {
+    /// The method has no parameter of that name.
+    NotMine,
+    /// A value of the wrong kind, or one the method refuses outright.
+    Refused(MethodError),
+}
+
+/// A method's settings error: its own typed error (downcast
+/// [`MethodError::source`] to reach it), whose message names the flag to
+/// change.
+#[derive(Clone, Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct MethodError(pub std::sync::Arc<dyn std::error::Error + Send + Sync>);
+
+impl MethodError {
+    /// Wraps a method's own error.
+    pub fn new(error: impl std::error::Error + Send + Sync + 'static) -> MethodError {
+        MethodError(std::sync::Arc::new(error))
+    }
+
+    /// The method's own error.
+    #[must_use]
+    pub fn source(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
+        &*self.0
+    }
+}
+
+/// Errors are equal when they say the same.
+impl PartialEq for MethodError {
+    fn eq(&self, other: &MethodError) -> bool {
+        self.0.to_string() == other.0.to_string()
+    }
+}
+
+/// A value of the wrong kind for a parameter.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("--{flag} takes {kind}")]
+pub struct WrongKind {
+    /// The parameter's flag, without dashes.
+    pub flag: String,
+    /// What it takes.
+    pub kind: &'static str,
+}
+
+/// One of a method's own counters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Counter {
+    /// A count.
+    Count(u64),
+    /// A time, written in seconds.
+    Seconds(Duration),
+}
+
+impl Counter {
+    /// The count, if it is one.
+    #[must_use]
+    pub fn count(self) -> Option<u64> {
+        match self {
+            Counter::Count(n) => Some(n),
+            Counter::Seconds(_) => None,
+        }
+    }
+
+    /// The counter as JSON: an integer, or seconds.
+    #[must_use]
+    pub fn json(self) -> serde_json::Value {
+        match self {
+            Counter::Count(n) => n.into(),
+            Counter::Seconds(t) => t.as_secs_f64().into(),
+        }
+    }
+}
+
+/// Counters and timings every method keeps. Serialised as the `--stats`
+/// file's counters, the times in seconds under the names given below.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Stats {
+    /// Shooters shot.
+    pub shots: u64,
+    /// The method's finest sources shot: a patch's subsources, or adaptive
+    /// shooting's elements (`--max-subsources` counts them).
+    pub subsources: u64,
+    /// Receiver-source pairs considered: a receiver and a source that face
+    /// each other, whether or not a ray was then needed.
+    pub pairs: u64,
+    /// Shadow segments traced.
+    pub rays_cast: u64,
+    /// Wall time gathering at receivers (the three phases below, in
+    /// parallel).
+    #[serde(rename = "gather_seconds", serialize_with = "super::seconds")]
+    pub gather_time: Duration,
+    /// Thread time choosing each receiver's sources (summed over threads):
+    /// pairing and the pre-test for patches, refinement for adaptive
+    /// shooting.
+    #[serde(rename = "pretest_thread_seconds", serialize_with = "super::seconds")]
+    pub pretest_time: Duration,
+    /// Thread time casting shadow rays (summed over threads).
+    #[serde(rename = "ray_thread_seconds", serialize_with = "super::seconds")]
+    pub ray_time: Duration,
+    /// Thread time evaluating form factors (summed over threads).
+    #[serde(
+        rename = "form_factor_thread_seconds",
+        serialize_with = "super::seconds"
+    )]
+    pub form_factor_time: Duration,
+    /// Time in book-keeping (selection, element and shooter updates).
+    #[serde(rename = "bookkeeping_seconds", serialize_with = "super::seconds")]
+    pub bookkeeping_time: Duration,
+}
+
+/// What a shot reads.
+pub struct ShotInputs<'s> {
+    /// The scene.
+    pub scene: &'s Scene,
+    /// Its mesh.
+    pub mesh: &'s Mesh,
+    /// The settings every method shares.
+    pub settings: &'s Settings,
+    /// Shadow segments.
+    pub occluder: &'s dyn Occluder,
+    /// Where light is gathered: the mesh's vertices, then any sensors.
+    pub receivers: &'s [Receiver],
+    /// Irradiance each receiver has gathered so far.
+    pub irradiance: &'s [DVec3],
+    /// When to abandon the shot.
+    pub abort: &'s Abort,
+}
+
+/// What a shot produced: the irradiance each receiver gathered and the
+/// power that left the shooter.
+pub struct Shot {
+    /// One per receiver, in the order of [`ShotInputs::receivers`].
+    pub irradiance: Vec<DVec3>,
+    /// Power shot, per channel (W).
+    pub power: DVec3,
+    /// Time spent choosing the shooter, for [`Stats::bookkeeping_time`].
+    pub selection_time: Duration,
+}
+
+/// Power arriving at the receiving elements in one shot.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Received {
+    /// Arriving (W per channel).
+    pub incident: DVec3,
+    /// Absorbed: `(1 - rho)` of it.
+    pub absorbed: DVec3,
+}
+
+/// Incident power on each element from its corners' irradiance (their
+/// mean, times its area), added as reflected unshot radiosity through
+/// `reflect(element, rho * mean)`; returns the power received and absorbed.
+/// The book-keeping of design.md section 2, step 5, for any method that
+/// keeps unshot radiosity on elements or their patches.
+pub fn receive_at_elements(
+    scene: &Scene,
+    mesh: &Mesh,
+    irradiance: &[DVec3],
+    mut reflect: impl FnMut(usize, DVec3),
+) -> Received {
+    let mut incident = DVec3::ZERO;
+    let mut absorbed = DVec3::ZERO;
+    for (i, e) in mesh.elements.iter().enumerate() {
+        let corners = e.vertices();
+        let mean = corners
+            .iter()
+            .map(|&c| irradiance[c as usize])
+            .sum::<DVec3>()
+            / corners.len() as f64;
+        let rho = scene.surfaces[e.surface as usize].rho;
+        incident += mean * e.area;
+        absorbed += (DVec3::ONE - rho) * mean * e.area;
+        reflect(i, rho * mean);
+    }
+    Received { incident, absorbed }
+}
+
+crate::choice::named_choice! {
+    /// How a shot decides whether a receiver sees a source. A parameter of
+    /// the methods that have a choice ([`VISIBILITY`]).
+    pub enum Visibility: "visibility" {
+        /// A shadow ray for every pair (Wallace et al. 1989).
+        Ray = "ray",
+        /// The hemicube item-buffer pre-test of Wong & Tsang, section 2;
+        /// rays only where it cannot decide.
+        HemicubePretest = "hemicube",
+    }
+}
+
+/// The `visibility` parameter, as every method that takes it offers it.
+pub const VISIBILITY: Parameter = Parameter {
+    name: "visibility",
+    value_name: "NAME",
+    help: "Visibility: a ray for every pair, or the hemicube pre-test with rays only where it \
+           cannot decide. Overrides the preset",
+    kind: Kind::Choice(&Visibility::NAMES),
+};
+
+impl Value {
+    /// The count, or the error a method gives for a value of another kind.
+    pub fn count(&self, name: &str) -> Result<u64, SetError> {
+        match self {
+            Value::Count(n) => Ok(*n),
+            _ => Err(wrong_kind(name, "a positive integer")),
+        }
+    }
+
+    /// The number (a count is one too).
+    pub fn number(&self, name: &str) -> Result<f64, SetError> {
+        match self {
+            Value::Number(x) => Ok(*x),
+            Value::Count(n) => Ok(*n as f64),
+            Value::Choice(_) => Err(wrong_kind(name, "a number")),
+        }
+    }
+
+    /// The choice named, parsed.
+    pub fn choice<T: std::str::FromStr>(&self, name: &str) -> Result<T, SetError>
+    where
+        T::Err: std::fmt::Display,
+    {
+        match self {
+            Value::Choice(text) => text.parse().map_err(|e: T::Err| {
+                SetError::Refused(MethodError::new(UnknownValue(e.to_string())))
+            }),
+            _ => Err(wrong_kind(name, "a name")),
+        }
+    }
+}
+
+fn wrong_kind(name: &str, kind: &'static str) -> SetError {
+    SetError::Refused(MethodError::new(WrongKind {
+        flag: name.replace('_', "-"),
+        kind,
+    }))
+}
+
+/// A choice's value that names none of its choices.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct UnknownValue(pub String);

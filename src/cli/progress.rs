@@ -1,0 +1,150 @@
+//! What a render shows while it runs and when it ends: a progress bar on a
+//! terminal, a progress line every ten seconds in a log, Ctrl-C turned into
+//! a stop, and the summary of the run.
+
+use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use radiosity::app::{self, Outcome};
+use radiosity::mesh::Mesh;
+use radiosity::scene::Scene;
+use radiosity::solver::{Flow, Solver};
+
+/// How often a progress line is printed when standard error is not a
+/// terminal (a log).
+const PROGRESS_LINE_INTERVAL: Duration = Duration::from_secs(10);
+
+/// Shows a solve's progress: a bar on a terminal, a line every
+/// [`PROGRESS_LINE_INTERVAL`] in a log, nothing with `--quiet`; stops the
+/// solve after a Ctrl-C.
+pub struct ProgressDisplay {
+    bar: Option<ProgressBar>,
+    lines: bool,
+    meter: app::ProgressMeter,
+    last_line: Instant,
+    /// What is being solved, until it has been said.
+    header: Option<String>,
+    interrupted: Arc<AtomicBool>,
+}
+
+impl ProgressDisplay {
+    pub fn new(quiet: bool, interrupted: Arc<AtomicBool>) -> ProgressDisplay {
+        let terminal = std::io::stderr().is_terminal();
+        let bar = (!quiet && terminal).then(|| {
+            let bar = ProgressBar::new(1000);
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {msg}")
+                    .expect("static template"),
+            );
+            bar
+        });
+        ProgressDisplay {
+            bar,
+            lines: !quiet && !terminal,
+            meter: app::ProgressMeter::new(),
+            last_line: Instant::now(),
+            header: None,
+            interrupted,
+        }
+    }
+
+    pub fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// `1:02:03` or `2:03`.
+fn clock(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
+}
+
+impl app::Observer for ProgressDisplay {
+    fn started(&mut self, scene: &Scene, mesh: &Mesh) {
+        self.meter = app::ProgressMeter::new();
+        self.last_line = Instant::now();
+        // Said with the first progress line, so a short run's log holds
+        // only its summary.
+        self.header = Some(format!(
+            "solving {}: {} surfaces, {} elements, {} vertices",
+            scene.name,
+            scene.surfaces.len(),
+            mesh.elements.len(),
+            mesh.vertices.len()
+        ));
+    }
+
+    fn shot(&mut self, solver: &Solver<'_>) -> Flow {
+        let p = self.meter.update(solver);
+        let left = p.remaining.map_or_else(
+            || "estimating time left".to_string(),
+            |r| format!("about {} left", clock(r)),
+        );
+        let message = format!(
+            "{} shots, unshot {:.2}% (stop at {:.2}%), {:.2}M rays/s, {}",
+            p.shots,
+            100.0 * p.unshot_fraction,
+            100.0 * solver.settings().converge,
+            p.rays_per_second / 1e6,
+            left
+        );
+        if let Some(bar) = &self.bar {
+            bar.set_position((p.completion * 1000.0) as u64);
+            bar.set_message(message);
+        } else if self.lines && self.last_line.elapsed() >= PROGRESS_LINE_INTERVAL {
+            self.last_line = Instant::now();
+            if let Some(header) = self.header.take() {
+                eprintln!("{header}");
+            }
+            eprintln!("progress: {}, {} elapsed", message, clock(p.elapsed));
+        }
+        if self.interrupted.load(Ordering::SeqCst) {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+
+    fn interrupt(&self) -> Option<Arc<AtomicBool>> {
+        Some(Arc::clone(&self.interrupted))
+    }
+}
+
+/// The run's summary on standard output.
+pub fn print_summary(o: &Outcome) {
+    let c = o.counts;
+    println!(
+        "{}: {} surfaces ({} surface ids), {} shooters, {} elements, {} vertices",
+        o.scene, c.surfaces, c.surface_ids, c.patches, c.elements, c.vertices
+    );
+    println!(
+        "solved: {} shots, {} subsources, {} rays, unshot {:.2}% ({}) in {:.2} s on {} thread(s)",
+        o.stats.shots,
+        o.stats.subsources,
+        o.stats.rays_cast,
+        100.0 * o.unshot_fraction,
+        o.stop.describe(),
+        o.solve_time.as_secs_f64(),
+        o.threads
+    );
+    if let Some(peak) = o.peak_memory_bytes {
+        println!(
+            "memory: peak {} resident (estimated {})",
+            radiosity::memory::bytes(peak),
+            radiosity::memory::bytes(o.memory_estimate.total())
+        );
+    }
+    for path in &o.written {
+        println!("wrote {}", path.display());
+    }
+}
