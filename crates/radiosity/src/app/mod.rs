@@ -1,0 +1,280 @@
+//! One render job from scene to files: load, mesh, solve (design.md
+//! section 2), then write the picture, the vertex CSV and the statistics of
+//! design.md section 6, plus the glTF bake, PLY and EXR outputs, the
+//! values at sensor points ([`crate::sensors`]) and [`export_scene`]. A
+//! front end (the `radiosity` command, the live view) only builds a
+//! [`Job`] and calls [`run`].
+
+mod bake;
+mod error;
+mod job;
+mod outcome;
+mod progress;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+pub use self::bake::bake_colours;
+pub use self::error::Error;
+pub use self::job::{BakeJob, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
+use self::job::{check_output, mesh_error};
+pub use self::outcome::{Counts, Outcome, StatsFile};
+pub use self::progress::{Observer, Progress, ProgressMeter, progress_of};
+use crate::export::gltf::Bake;
+use crate::export::{self, Staged};
+use crate::memory;
+use crate::mesh::Mesh;
+use crate::render::{self, Exposure, RenderSettings};
+use crate::scene::{self, LoadOptions, Scene};
+use crate::sensors;
+use crate::solver::Solver;
+
+/// Runs a job in the current rayon pool.
+pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
+    let start = Instant::now();
+    validate(job)?;
+    // The points are read first: a mistake in them is found in a moment.
+    let sensor_points = match &job.sensors {
+        Some(s) => sensors::read(&s.points, &job.load.limits, s.max_points)?,
+        None => Vec::new(),
+    };
+    let load_start = Instant::now();
+    let loaded = scene::load_with(&job.scene, &job.load)?;
+    let mut scene = loaded.scene;
+    if job.settings.merge_coplanar {
+        scene::merge::merge_coplanar(&mut scene.surfaces);
+    }
+    let load_time = load_start.elapsed();
+    let sensor_receivers = match &job.sensors {
+        Some(s) => sensors::receivers(&scene, &sensor_points, &s.points)?,
+        None => Vec::new(),
+    };
+    let suggested = scene.default_mesh_sizes();
+    let settings = job.settings_for(&suggested);
+    let mesh_start = Instant::now();
+    let mesh = Mesh::build(&scene, &settings.mesh)
+        .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
+    let mesh_time = mesh_start.elapsed();
+    let mut counts = Counts::of(&scene, &mesh);
+    let memory_estimate = memory::estimate(&memory_sizes(job, &scene, &mesh), &settings);
+    memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
+    observer.started(&scene, &mesh);
+
+    let solve_start = Instant::now();
+    let occluder = settings.accel.build(&scene.surfaces);
+    let accel_build_time = solve_start.elapsed();
+    let mut solver = Solver::with_sensors_and_occluder(
+        &scene,
+        &mesh,
+        settings.clone(),
+        sensor_receivers.clone(),
+        occluder,
+    );
+    if let Some(flag) = observer.interrupt() {
+        solver.interrupt_on(flag);
+    }
+    counts.patches = solver.shooters();
+    let stop = solver.run(|s| observer.shot(s));
+    let solve_time = solve_start.elapsed();
+    observer.finished(&solver, stop);
+
+    let write_start = Instant::now();
+    let mut staged = Vec::new();
+    let stage = |path: &Path,
+                 write: &mut dyn FnMut(
+        &mut std::io::BufWriter<std::fs::File>,
+    ) -> std::io::Result<()>| {
+        Staged::write(path, write).map_err(|source| Error::Output {
+            path: path.to_path_buf(),
+            source,
+        })
+    };
+    // The bake and the PLY show what the picture shows: the same view
+    // fixes the exposure, so a picture is drawn for them even when none is
+    // written.
+    let view = job.image.clone().unwrap_or(ImageJob {
+        path: PathBuf::new(),
+        width: 800,
+        height: 600,
+        camera: None,
+        supersampling: 1,
+        exposure: Exposure::Auto { ev: 0.0 },
+        ambient: true,
+    });
+    let camera = view.camera.unwrap_or_else(|| scene.camera_or_framing());
+    let display = solver.display_radiosity(view.ambient);
+    let mut exposure = None;
+    if job.image.is_some() || job.bake.is_some() || job.ply.is_some() {
+        let settings = RenderSettings {
+            width: view.width,
+            height: view.height,
+            camera,
+            supersampling: view.supersampling,
+        };
+        let image = render::render(&scene, &mesh, &display, &settings);
+        let scale = image.exposure_scale(view.exposure);
+        exposure = Some(scale);
+        if let Some(image_job) = &job.image {
+            let extension = image_job
+                .path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            staged.push(match extension.as_deref() {
+                Some("pfm") => stage(&image_job.path, &mut |w| export::write_pfm(w, &image))?,
+                Some("exr") => stage(&image_job.path, &mut |w| export::write_exr(w, &image))?,
+                _ => {
+                    let rgb = image.to_srgb8(scale);
+                    stage(&image_job.path, &mut |w| {
+                        export::write_png(w, image.width, image.height, &rgb)
+                    })?
+                }
+            });
+        }
+    }
+    if let (Some(bake_job), Some(exposure)) = (&job.bake, exposure) {
+        let (colours, metadata) =
+            bake_colours(&solver, bake_job.mode, &display, exposure, view.ambient);
+        let bake = Bake {
+            scene: &scene,
+            mesh: &mesh,
+            appearance: loaded.appearance.as_ref(),
+            colours: &colours,
+            mode: bake_job.mode,
+            camera,
+            aspect_ratio: f64::from(view.width) / f64::from(view.height),
+            metadata,
+        };
+        let files = export::gltf::bake(&bake, &bake_job.path).map_err(|source| Error::Output {
+            path: bake_job.path.clone(),
+            source,
+        })?;
+        for (path, bytes) in files {
+            staged.push(stage(&path, &mut |w| std::io::Write::write_all(w, &bytes))?);
+        }
+    }
+    if let (Some(path), Some(exposure)) = (&job.ply, exposure) {
+        staged.push(stage(path, &mut |w| {
+            export::write_ply(w, &mesh, &display, exposure, solver.radiosity())
+        })?);
+    }
+    if let Some(path) = &job.vertices_csv {
+        staged.push(stage(path, &mut |w| {
+            export::write_vertices_csv(w, &scene, &mesh, solver.radiosity())
+        })?);
+    }
+    if let Some(sensor_job) = &job.sensors {
+        staged.push(stage(&sensor_job.out, &mut |w| {
+            export::write_sensors_csv(
+                w,
+                &scene,
+                &sensor_points,
+                &sensor_receivers,
+                solver.sensor_irradiance(),
+            )
+        })?);
+    }
+    let threads = rayon::current_num_threads();
+    let mut outcome = Outcome {
+        scene: scene.name.clone(),
+        counts,
+        stats: solver.stats().clone(),
+        counters: solver.counters(),
+        stop,
+        unshot_fraction: solver.unshot_fraction(),
+        load_time,
+        mesh_time,
+        solve_time,
+        accel_build_time,
+        write_time: Duration::ZERO,
+        total_time: Duration::ZERO,
+        threads,
+        accel_statistics: solver.accel_statistics(),
+        written: Vec::new(),
+        warnings: scene.warnings.clone(),
+        peak_memory_bytes: None,
+        memory_estimate,
+    };
+    outcome.peak_memory_bytes = memory::peak_resident_bytes();
+    outcome.write_time = write_start.elapsed();
+    if let Some(path) = &job.stats_json {
+        outcome.total_time = start.elapsed();
+        let file = StatsFile::of(&settings, &outcome);
+        staged.push(stage(path, &mut |w| file.write(w))?);
+    }
+    outcome.written = commit_all(staged)?;
+    outcome.total_time = start.elapsed();
+    outcome.peak_memory_bytes = memory::peak_resident_bytes();
+    Ok(outcome)
+}
+
+/// The counts a run's memory estimate takes: the meshed scene's, and the
+/// picture drawn for the image, bake or PLY (800 x 600 when none is asked
+/// for, as [`run`] draws it).
+fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
+    let drawn = job.image.is_some() || job.bake.is_some() || job.ply.is_some();
+    let (width, height, supersampling, camera) = match &job.image {
+        Some(image) => (
+            image.width,
+            image.height,
+            image.supersampling,
+            image.camera.is_some(),
+        ),
+        None => (800, 600, 1, false),
+    };
+    let pixels = if drawn {
+        u64::from(width) * u64::from(height)
+    } else {
+        0
+    };
+    memory::Sizes {
+        surfaces: scene.surfaces.len() as u64,
+        patches: mesh.patches.len() as u64,
+        elements: mesh.elements.len() as u64,
+        vertices: mesh.vertices.len() as u64,
+        samples: pixels * u64::from(supersampling).pow(2),
+        pixels,
+        view: drawn && !camera && scene.camera.is_none(),
+        bake: job.bake.is_some(),
+    }
+}
+
+/// `radiosity export-scene`: writes a built-in or file scene as glTF
+/// (`.glb`, or `.gltf` with its `.bin`), staged like every output. Returns
+/// the files written.
+pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<PathBuf>, Error> {
+    load.validate()?;
+    check_output(out, &["glb", "gltf"], "export-scene")?;
+    let loaded = scene::load_with(scene, load)?;
+    let files = export::gltf::export_scene(&loaded.scene, out).map_err(|source| Error::Output {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    let mut staged = Vec::new();
+    for (path, bytes) in &files {
+        staged.push(
+            Staged::write(path, |w| std::io::Write::write_all(w, bytes)).map_err(|source| {
+                Error::Output {
+                    path: path.clone(),
+                    source,
+                }
+            })?,
+        );
+    }
+    commit_all(staged)
+}
+
+/// Moves every staged file into place (once all are complete); returns
+/// their paths.
+fn commit_all(staged: Vec<Staged>) -> Result<Vec<PathBuf>, Error> {
+    let mut written = Vec::new();
+    for file in staged {
+        let path = file.destination().to_path_buf();
+        file.commit().map_err(|source| Error::Output {
+            path: path.clone(),
+            source,
+        })?;
+        written.push(path);
+    }
+    Ok(written)
+}

@@ -1,0 +1,192 @@
+//! What a run did: its [`Outcome`] (counts, counters, times, files written)
+//! and the `--stats` file of design.md section 6 made from it.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use crate::memory;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::solver::{Counter, MethodSettings, Settings, Stats, StopReason};
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Scene name.
+    pub scene: String,
+    /// Surface, patch, element and vertex counts.
+    pub counts: Counts,
+    /// Solver counters.
+    pub stats: Stats,
+    /// The method's own counters ([`Solver::counters`]).
+    pub counters: Vec<(&'static str, Counter)>,
+    /// Why the solve stopped.
+    pub stop: StopReason,
+    /// Unshot fraction at the end.
+    pub unshot_fraction: f64,
+    /// Time to read the scene and merge its coplanar faces.
+    pub load_time: Duration,
+    /// Time to build the element mesh.
+    pub mesh_time: Duration,
+    /// Time of the solve alone: building the accelerator, setting up the
+    /// solver and shooting.
+    pub solve_time: Duration,
+    /// Time to build the shadow-ray accelerator (part of `solve_time`).
+    pub accel_build_time: Duration,
+    /// Time to draw the picture and write the outputs, the statistics file
+    /// excepted (it cannot time its own writing).
+    pub write_time: Duration,
+    /// Time of the whole run.
+    pub total_time: Duration,
+    /// Worker threads.
+    pub threads: usize,
+    /// The accelerator's build statistics.
+    pub accel_statistics: Vec<(&'static str, usize)>,
+    /// Files written.
+    pub written: Vec<PathBuf>,
+    /// Warnings from loading.
+    pub warnings: Vec<String>,
+    /// The most memory the process held resident, bytes, when the outputs
+    /// were written (`None` where the system does not say).
+    pub peak_memory_bytes: Option<u64>,
+    /// The estimate the run was checked against before its solve.
+    pub memory_estimate: memory::Estimate,
+}
+
+/// Sizes of a meshed scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Counts {
+    /// Planar convex input surfaces.
+    pub surfaces: usize,
+    /// Surface ids: surfaces after merging adjacent coplanar faces.
+    pub surface_ids: usize,
+    /// Shooting units: patches, or the shooters of adaptive shooting.
+    pub patches: usize,
+    /// Receiving elements.
+    pub elements: usize,
+    /// Shared vertices.
+    pub vertices: usize,
+}
+
+impl Counts {
+    /// Counts of a meshed scene.
+    #[must_use]
+    pub fn of(scene: &Scene, mesh: &Mesh) -> Counts {
+        let mut ids: Vec<u32> = scene.surfaces.iter().map(|s| s.group).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        Counts {
+            surfaces: scene.surfaces.len(),
+            surface_ids: ids.len(),
+            patches: mesh.patches.len(),
+            elements: mesh.elements.len(),
+            vertices: mesh.vertices.len(),
+        }
+    }
+}
+
+/// The `--stats` file of design.md section 6: one JSON object of the run's
+/// counts, counters, phase times (seconds) and the settings in force. The
+/// keys are written sorted, whatever the order of the fields below.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StatsFile {
+    /// Scene name.
+    pub scene: String,
+    /// `surfaces`, `surface_ids`, `patches` (shooters), `elements`,
+    /// `vertices`.
+    #[serde(flatten)]
+    pub counts: Counts,
+    /// `shots`, `subsources`, `pairs`, `rays_cast` and the solver's times:
+    /// `gather_seconds`, `pretest_thread_seconds`, `ray_thread_seconds`,
+    /// `form_factor_thread_seconds`, `bookkeeping_seconds`.
+    #[serde(flatten)]
+    pub solver: Stats,
+    /// Every method's own counters: the run's method's, and the others' at
+    /// zero, so the keys are the same whatever the method (`pretest_visible`,
+    /// `pretest_hidden`, `hemicube_seconds` are patch shooting's).
+    #[serde(flatten, serialize_with = "all_counters")]
+    pub counters: Vec<(&'static str, Counter)>,
+    /// Unshot power left over emitted power.
+    pub unshot_fraction: f64,
+    /// Why the solve stopped ([`StopReason::describe`]).
+    pub stop_reason: &'static str,
+    /// Reading the scene and merging its coplanar faces.
+    pub load_seconds: f64,
+    /// Building the element mesh.
+    pub mesh_seconds: f64,
+    /// The solve: accelerator build, solver set-up and shooting.
+    pub solve_seconds: f64,
+    /// Building the shadow-ray accelerator (part of `solve_seconds`).
+    pub accel_build_seconds: f64,
+    /// Drawing the picture and writing the other outputs.
+    pub write_seconds: f64,
+    /// The whole run up to writing this file.
+    pub total_seconds: f64,
+    /// Most memory held resident, bytes (`null` where the system does not
+    /// say).
+    pub peak_memory_bytes: Option<u64>,
+    /// The estimate the run was checked against before its solve, bytes.
+    pub estimated_memory_bytes: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// The accelerator's build statistics by name
+    /// ([`crate::accel::Occluder::build_statistics`]).
+    pub accel_build: std::collections::BTreeMap<&'static str, usize>,
+    /// The settings in force, the mesh sizes being those the run used.
+    pub settings: Settings,
+}
+
+/// A run's method counters with every other method's at zero, as a map.
+fn all_counters<S: serde::Serializer>(
+    counters: &[(&'static str, Counter)],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut all = MethodSettings::all_zero_counters();
+    for (name, value) in counters {
+        match all.iter_mut().find(|c| c.0 == *name) {
+            Some(slot) => slot.1 = *value,
+            None => all.push((name, *value)),
+        }
+    }
+    let mut map = serializer.serialize_map(Some(all.len()))?;
+    for (name, value) in all {
+        map.serialize_entry(name, &value.json())?;
+    }
+    map.end()
+}
+
+impl StatsFile {
+    /// The statistics of a run that used `settings`.
+    #[must_use]
+    pub fn of(settings: &Settings, outcome: &Outcome) -> StatsFile {
+        StatsFile {
+            scene: outcome.scene.clone(),
+            counts: outcome.counts,
+            solver: outcome.stats.clone(),
+            counters: outcome.counters.clone(),
+            unshot_fraction: outcome.unshot_fraction,
+            stop_reason: outcome.stop.describe(),
+            load_seconds: outcome.load_time.as_secs_f64(),
+            mesh_seconds: outcome.mesh_time.as_secs_f64(),
+            solve_seconds: outcome.solve_time.as_secs_f64(),
+            accel_build_seconds: outcome.accel_build_time.as_secs_f64(),
+            write_seconds: outcome.write_time.as_secs_f64(),
+            total_seconds: outcome.total_time.as_secs_f64(),
+            peak_memory_bytes: outcome.peak_memory_bytes,
+            estimated_memory_bytes: outcome.memory_estimate.total(),
+            threads: outcome.threads,
+            accel_build: outcome.accel_statistics.iter().copied().collect(),
+            settings: settings.clone(),
+        }
+    }
+
+    /// Writes the file as pretty-printed JSON with its keys sorted, and a
+    /// final newline.
+    pub fn write(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        // Through a `Value`, whose objects keep their keys sorted.
+        let value = serde_json::to_value(self)?;
+        serde_json::to_writer_pretty(&mut *w, &value)?;
+        w.write_all(b"\n")
+    }
+}
