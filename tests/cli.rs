@@ -505,7 +505,7 @@ fn every_experiment_runs_in_quick_mode() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no experiment 'fig9-9'"));
 }
 
-// Hostile inputs of issue 11: each refused with one exact `error:` line
+// Hostile inputs: each refused with one exact `error:` line
 // (file, line, problem and what to change), exit status 1, no output and
 // no temporary file; or, where the intent is clear, accepted.
 

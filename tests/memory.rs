@@ -1,4 +1,4 @@
-//! Memory (issue 9, item 5): the peak resident set in `--stats` and the
+//! Memory: the peak resident set in `--stats` and the
 //! summary, the estimate against measured peaks, and the refusal of a run
 //! whose estimate exceeds `--max-memory`. Each run is its own process, so
 //! its peak is its own.

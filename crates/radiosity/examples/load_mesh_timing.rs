@@ -1,4 +1,4 @@
-//! Times loading and meshing one scene file (issue 11: a million small
+//! Times loading and meshing one scene file (a scene of a million small
 //! triangles must load and mesh fast and in bounded memory):
 //! `cargo run --release --example load_mesh_timing -- FILE.obj`.
 

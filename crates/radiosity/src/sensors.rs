@@ -1,4 +1,4 @@
-//! Values at sensor points (issue 8, item 3): the irradiance `E`, the
+//! Values at sensor points (beyond the paper): the irradiance `E`, the
 //! radiosity `B = Ke + Kd E` of the surface and the illuminance at points a
 //! user lists, as a lighting designer asks Radiance's `rtrace -I` for them.
 //!

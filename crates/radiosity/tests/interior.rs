@@ -1,4 +1,4 @@
-//! The default camera of scenes that bring none (issue 9, item 6): inside an
+//! The default camera of scenes that bring none: inside an
 //! interior, at eye height along the long axis, seeing walls in every pixel;
 //! framing from outside for open scenes.
 

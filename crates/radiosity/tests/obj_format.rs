@@ -1,4 +1,4 @@
-//! Property tests of the OBJ grammar (issue 11, item 3): a valid scene
+//! Property tests of the OBJ grammar: a valid scene
 //! written in any formatting the format allows (white space, CRLF or CR
 //! line ends, comments, backslash continuations, every vertex-reference
 //! form, negative indices, number spellings) loads to exactly the geometry
