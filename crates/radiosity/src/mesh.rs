@@ -35,7 +35,7 @@ pub struct MeshSettings {
     #[serde(skip)]
     pub max_elements: usize,
     /// Cut triangles by longest-edge bisection (each surface one patch)
-    /// instead of the regular grid; see [`Grid::Bisect`].
+    /// instead of the regular grid; see the mesh's bisection grid.
     #[serde(skip)]
     pub bisect_triangles: bool,
 }

@@ -6,7 +6,7 @@ use crate::export::gltf::BakeMode;
 use crate::solver::Solver;
 
 /// The `COLOR_0` values of a bake and the metadata recorded beside them
-/// (see [`export::gltf`]): `COLOR_0 = min(1, color_scale x radiance)`, the
+/// (see [`crate::export::gltf`]): `COLOR_0 = min(1, color_scale x radiance)`, the
 /// radiance being `B_shown / pi` (lit) or `(E + ambient) / pi`
 /// (irradiance). Lit uses the picture's exposure; irradiance uses it too
 /// unless that would clip a vertex, then the largest scale that does not.

@@ -67,7 +67,7 @@ pub enum Error {
     /// `--max-sensors 0`.
     #[error("--max-sensors must be at least 1")]
     NoSensors,
-    /// Mesh sizes given in [`Job::settings`], where they are not read.
+    /// Mesh sizes given in [`super::Job::settings`], where they are not read.
     #[error("a job's mesh sizes are its patch_size and element_size, not its settings' mesh sizes")]
     MeshSizesInSettings,
     /// The mesh would exceed `--max-elements`.

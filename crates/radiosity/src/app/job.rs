@@ -61,7 +61,7 @@ pub struct Job {
     /// `--ply FILE.ply`.
     pub ply: Option<PathBuf>,
     /// `--max-memory`: the memory the run may use, bytes; `None` takes what
-    /// the machine has available ([`memory::check`]).
+    /// the machine has available ([`crate::memory::check`]).
     pub max_memory: Option<u64>,
     /// `--sensors POINTS.txt --sensors-out FILE.csv`.
     pub sensors: Option<SensorJob>,

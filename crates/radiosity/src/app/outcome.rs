@@ -18,7 +18,7 @@ pub struct Outcome {
     pub counts: Counts,
     /// Solver counters.
     pub stats: Stats,
-    /// The method's own counters ([`Solver::counters`]).
+    /// The method's own counters ([`crate::solver::Solver::counters`]).
     pub counters: Vec<(&'static str, Counter)>,
     /// Why the solve stopped.
     pub stop: StopReason,

@@ -6,7 +6,7 @@
 //! receiver until its form factor was accurate; hierarchical radiosity
 //! (Hanrahan, Salzman & Aupperle 1991) subdivides both ends of a transfer
 //! until it is; here both subdivisions are precomputed as trees and each
-//! transfer takes the coarsest accurate pair of nodes ([`super::adaptive`]).
+//! transfer takes the coarsest accurate pair of nodes ([`super`]).
 //! Below the level of a surface a tree splits one surface's items (planar
 //! nodes, one surface id); above it, it groups whole surfaces, or pieces of
 //! large ones, that are near each other (clusters, as in the clustering

@@ -43,9 +43,9 @@
 //! How accurate an accepted node's geometry is, is said once, at
 //! [`sources::point_factor`].
 
-mod gather;
+pub mod gather;
 pub mod hierarchy;
-mod sources;
+pub mod sources;
 
 use std::time::Instant;
 
@@ -203,7 +203,7 @@ pub const LINK_FACTOR: f64 = 30.0;
 
 /// An accepted node's geometry is integrated over pieces at least this
 /// many of their radii from the receiver, each a corrected point source
-/// ([`point_factor`]).
+/// ([`sources::point_factor`]).
 pub const QUADRATURE_RATIO: f64 = 4.0;
 
 /// Receiver groups at least this large check whether the shot is to be

@@ -40,7 +40,7 @@ pub(super) struct NodeSource {
 /// power-weighted sums that make it a point source with a second-order
 /// correction for its extent.
 #[derive(Clone, Copy, Debug, Default)]
-pub(super) struct Bin {
+pub struct Bin {
     /// Power per channel, `sum A_e dB_e`.
     pub(super) power: DVec3,
     /// Luminance of the power: the weight of the sums below.
@@ -192,10 +192,12 @@ pub(super) fn outer(v: DVec3) -> DMat3 {
 /// On the axis of a disk of radius `R` it gives `R^2 / (r^2 + R^2)` to
 /// fourth order; a square or a strip seen from three of its radii is within
 /// 1.5% of its exact factor, from four within 0.6%, where the plain point
-/// errs by several per cent and equation (1) by up to twelve (tested). Clamped where the expansion fails
-/// (a receiver seeing the source almost edge-on, whose factor is then small
-/// anyway).
-pub(super) fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
+/// errs by several per cent and equation (1) by up to twelve (the test
+/// below). This is the accuracy the far-field rules of adaptive shooting
+/// rest on ([`super::FAR_RATIO`], [`super::QUADRATURE_RATIO`]). Clamped
+/// where the expansion fails (a receiver seeing the source almost edge-on,
+/// whose factor is then small anyway).
+pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
     let w = bin.weight;
     let centre = bin.position / w;
     let d = point - origin - centre;
@@ -223,16 +225,12 @@ mod tests {
     use super::super::hierarchy;
     use super::*;
 
-    /// The corrected point source against the exact factor of a small
-    /// square (the analytic formula), from three to twelve of its radii in
-    /// random directions and receiver orientations: within 0.5% where the
-    /// plain point formula errs by several per cent.
     /// The corrected point source against the exact factor (the analytic
     /// formula) of a square and of a 4:1 strip, from three to twelve of
     /// their radii, in random directions and receiver orientations (facing
     /// the source, or tilted as far as a floor under a ceiling lamp): within
-    /// 1.5% from three radii and 0.6% beyond four (where the quadrature takes
-    /// its pieces), where the plain point formula errs by several per cent.
+    /// the bounds [`point_factor`] states, where the plain point formula
+    /// errs by several per cent.
     #[test]
     fn corrected_point_source_matches_the_exact_factor() {
         let mut state = 0x9e37_79b9_7f4a_7c15_u64;
