@@ -10,7 +10,8 @@ Blender's bundled glTF exporter (io_scene_gltf2), +Y up.
 
 Run (from the repository root; needs Debian's `blender` package):
   blender -b --factory-startup --python tools/blender_cornell.py
-The committed .glb is what tests/gltf.rs reads; CI needs no Blender.
+The committed .glb is what crates/radiosity/tests/gltf.rs reads; CI needs no
+Blender.
 """
 
 import math

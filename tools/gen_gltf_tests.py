@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
 """Write the hand-made glTF test scene tests/data/hierarchy.gltf.
 
-A small scene whose every number the tests (tests/gltf.rs) check by hand:
-a node hierarchy with uniform and negative scale, a rotation quaternion, a
-translation and two matrices; a 2x2 sRGB texture; an emissive strength; a
-double-sided material; a perspective camera; a KHR_lights_punctual light
-(to be ignored with a warning) and a POINTS primitive (skipped with a
-warning). The buffer and the texture are separate files beside the .gltf,
+A small scene whose every number the tests (crates/radiosity/tests/gltf.rs)
+check by hand: a node hierarchy with uniform and negative scale, a rotation
+quaternion, a translation and two matrices; a 2x2 sRGB texture; an emissive
+strength; a double-sided material; a perspective camera; a
+KHR_lights_punctual light (to be ignored with a warning) and a POINTS
+primitive (skipped with a warning). The buffer and the texture are separate files beside the .gltf,
 so loading also exercises the resolver. Output is byte-identical on every
 run.
 

@@ -2,12 +2,12 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use radiosity::scene::obj;
+use radiosity::scene::mtl;
 
 fuzz_target!(|data: &[u8]| {
     let mut warnings = Vec::new();
     let path = std::path::Path::new("fuzz.mtl");
-    match obj::parse_mtl(path, data, &radiosity_fuzz::LIMITS, &mut warnings) {
+    match mtl::parse_mtl(path, data, &radiosity_fuzz::LIMITS, &mut warnings) {
         Ok(materials) => {
             for m in materials.values() {
                 assert!(m.rho.min_element() >= 0.0 && m.rho.max_element() < 1.0);

@@ -42,7 +42,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::geometry;
-use crate::scene::obj::{length, quoted};
+use crate::scene::text::{length, quoted};
 use crate::scene::{Limits, Location, Scene, SceneError, Surface};
 use crate::solver::{GATHER_NUDGE, Receiver};
 

@@ -3,20 +3,24 @@
 //!
 //! A [`Surface`] is one planar, convex, single-sided polygon carrying a
 //! reflectance `rho` and an emitted radiant exitance `E`. Loading turns an
-//! input file into surfaces: [`obj`] reads Wavefront OBJ + MTL, [`gltf`]
-//! reads glTF 2.0 (`.gltf`, `.glb`), [`polygon`] turns a face into planar
-//! convex pieces and [`builtin`] holds the scenes shipped inside the
-//! binary. Every load is bounded by [`Limits`], and input files are checked
-//! to be regular files of a sane size before they are read; [`merge`] gives
-//! adjacent coplanar faces one surface id; [`interior`] places the default
-//! camera inside an interior that brings none.
+//! input file into surfaces: [`obj`] reads Wavefront OBJ with the MTL
+//! material libraries [`mtl`] reads, both through [`text`] (decoding, lines,
+//! numbers and how input appears in messages); [`gltf`] reads glTF 2.0
+//! (`.gltf`, `.glb`), [`polygon`] turns a face into planar convex pieces and
+//! [`builtin`] holds the scenes shipped inside the binary. Every load is
+//! bounded by [`Limits`], and input files are checked to be regular files
+//! of a sane size before they are read; [`merge`] gives adjacent coplanar
+//! faces one surface id; [`interior`] places the default camera inside an
+//! interior that brings none.
 
 pub mod builtin;
 pub mod gltf;
 pub mod interior;
 pub mod merge;
+pub mod mtl;
 pub mod obj;
 pub mod polygon;
+pub mod text;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -24,6 +28,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use crate::geometry;
+use text::quoted;
 
 /// One planar convex polygon of the input, the unit of visibility.
 #[derive(Clone, Debug)]
@@ -103,12 +108,12 @@ impl Camera {
             .filter(|t| !t.is_empty())
             .map(|t| {
                 t.parse::<f64>()
-                    .map_err(|_| CameraError::NotANumber(obj::quoted(t)))
+                    .map_err(|_| CameraError::NotANumber(quoted(t)))
                     .and_then(|v| {
                         if v.is_finite() {
                             Ok(v)
                         } else {
-                            Err(CameraError::NotFinite(obj::quoted(t)))
+                            Err(CameraError::NotFinite(quoted(t)))
                         }
                     })
             })

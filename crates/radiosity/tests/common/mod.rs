@@ -10,17 +10,28 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use radiosity::scene::{Scene, Surface};
 
-/// A file of the shared real scenes (`shared/scenes/`): beside the clone in
-/// CI, two levels up from a worktree under `wt/`. The clone's root is two
-/// levels above the core crate (this file is shared with the command's
-/// tests at the root, whose manifest folder is the clone's root).
-pub fn shared_scene(relative: &str) -> PathBuf {
+/// The clone's root: two levels above the core crate (this file is shared
+/// with the command's tests at the root, whose manifest folder is the
+/// clone's root).
+fn repository_root() -> PathBuf {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let root = if manifest.join("crates").is_dir() {
+    if manifest.join("crates").is_dir() {
         manifest.to_path_buf()
     } else {
         manifest.join("../..")
-    };
+    }
+}
+
+/// A file of the repository's test inputs, `tests/data/` at its root (the
+/// glTF scenes, also read by tools/fuzz.sh and the web tests).
+pub fn test_data(name: &str) -> PathBuf {
+    repository_root().join("tests").join("data").join(name)
+}
+
+/// A file of the shared real scenes (`shared/scenes/`): beside the clone in
+/// CI, two levels up from a worktree under `wt/`.
+pub fn shared_scene(relative: &str) -> PathBuf {
+    let root = repository_root();
     [
         root.join("../shared/scenes"),
         root.join("../../shared/scenes"),

@@ -1,0 +1,184 @@
+//! The node hierarchy (the glTF 2.0 specification's *Nodes and
+//! Hierarchy*, *Transformations* and *Cameras*): the default scene's nodes
+//! are walked from its roots, each node's local transform (a matrix, or
+//! translation x rotation x scale) composed with its parent's; a mesh is
+//! loaded once per node that instances it, under that node's world
+//! transform. The hierarchy must be a tree. The first perspective camera
+//! met is the default view; `KHR_lights_punctual` lights are listed for a
+//! warning (they are not area lights); skins are read in their bind pose
+//! and morph targets ignored, each with a warning.
+
+use glam::{DMat4, DQuat, DVec3};
+use gltf_json as json;
+
+use super::{Camera, ImageData, Loader, SceneError, label, radiosity_extras, widen, widen3};
+
+impl Loader<'_> {
+    /// Walks the default scene's node tree.
+    pub(super) fn load_scene(&mut self, images: &[ImageData]) -> Result<(), SceneError> {
+        let root = self.root;
+        let roots: Vec<usize> = match root.scene.map(|s| s.value()).or(if root.scenes.is_empty() {
+            None
+        } else {
+            Some(0)
+        }) {
+            Some(s) => {
+                let Some(scene) = root.scenes.get(s) else {
+                    return Err(self.error(format!(
+                        "the default scene is {s}, but the file has {} scenes",
+                        root.scenes.len()
+                    )));
+                };
+                scene.nodes.iter().map(|n| n.value()).collect()
+            }
+            None => {
+                // No scene: every node that is nobody's child.
+                let mut is_child = vec![false; root.nodes.len()];
+                for node in &root.nodes {
+                    for c in node.children.iter().flatten() {
+                        if let Some(flag) = is_child.get_mut(c.value()) {
+                            *flag = true;
+                        }
+                    }
+                }
+                (0..root.nodes.len()).filter(|i| !is_child[*i]).collect()
+            }
+        };
+        let mut visited = vec![false; root.nodes.len()];
+        let mut stack: Vec<(usize, DMat4)> =
+            roots.iter().rev().map(|n| (*n, DMat4::IDENTITY)).collect();
+        let mut skinned = false;
+        let mut morphed = false;
+        while let Some((n, parent)) = stack.pop() {
+            let Some(node) = root.nodes.get(n) else {
+                return Err(self.error(format!(
+                    "a scene or node refers to node {n}, but the file has {}",
+                    root.nodes.len()
+                )));
+            };
+            let what = label("node", n, node.name.as_ref());
+            if visited[n] {
+                return Err(self.error(format!(
+                    "{what} is reached twice: the node hierarchy must be a tree (no cycles, one \
+                     parent each)"
+                )));
+            }
+            visited[n] = true;
+            let world = parent * self.local_transform(node, &what)?;
+            if !world.is_finite() {
+                return Err(self.error(format!("{what}: its world transform is not finite")));
+            }
+            if let Some(camera) = node.camera {
+                self.take_camera(camera.value(), world, &what)?;
+            }
+            if let Some(light) = node
+                .extensions
+                .as_ref()
+                .and_then(|e| e.khr_lights_punctual.as_ref())
+            {
+                let l = light.light.value();
+                let name = root
+                    .extensions
+                    .as_ref()
+                    .and_then(|e| e.khr_lights_punctual.as_ref())
+                    .and_then(|k| k.lights.get(l))
+                    .and_then(|light| light.name.clone());
+                self.lights.push(label("light", l, name.as_ref()));
+            }
+            if let Some(mesh) = node.mesh {
+                skinned |= node.skin.is_some();
+                morphed |= self.load_mesh(mesh.value(), world, images)?;
+            }
+            for child in node.children.iter().flatten().rev() {
+                stack.push((child.value(), world));
+            }
+        }
+        if skinned {
+            self.warnings.push(format!(
+                "{}: skinned meshes are read in their bind pose",
+                self.path.display()
+            ));
+        }
+        if morphed {
+            self.warnings.push(format!(
+                "{}: morph targets are ignored (base shapes are read)",
+                self.path.display()
+            ));
+        }
+        Ok(())
+    }
+
+    fn local_transform(&self, node: &json::Node, what: &str) -> Result<DMat4, SceneError> {
+        let m = if let Some(m) = node.matrix {
+            DMat4::from_cols_array(&m.map(widen))
+        } else {
+            let t = node.translation.map_or(DVec3::ZERO, widen3);
+            let s = node.scale.map_or(DVec3::ONE, widen3);
+            let r = node.rotation.map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
+            let q = DQuat::from_xyzw(widen(r[0]), widen(r[1]), widen(r[2]), widen(r[3]));
+            if !q.is_finite() || q.length() < 1e-6 {
+                return Err(self.error(format!("{what}: rotation {r:?} is not a unit quaternion")));
+            }
+            DMat4::from_scale_rotation_translation(s, q.normalize(), t)
+        };
+        if !m.is_finite() {
+            return Err(self.error(format!("{what}: its transform is not finite")));
+        }
+        Ok(m)
+    }
+
+    fn take_camera(&mut self, index: usize, world: DMat4, what: &str) -> Result<(), SceneError> {
+        let Some(camera) = self.root.cameras.get(index) else {
+            return Err(self.error(format!(
+                "{what} refers to camera {index}, but the file has {}",
+                self.root.cameras.len()
+            )));
+        };
+        let camera_label = label("camera", index, camera.name.as_ref());
+        let Some(perspective) = &camera.perspective else {
+            self.warnings.push(format!(
+                "{}: {camera_label} is not perspective: ignored",
+                self.path.display()
+            ));
+            return Ok(());
+        };
+        if self.camera.is_some() {
+            return Ok(());
+        }
+        let eye = world.transform_point3(DVec3::ZERO);
+        let forward = world.transform_vector3(DVec3::NEG_Z);
+        let up = world.transform_vector3(DVec3::Y);
+        let candidate = Camera {
+            eye,
+            target: eye + forward.normalize_or_zero(),
+            up,
+            fov_degrees: widen(perspective.yfov).to_degrees(),
+        };
+        match candidate.validate() {
+            Ok(()) => {
+                // An exact camera recorded by `export-scene`, if it agrees.
+                let exact = radiosity_extras(&camera.extras)
+                    .and_then(|e| e.get("camera").cloned())
+                    .and_then(|c| serde_json::from_value::<Vec<f64>>(c).ok())
+                    .filter(|v| v.len() == 10)
+                    .map(|v| Camera {
+                        eye: DVec3::new(v[0], v[1], v[2]),
+                        target: DVec3::new(v[3], v[4], v[5]),
+                        up: DVec3::new(v[6], v[7], v[8]),
+                        fov_degrees: v[9],
+                    })
+                    .filter(|c| {
+                        c.validate().is_ok()
+                            && c.eye.distance(eye) <= 1e-5 * (1.0 + eye.length())
+                            && (c.target - c.eye).normalize().dot(forward.normalize()) > 1.0 - 1e-6
+                    });
+                self.camera = Some(exact.unwrap_or(candidate));
+            }
+            Err(e) => self.warnings.push(format!(
+                "{}: {camera_label} ignored: {e}",
+                self.path.display()
+            )),
+        }
+        Ok(())
+    }
+}
