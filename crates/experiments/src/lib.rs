@@ -18,14 +18,14 @@
 
 pub mod accuracy;
 pub mod charts;
+pub mod fig4_3;
+pub mod fig5_1;
 pub mod form_factor_accuracy;
-pub mod form_factors;
 pub mod plot;
 pub mod rays;
 pub mod reference;
 pub mod report;
 pub mod scale;
-pub mod solves;
 pub mod validate;
 
 use std::path::{Path, PathBuf};
@@ -109,37 +109,37 @@ pub const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "fig2-1",
         title: "Figure 2.1: time to shoot one subsource",
-        run: solves::fig2_1,
+        run: fig5_1::fig2_1,
         in_all: true,
     },
     Experiment {
         name: "fig4-2",
         title: "Figures 4.2 and 4.6: errors of the disk formulas",
-        run: form_factors::fig4_2,
+        run: fig4_3::fig4_2,
         in_all: true,
     },
     Experiment {
         name: "fig4-3",
         title: "Figures 4.3 and 4.5: the form factor above a unit square",
-        run: form_factors::fig4_3,
+        run: fig4_3::fig4_3,
         in_all: true,
     },
     Experiment {
         name: "formula-timing",
         title: "Section 4: cost of one form-factor evaluation",
-        run: form_factors::formula_timing,
+        run: fig4_3::formula_timing,
         in_all: true,
     },
     Experiment {
         name: "fig5-1",
         title: "Figure 5.1: the room after 9, 48 and 72 subsources",
-        run: solves::fig5_1,
+        run: fig5_1::fig5_1,
         in_all: true,
     },
     Experiment {
         name: "fig5-2",
         title: "Figure 5.2: solve times",
-        run: solves::fig5_2,
+        run: fig5_1::fig5_2,
         in_all: true,
     },
     Experiment {

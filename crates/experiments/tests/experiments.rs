@@ -9,7 +9,7 @@ use std::path::Path;
 
 use approx::{assert_abs_diff_eq, relative_eq};
 use common::assert_table;
-use radiosity_experiments::form_factors::{self, CrossSection};
+use radiosity_experiments::fig4_3::{self, CrossSection};
 use radiosity_experiments::{Context, plot};
 
 fn context(dir: &Path) -> Context {
@@ -30,7 +30,7 @@ fn png_size(path: &Path) -> (u32, u32) {
 #[test]
 fn fig4_2_tables_the_paper_beside_ours() {
     let dir = tempfile::tempdir().unwrap();
-    let report = form_factors::fig4_2(&context(dir.path())).unwrap();
+    let report = fig4_3::fig4_2(&context(dir.path())).unwrap();
     assert_table(
         &report,
         "| r | eq. (1) average, ours | eq. (1) average, paper |",
@@ -51,7 +51,7 @@ fn fig4_2_tables_the_paper_beside_ours() {
 #[test]
 fn fig4_3_writes_decodable_pictures_of_the_announced_size() {
     let dir = tempfile::tempdir().unwrap();
-    let report = form_factors::fig4_3(&context(dir.path())).unwrap();
+    let report = fig4_3::fig4_3(&context(dir.path())).unwrap();
     assert_table(
         &report,
         "| picture | max, z < 0.2 | mean, z < 0.2 | max, z > 0.5 |",
@@ -122,7 +122,7 @@ fn figure_4_5_equals_the_exact_factor() {
 #[test]
 fn formula_timing_reports_the_three_formulas() {
     let dir = tempfile::tempdir().unwrap();
-    let report = form_factors::formula_timing(&context(dir.path())).unwrap();
+    let report = fig4_3::formula_timing(&context(dir.path())).unwrap();
     assert_table(
         &report,
         "| formula | source | ns per evaluation | ms for 4,140 |",
