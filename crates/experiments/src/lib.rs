@@ -16,17 +16,25 @@
 //! | `accuracy-curve` | beyond the paper | L1 against solve time for both presets and `rtrace` on the Cornell boxes (by name only) |
 //! | `scale` | section 3, issue 9 | a whole render job's phases, memory and rays from the built-in scenes to the conference room, default preset with either accelerator (by name only) |
 
+// One module per experiment (`EXPERIMENTS` lists them in the paper's order).
 pub mod accuracy;
-pub mod charts;
+pub mod fig2_1;
+pub mod fig4_2;
 pub mod fig4_3;
 pub mod fig5_1;
-pub mod form_factor_accuracy;
-pub mod plot;
+pub mod fig5_2;
+pub mod formula_timing;
 pub mod rays;
-pub mod reference;
-pub mod report;
 pub mod scale;
 pub mod validate;
+
+// What the experiments share.
+pub mod charts;
+pub mod form_factor_accuracy;
+pub mod plot;
+pub mod reference;
+pub mod report;
+mod solving;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -109,13 +117,13 @@ pub const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "fig2-1",
         title: "Figure 2.1: time to shoot one subsource",
-        run: fig5_1::fig2_1,
+        run: fig2_1::fig2_1,
         in_all: true,
     },
     Experiment {
         name: "fig4-2",
         title: "Figures 4.2 and 4.6: errors of the disk formulas",
-        run: fig4_3::fig4_2,
+        run: fig4_2::fig4_2,
         in_all: true,
     },
     Experiment {
@@ -127,7 +135,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "formula-timing",
         title: "Section 4: cost of one form-factor evaluation",
-        run: fig4_3::formula_timing,
+        run: formula_timing::formula_timing,
         in_all: true,
     },
     Experiment {
@@ -139,7 +147,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "fig5-2",
         title: "Figure 5.2: solve times",
-        run: fig5_1::fig5_2,
+        run: fig5_2::fig5_2,
         in_all: true,
     },
     Experiment {
