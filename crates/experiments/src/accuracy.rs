@@ -1,9 +1,10 @@
-//! `radiosity experiment accuracy-curve` (issue 8, item 5): accuracy
-//! against time on the built-in Cornell box and the measured one, for the
-//! paper's preset (`wong-tsang93`, the old default) at its default patch
-//! size and finer ones, the default (`adaptive`) at several tolerances and
-//! convergence thresholds, and Radiance's `rtrace -I` itself with and
-//! without its irradiance cache.
+//! `radiosity experiment accuracy-curve`, beyond the paper (its Figure 5.2
+//! times the methods, [`super::validate`] scores them; this puts the two
+//! together): accuracy against the Radiance reference, against time, on the
+//! built-in Cornell box and the measured one, for the paper's preset
+//! (`wong-tsang93`, the old default) at its default patch size and finer ones,
+//! the default (`adaptive`) at several tolerances and convergence thresholds,
+//! and Radiance's `rtrace -I` itself with and without its irradiance cache.
 //!
 //! Every method is scored at the same points: the 600 vertices `score.py`
 //! samples from the default preset's mesh (so the reference computed for

@@ -14,19 +14,27 @@
 //! | `rays` | section 3 | BSP, BVH, brute force and Embree on real scenes' shadow segments (by name only, not in `all`) |
 //! | `validate` | beyond the paper | L1, bias, median and p90 against the Radiance reference per scene and preset, error pictures (by name only) |
 //! | `accuracy-curve` | beyond the paper | L1 against solve time for both presets and `rtrace` on the Cornell boxes (by name only) |
-//! | `scale` | section 3, issue 9 | a whole render job's phases, memory and rays from the built-in scenes to the conference room, default preset with either accelerator (by name only) |
+//! | `scale` | beyond the paper | a whole render job's phases, memory and rays from the built-in scenes to the conference room, default preset with either accelerator (by name only) |
 
+// One module per experiment (`EXPERIMENTS` lists them in the paper's order).
 pub mod accuracy;
+pub mod fig2_1;
+pub mod fig4_2;
+pub mod fig4_3;
+pub mod fig5_1;
+pub mod fig5_2;
+pub mod formula_timing;
+pub mod rays;
+pub mod scale;
+pub mod validate;
+
+// What the experiments share.
 pub mod charts;
 pub mod form_factor_accuracy;
-pub mod form_factors;
 pub mod plot;
-pub mod rays;
 pub mod reference;
 pub mod report;
-pub mod scale;
-pub mod solves;
-pub mod validate;
+mod solving;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -109,37 +117,37 @@ pub const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "fig2-1",
         title: "Figure 2.1: time to shoot one subsource",
-        run: solves::fig2_1,
+        run: fig2_1::fig2_1,
         in_all: true,
     },
     Experiment {
         name: "fig4-2",
         title: "Figures 4.2 and 4.6: errors of the disk formulas",
-        run: form_factors::fig4_2,
+        run: fig4_2::fig4_2,
         in_all: true,
     },
     Experiment {
         name: "fig4-3",
         title: "Figures 4.3 and 4.5: the form factor above a unit square",
-        run: form_factors::fig4_3,
+        run: fig4_3::fig4_3,
         in_all: true,
     },
     Experiment {
         name: "formula-timing",
         title: "Section 4: cost of one form-factor evaluation",
-        run: form_factors::formula_timing,
+        run: formula_timing::formula_timing,
         in_all: true,
     },
     Experiment {
         name: "fig5-1",
         title: "Figure 5.1: the room after 9, 48 and 72 subsources",
-        run: solves::fig5_1,
+        run: fig5_1::fig5_1,
         in_all: true,
     },
     Experiment {
         name: "fig5-2",
         title: "Figure 5.2: solve times",
-        run: solves::fig5_2,
+        run: fig5_2::fig5_2,
         in_all: true,
     },
     Experiment {

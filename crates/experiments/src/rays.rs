@@ -1,33 +1,34 @@
 //! Shadow-ray accelerators on real scenes (Wong & Tsang 1993, section 3,
-//! at the scale of issue 9): the BSP tree of the paper against the BVH, the
-//! brute-force oracle and, when a Python with the `embreex` package is
-//! given, Intel's Embree, all on the same shadow segments.
+//! at the scale of the Sponza atrium and the conference room, 66k and 277k
+//! triangles, beside the paper's room): the BSP tree of the paper against
+//! the BVH, the brute-force oracle and, when a Python with the `embreex`
+//! package is given, Intel's Embree, all on the same shadow segments.
 //!
-//! The segments are the solver's own: a real solve (the default
-//! `wong-tsang93` preset, its hemicube pre-test included, visibility answered
-//! by a BVH wrapped in a recorder) runs a few shots on each scene, and every
-//! segment it casts during the recorded shots (subsource centre to vertex
-//! gathering point, shortened by [`accel::shorten`], skipping the source's
-//! and receiver's surfaces) is kept. They are put in receiver order, so the
-//! sample does not depend on the thread count, and a deterministic sample of
-//! blocks of consecutive segments is timed: one thread answers the whole
-//! list with each accelerator in turn, repetitions interleaved, and the
-//! median per ray is reported. Times are the timing thread's CPU time where
-//! the system has that clock, so a shared machine's other jobs (waiting for
-//! a core) do not count; they still share the caches. Every accelerator must give the same answer
-//! on every segment (the brute-force oracle on an evenly spaced sample): the
+//! The segments are the solver's own: a real solve (the paper's `wong-tsang93`
+//! preset, its hemicube pre-test included, visibility answered by a BVH wrapped
+//! in a recorder) runs a few shots on each scene, and every segment it casts
+//! during the recorded shots (subsource centre to vertex gathering point,
+//! shortened by [`radiosity::accel::shorten`], skipping the source's and
+//! receiver's surfaces) is kept. They are put in receiver order, so the sample
+//! does not depend on the thread count, and a deterministic sample of blocks of
+//! consecutive segments is timed: one thread answers the whole list with each
+//! accelerator in turn, repetitions interleaved, and the median per ray is
+//! reported. Times are the timing thread's CPU time where the system has that
+//! clock, so a shared machine's other jobs (waiting for a core) do not count;
+//! they still share the caches. Every accelerator must give the same answer on
+//! every segment (the brute-force oracle on an evenly spaced sample): the
 //! experiment fails otherwise.
 //!
-//! Embree (`tools/embree_rays.py`) reads the same triangles (our convex
-//! surfaces fanned) and segments from a binary file and times
+//! Embree ([`embree`], `tools/embree_rays.py`) reads the same triangles
+//! (our convex surfaces fanned) and segments from a binary file and times
 //! `rtcOccluded1` over them with `tfar` the segment's length, between our
 //! own repetitions. It does not skip the source's and receiver's surfaces
 //! and works in `f32`, so its answers can differ from ours on a few grazing
 //! segments; the agreement is reported.
 
-use std::io::Write as _;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+pub mod embree;
+
+use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -35,6 +36,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::{Context, Error, Report, median, table};
+use embree::EmbreeRun;
 use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
 use radiosity::accel::bsp::{Bsp, BspSettings};
@@ -43,9 +45,6 @@ use radiosity::app;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::{self, Scene, Surface};
 use radiosity::solver::{Flow, Settings, Solver};
-
-/// The Embree benchmark script, written next to its data when it is run.
-const EMBREE_SCRIPT: &str = include_str!("../../../tools/embree_rays.py");
 
 /// Where the shared scenes are looked for when no folder is given, relative
 /// to the working directory and to the source tree.
@@ -696,119 +695,4 @@ fn measure(
         outcome.embree = Some(embree_timing);
     }
     Ok(outcome)
-}
-
-/// The Embree script and its data in a temporary folder, removed on drop.
-struct EmbreeRun {
-    python: PathBuf,
-    dir: PathBuf,
-}
-
-/// One run of the Embree script.
-struct EmbreeResult {
-    ns_per_ray: f64,
-    build_seconds: f64,
-    agreement: f64,
-}
-
-impl EmbreeRun {
-    fn prepare(
-        python: &Path,
-        name: &str,
-        scene: &Scene,
-        segments: &[Segment],
-        answers: &[bool],
-    ) -> Result<EmbreeRun, Error> {
-        let dir =
-            std::env::temp_dir().join(format!("radiosity-rays-{}-{name}", std::process::id()));
-        let output = |source| Error::Output {
-            path: std::env::temp_dir(),
-            source,
-        };
-        std::fs::create_dir_all(&dir).map_err(output)?;
-        let run = EmbreeRun {
-            python: python.to_path_buf(),
-            dir,
-        };
-        std::fs::write(run.dir.join("embree_rays.py"), EMBREE_SCRIPT).map_err(output)?;
-        let file = std::fs::File::create(run.dir.join("rays.bin")).map_err(output)?;
-        let mut w = std::io::BufWriter::new(file);
-        write_rays(&mut w, scene, segments, answers)
-            .and_then(|()| w.flush())
-            .map_err(output)?;
-        Ok(run)
-    }
-
-    fn run(&self) -> Result<EmbreeResult, Error> {
-        let out = Command::new(&self.python)
-            .arg(self.dir.join("embree_rays.py"))
-            .arg(self.dir.join("rays.bin"))
-            .output()
-            .map_err(|e| Error::Experiment(format!("cannot run {}: {e}", self.python.display())))?;
-        let text = String::from_utf8_lossy(&out.stdout);
-        if !out.status.success() {
-            return Err(Error::Experiment(format!(
-                "{} tools/embree_rays.py failed: {}",
-                self.python.display(),
-                String::from_utf8_lossy(&out.stderr).trim()
-            )));
-        }
-        let value: serde_json::Value = serde_json::from_str(text.trim()).map_err(|e| {
-            Error::Experiment(format!("tools/embree_rays.py printed {text:?}: {e}"))
-        })?;
-        let field = |k: &str| {
-            value[k].as_f64().ok_or_else(|| {
-                Error::Experiment(format!("tools/embree_rays.py gave no {k} in {text:?}"))
-            })
-        };
-        Ok(EmbreeResult {
-            ns_per_ray: field("ns_per_ray")?,
-            build_seconds: field("build_seconds")?,
-            agreement: field("agreement")?,
-        })
-    }
-}
-
-impl Drop for EmbreeRun {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
-/// The binary file `tools/embree_rays.py` reads, little-endian:
-/// `b"RADRAYS1"`, the triangle count `T` and segment count `S` (`u64`),
-/// `T x 9` `f64` triangle corners (each convex surface fanned from its
-/// first corner), `S x 6` `f64` segment ends (`from`, `to`), `S` bytes of
-/// our answers (1 = blocked).
-pub fn write_rays(
-    w: &mut impl std::io::Write,
-    scene: &Scene,
-    segments: &[Segment],
-    answers: &[bool],
-) -> std::io::Result<()> {
-    let triangles: Vec<[DVec3; 3]> = scene
-        .surfaces
-        .iter()
-        .flat_map(|s| {
-            let p = &s.polygon;
-            (1..p.len() - 1).map(move |i| [p[0], p[i], p[i + 1]])
-        })
-        .collect();
-    w.write_all(b"RADRAYS1")?;
-    w.write_all(&(triangles.len() as u64).to_le_bytes())?;
-    w.write_all(&(segments.len() as u64).to_le_bytes())?;
-    for t in &triangles {
-        for p in t {
-            for c in p.to_array() {
-                w.write_all(&c.to_le_bytes())?;
-            }
-        }
-    }
-    for s in segments {
-        for c in s.from.to_array().into_iter().chain(s.to.to_array()) {
-            w.write_all(&c.to_le_bytes())?;
-        }
-    }
-    let bytes: Vec<u8> = answers.iter().map(|&a| u8::from(a)).collect();
-    w.write_all(&bytes)
 }

@@ -1,10 +1,11 @@
-//! `radiosity experiment scale` (issue 9, item 7): what a whole render job
-//! costs as scenes grow from the paper's room (171 faces) to the
-//! conference room (277k triangles). Each scene is rendered with the
-//! default preset (adaptive shooting, [`Settings::adaptive`]), the default
-//! with the other shadow-ray accelerator forced (the BSP of Wong & Tsang
-//! 1993, section 3, beside the default's BVH) and, on the built-in scenes,
-//! the paper's preset (`wong-tsang93`).
+//! `radiosity experiment scale`, beyond the paper (whose largest scene is its
+//! room): what a whole render job costs as scenes grow from the paper's room
+//! (171 faces) through the Sponza atrium (66k triangles) to the conference room
+//! (277k triangles). Each scene is rendered with the default preset (adaptive
+//! shooting, [`Settings::adaptive`]), the default with the other shadow-ray
+//! accelerator forced (the BSP of Wong & Tsang 1993, section 3, beside the
+//! default's BVH) and, on the built-in scenes, the paper's preset
+//! (`wong-tsang93`).
 //!
 //! Every case is the binary's own job, run as a child process
 //! (`radiosity render SCENE --stats FILE.json ...`): the peak resident

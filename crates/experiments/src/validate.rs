@@ -1,12 +1,13 @@
-//! `radiosity experiment validate` (issue 8, item 4): the built-in scenes
-//! and the measured Cornell box, solved with the default preset and the
-//! paper's, each scored against the Radiance reference harness
-//! ([`super::reference`]) as `score.py` scores a vertices CSV: L1, bias,
-//! median and 90th-percentile relative error over 600 sampled vertices,
-//! with the solve's time and the reference's. Each scene gets an error
-//! picture: the relative error `B / Bref - 1` at every sampled vertex the
-//! scene's camera sees, drawn as a dot on the rasterised solution in grey
-//! (blue too dark, red too bright), with a colour bar.
+//! `radiosity experiment validate`, beyond the paper (Wong & Tsang 1993 compare
+//! their method with Wallace's, never with the light a physically based
+//! renderer finds): the built-in scenes and the measured Cornell box, solved
+//! with the default preset and the paper's, each scored against the Radiance
+//! reference harness ([`super::reference`]) as `score.py` scores a vertices
+//! CSV: L1, bias, median and 90th-percentile relative error over 600 sampled
+//! vertices, with the solve's time and the reference's. Each scene gets an
+//! error picture: the relative error `B / Bref - 1` at every sampled vertex the
+//! scene's camera sees, drawn as a dot on the rasterised solution in grey (blue
+//! too dark, red too bright), with a colour bar.
 //!
 //! The reference takes minutes for each new mesh (it is cached by mesh in
 //! `$REFCACHE`, default `/tmp/reference-cache`); the solves take seconds.

@@ -9,8 +9,9 @@ use std::path::Path;
 
 use approx::{assert_abs_diff_eq, relative_eq};
 use common::assert_table;
-use radiosity_experiments::form_factors::{self, CrossSection};
+use radiosity_experiments::fig4_3::{self, CrossSection};
 use radiosity_experiments::{Context, plot};
+use radiosity_experiments::{fig4_2, formula_timing};
 
 fn context(dir: &Path) -> Context {
     common::context(dir, "cargo test --test experiments")
@@ -30,7 +31,7 @@ fn png_size(path: &Path) -> (u32, u32) {
 #[test]
 fn fig4_2_tables_the_paper_beside_ours() {
     let dir = tempfile::tempdir().unwrap();
-    let report = form_factors::fig4_2(&context(dir.path())).unwrap();
+    let report = fig4_2::fig4_2(&context(dir.path())).unwrap();
     assert_table(
         &report,
         "| r | eq. (1) average, ours | eq. (1) average, paper |",
@@ -51,7 +52,7 @@ fn fig4_2_tables_the_paper_beside_ours() {
 #[test]
 fn fig4_3_writes_decodable_pictures_of_the_announced_size() {
     let dir = tempfile::tempdir().unwrap();
-    let report = form_factors::fig4_3(&context(dir.path())).unwrap();
+    let report = fig4_3::fig4_3(&context(dir.path())).unwrap();
     assert_table(
         &report,
         "| picture | max, z < 0.2 | mean, z < 0.2 | max, z > 0.5 |",
@@ -122,7 +123,7 @@ fn figure_4_5_equals_the_exact_factor() {
 #[test]
 fn formula_timing_reports_the_three_formulas() {
     let dir = tempfile::tempdir().unwrap();
-    let report = form_factors::formula_timing(&context(dir.path())).unwrap();
+    let report = formula_timing::formula_timing(&context(dir.path())).unwrap();
     assert_table(
         &report,
         "| formula | source | ns per evaluation | ms for 4,140 |",
@@ -206,7 +207,8 @@ fn rays_on_the_room_tables_every_accelerator() {
 #[test]
 fn rays_file_layout() {
     use glam::DVec3;
-    use radiosity_experiments::rays::{Segment, write_rays};
+    use radiosity_experiments::rays::Segment;
+    use radiosity_experiments::rays::embree::write_rays;
     let scene = radiosity::scene::load("room").unwrap();
     let triangles: usize = scene.surfaces.iter().map(|s| s.polygon.len() - 2).sum();
     let segments = [
