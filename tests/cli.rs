@@ -296,8 +296,9 @@ fn cornell_writes_picture_vertices_and_stats() {
     ] {
         assert!(stats.get(key).is_some(), "missing {key}");
     }
-    // The whole key set: design.md's list above and what later issues
-    // added (the phases' times, memory, the accelerator's build).
+    // The whole key set: design.md's list above and what was added since
+    // (the phases' times, memory, the accelerator's build, the methods' own
+    // counters).
     let keys = |value: &serde_json::Value| -> Vec<String> {
         value.as_object().unwrap().keys().cloned().collect()
     };
@@ -307,11 +308,14 @@ fn cornell_writes_picture_vertices_and_stats() {
             "accel_build",
             "accel_build_seconds",
             "bookkeeping_seconds",
+            "element_sources",
             "elements",
             "estimated_memory_bytes",
             "form_factor_thread_seconds",
             "gather_seconds",
             "hemicube_seconds",
+            "linked_receivers",
+            "links",
             "load_seconds",
             "mesh_seconds",
             "pairs",
@@ -322,6 +326,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "pretest_visible",
             "ray_thread_seconds",
             "rays_cast",
+            "receiver_walks",
             "scene",
             "settings",
             "shots",
@@ -334,6 +339,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "total_seconds",
             "unshot_fraction",
             "vertices",
+            "walk_node_visits",
             "write_seconds",
         ]
     );

@@ -23,7 +23,7 @@ use crate::geometry;
 use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
-use crate::solver::{Abort, Receiver};
+use crate::solver::{Abort, Counter, Receiver};
 
 /// Counters of a part of a shot.
 #[derive(Clone, Copy, Debug, Default)]
@@ -31,8 +31,31 @@ pub(super) struct Counters {
     pub(super) pairs: u64,
     pub(super) rays: u64,
     pub(super) factors: u64,
+    /// Receiver groups that shared one visibility estimate (links).
+    pub(super) links: u64,
+    /// Receivers served by links.
+    pub(super) linked_receivers: u64,
+    /// Receivers that walked the source tree for themselves.
+    pub(super) walks: u64,
+    /// Source nodes those walks visited.
+    pub(super) node_visits: u64,
+    /// Elements taken as exact sources.
+    pub(super) element_sources: u64,
     pub(super) ray_time: Duration,
     pub(super) form_factor_time: Duration,
+}
+
+impl Counters {
+    /// The counters the statistics file reports (adaptive shooting's own).
+    pub(super) fn list(&self) -> Vec<(&'static str, Counter)> {
+        vec![
+            ("links", Counter::Count(self.links)),
+            ("linked_receivers", Counter::Count(self.linked_receivers)),
+            ("receiver_walks", Counter::Count(self.walks)),
+            ("walk_node_visits", Counter::Count(self.node_visits)),
+            ("element_sources", Counter::Count(self.element_sources)),
+        ]
+    }
 }
 
 impl std::ops::AddAssign for Counters {
@@ -40,6 +63,11 @@ impl std::ops::AddAssign for Counters {
         self.pairs += o.pairs;
         self.rays += o.rays;
         self.factors += o.factors;
+        self.links += o.links;
+        self.linked_receivers += o.linked_receivers;
+        self.walks += o.walks;
+        self.node_visits += o.node_visits;
+        self.element_sources += o.element_sources;
         self.ray_time += o.ray_time;
         self.form_factor_time += o.form_factor_time;
     }
@@ -253,6 +281,9 @@ impl Gatherer<'_> {
     ) {
         let bins = self.bins_of(s);
         let sn = self.source_node(s);
+        counters.links += 1;
+        counters.linked_receivers += u64::from(self.receiver_tree.nodes[r as usize].last)
+            - u64::from(self.receiver_tree.nodes[r as usize].first);
         for (i, &index) in self.receiver_tree.items_of(r).iter().enumerate() {
             let receiver = &self.receivers[index as usize];
             if straddles(sn, receiver) {
@@ -282,13 +313,16 @@ impl Gatherer<'_> {
         let mut stack = std::mem::take(&mut scratch.stack);
         stack.clear();
         stack.push(s);
+        counters.walks += 1;
         while let Some(n) = stack.pop() {
             let node = self.source_node(n);
             let source = self.source(n);
+            counters.node_visits += 1;
             if source.weight <= 0.0 || !self.faces(node, r) {
                 continue;
             }
             if node.is_leaf() {
+                counters.element_sources += 1;
                 let e = self.hierarchy.tree.items[node.first as usize];
                 sum += self.element_irradiance(e, r, scratch, counters);
                 continue;

@@ -149,7 +149,7 @@ impl Method for AdaptiveSettings {
     }
 
     fn zero_counters(&self) -> Vec<(&'static str, Counter)> {
-        Vec::new()
+        Counters::default().list()
     }
 
     fn memory(&self) -> memory::SolverCosts {
@@ -234,6 +234,8 @@ struct AdaptiveShooting {
     mean_radiosity: f64,
     /// The current shot's sources.
     sources: Sources,
+    /// What the shots so far did.
+    counters: Counters,
 }
 
 impl AdaptiveShooting {
@@ -274,6 +276,7 @@ impl AdaptiveShooting {
             negligible: tolerance * mean_radiosity,
             mean_radiosity: mean_radiosity.max(f64::MIN_POSITIVE),
             sources: Sources::default(),
+            counters: Counters::default(),
         };
         shooting.total_shooter_power(mesh);
         shooting
@@ -385,6 +388,7 @@ impl Shooter for AdaptiveShooting {
         }
         let gather_end = Instant::now();
 
+        self.counters += counters;
         stats.pairs += counters.pairs;
         stats.rays_cast += counters.rays;
         stats.ray_time += counters.ray_time;
@@ -416,6 +420,6 @@ impl Shooter for AdaptiveShooting {
     }
 
     fn counters(&self) -> Vec<(&'static str, Counter)> {
-        Vec::new()
+        self.counters.list()
     }
 }
