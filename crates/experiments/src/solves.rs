@@ -15,7 +15,7 @@ use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, Exposure, Image, RenderSettings};
 use radiosity::scene::{self, Scene};
 use radiosity::solver::{Flow, Preset, Settings, Solver, Stats, Visibility};
-use radiosity::{app, luminance};
+use radiosity::{app, luminance, view};
 
 /// A scene meshed with its suggested sizes, or with an element size chosen
 /// to give about `target_vertices` vertices.
@@ -522,7 +522,7 @@ fn picture(scene: &Scene, mesh: &Mesh, solver: &Solver<'_>, width: u32, height: 
     let settings = RenderSettings {
         width,
         height,
-        camera: scene.camera_or_framing(),
+        camera: view::camera_or_framing(scene),
         supersampling: 2,
     };
     render::render(scene, mesh, &solver.display_radiosity(true), &settings)
