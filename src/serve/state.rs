@@ -18,6 +18,7 @@ use radiosity::app::{Counts, Observer, Outcome};
 use radiosity::mesh::Mesh;
 use radiosity::scene::{Camera, Scene};
 use radiosity::solver::{Flow, Solver, StopReason};
+use radiosity::view;
 
 /// Shortest time between two snapshots of the solution: clients are sent
 /// at most this many updates, and copying the radiosities costs the solve
@@ -291,7 +292,7 @@ impl Shared {
         let camera = self
             .display
             .camera
-            .unwrap_or_else(|| scene.camera_or_framing());
+            .unwrap_or_else(|| view::camera_or_framing(scene));
         let counts = Counts::of(scene, mesh);
         let (lo, hi) = scene.bounds();
         let mesh_message = wire::mesh_message(scene, mesh);

@@ -21,7 +21,7 @@ fn picture(scene: &Scene, mesh: &Mesh, solver: &Solver<'_>, width: u32, height: 
     let settings = RenderSettings {
         width,
         height,
-        camera: scene.camera_or_framing(),
+        camera: radiosity::view::camera_or_framing(scene),
         supersampling: 2,
     };
     render::render(scene, mesh, &solver.display_radiosity(true), &settings)

@@ -37,10 +37,10 @@ use glam::DVec3;
 
 use super::{Context, Error, Report, median, table};
 use embree::EmbreeRun;
-use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
 use radiosity::accel::bsp::{Bsp, BspSettings};
 use radiosity::accel::bvh::Bvh;
+use radiosity::accel::{Hit, Occluder};
 use radiosity::app;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::{self, Scene, Surface};
@@ -83,6 +83,17 @@ impl Occluder for Recorder<'_> {
     /// Not logged: only [`Occluder::occluded`] is what the solver calls.
     fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
         self.inner.occluded_counting(from, to, skip)
+    }
+
+    /// Not logged: the solver casts shadow segments only.
+    fn closest_hit(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        max_t: f64,
+        skip: [u32; 2],
+    ) -> Option<Hit> {
+        self.inner.closest_hit(origin, direction, max_t, skip)
     }
 
     fn validate(&self) -> Result<(), radiosity::accel::InvalidTree> {

@@ -31,6 +31,7 @@ use radiosity::render::{self, Exposure, RenderSettings};
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
 use radiosity::sensors::{self, SensorPoint};
 use radiosity::solver::{Flow, Preset, Settings, Solver};
+use radiosity::view;
 
 /// A scene of the experiments and where its OBJ comes from.
 #[derive(Clone, Copy, Debug)]
@@ -103,7 +104,7 @@ pub fn camera_of(case: &SceneCase, scene: &Scene) -> Camera {
     {
         return camera;
     }
-    scene.camera_or_framing()
+    view::camera_or_framing(scene)
 }
 
 /// A scene solved as `radiosity render` solves it.

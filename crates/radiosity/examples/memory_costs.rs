@@ -16,6 +16,7 @@ use radiosity::mesh::Mesh;
 use radiosity::render::{self, RenderSettings};
 use radiosity::scene;
 use radiosity::solver::{Preset, Solver};
+use radiosity::view;
 
 struct Counting;
 
@@ -93,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for shot in 0..shots {
         stage(&format!("shot {}", shot + 1), || solver.shoot());
     }
-    let camera = stage("camera", || scene.camera_or_framing());
+    let camera = stage("camera", || view::camera_or_framing(&scene));
     let display = stage("display", || solver.display_radiosity(true));
     stage("render", || {
         render::render(

@@ -20,6 +20,7 @@ pub mod render;
 pub mod scene;
 pub mod sensors;
 pub mod solver;
+pub mod view;
 
 use glam::DVec3;
 

@@ -50,7 +50,7 @@ pub const PIXEL: f64 = 16.0;
 /// An element projected for the picture (two screen triangles).
 pub const SCREEN_ELEMENT: f64 = 160.0;
 /// The default view's BVH while it is built, per surface
-/// ([`crate::scene::interior`]).
+/// ([`crate::view::interior`]).
 pub const VIEW_SURFACE: f64 = 625.0;
 /// The glTF bake, per vertex (position, normal, colour; built, then
 /// staged).

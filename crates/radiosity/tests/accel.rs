@@ -5,7 +5,12 @@
 //! The scenes: the built-in room and Cornell box, random polygon soups
 //! (coplanar, edge-sharing, slivers, needles, tiny polygons, far from the
 //! origin), soups shaped like the real files, and degenerate inputs.
-//! Answers must be identical, not merely close.
+//! Answers must be identical, not merely close: for shadow segments the
+//! same yes or no; for closest hits the same surface at the same distance,
+//! bit for bit (every accelerator computes a crossing's distance with the
+//! same arithmetic, and ties go to the lower surface index), the oracle
+//! itself checked against a plain minimum over the segment test, and a hit
+//! found exactly when `occluded` finds a blocker.
 //!
 //! Checks only one accelerator can make (tree sizes, depth limits, balance,
 //! determinism) are in `tests/bsp.rs` and `tests/bvh.rs`; the per-structure
@@ -14,11 +19,10 @@
 
 use glam::DVec3;
 use proptest::prelude::*;
-use radiosity::accel::Accel;
 use radiosity::accel::brute::BruteForce;
 use radiosity::accel::bsp::{self, Bsp};
 use radiosity::accel::bvh::{self, Bvh};
-use radiosity::accel::{Occluder, shorten};
+use radiosity::accel::{Accel, Hit, Occluder, PreparedSurfaces, shorten};
 use radiosity::mesh::{Mesh, MeshSettings, subsources};
 use radiosity::scene::{Surface, bounds_of};
 
@@ -89,6 +93,22 @@ impl Variant<'_> {
                 assert!(stats.max_leaf_size <= b.settings().max_leaf_size);
             }
             Built::Other(_) => {}
+        }
+    }
+
+    /// The tree's `closest_hit_counting`: `(hit, surfaces tested, nodes or
+    /// boxes visited)`; `None` for an accelerator without counts.
+    fn closest_hit_counting(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        max_t: f64,
+        skip: [u32; 2],
+    ) -> Option<(Option<Hit>, u32, u32)> {
+        match &self.built {
+            Built::Bsp(b) => Some(b.closest_hit_counting(origin, direction, max_t, skip)),
+            Built::Bvh(b) => Some(b.closest_hit_counting(origin, direction, max_t, skip)),
+            Built::Other(_) => None,
         }
     }
 
@@ -238,9 +258,217 @@ fn agree_on_segments_ending_on_surfaces(
     }
 }
 
+/// A closest-hit query.
+#[derive(Clone, Copy, Debug)]
+struct Ray {
+    origin: DVec3,
+    direction: DVec3,
+    max_t: f64,
+    skip: [u32; 2],
+}
+
+impl Ray {
+    /// The ray skipping nothing.
+    fn new(origin: DVec3, direction: DVec3, max_t: f64) -> Ray {
+        Ray {
+            origin,
+            direction,
+            max_t,
+            skip: NOTHING_SKIPPED,
+        }
+    }
+
+    fn skipping(self, skip: [u32; 2]) -> Ray {
+        Ray { skip, ..self }
+    }
+
+    /// The end of its segment, when it can hit anything.
+    fn end(&self) -> Option<DVec3> {
+        let end = self.origin + self.direction * self.max_t;
+        (self.max_t > 0.0 && self.origin.is_finite() && end.is_finite()).then_some(end)
+    }
+
+    fn closest_hit(&self, occluder: &dyn Occluder) -> Option<Hit> {
+        occluder.closest_hit(self.origin, self.direction, self.max_t, self.skip)
+    }
+}
+
+/// The oracle of the closest-hit tests: brute force, and the plain
+/// minimum it should compute.
+struct Oracle {
+    brute: BruteForce,
+    prepared: PreparedSurfaces,
+    groups: Vec<u32>,
+}
+
+impl Oracle {
+    fn new(surfaces: &[Surface]) -> Oracle {
+        Oracle {
+            brute: BruteForce::new(surfaces),
+            prepared: PreparedSurfaces::new(surfaces),
+            groups: surfaces.iter().map(|s| s.group).collect(),
+        }
+    }
+
+    /// The closest hit by the definition: the segment test on every
+    /// surface not skipped, the smallest parameter winning, ties to the
+    /// lower index; nothing for a ray that can hit nothing.
+    fn by_definition(&self, ray: Ray) -> Option<Hit> {
+        let end = ray.end()?;
+        let mut best: Option<(f64, usize)> = None;
+        for (i, group) in self.groups.iter().enumerate() {
+            if ray.skip.contains(group) {
+                continue;
+            }
+            if let Some(p) = self.prepared.crossing(i as u32, ray.origin, end)
+                && best.is_none_or(|(b, _)| p < b)
+            {
+                best = Some((p, i));
+            }
+        }
+        best.map(|(p, i)| Hit {
+            surface: i as u32,
+            t: p * ray.max_t,
+        })
+    }
+}
+
+/// Asserts that the variant's closest hit is the oracle's (the same
+/// surface at the same distance), that the oracle's is the definition's
+/// (once per ray: on brute force's own turn), that a hit is found exactly when `occluded` finds the ray's segment
+/// blocked, and that the counting form agrees; returns the hit.
+fn assert_closest_agrees(variant: &Variant, oracle: &Oracle, ray: Ray, what: &str) -> Option<Hit> {
+    let name = &variant.name;
+    let expected = ray.closest_hit(&oracle.brute);
+    if *name == Accel::Brute.name() {
+        assert_eq!(
+            expected,
+            oracle.by_definition(ray),
+            "{what}, brute force against the definition: {ray:?}"
+        );
+    }
+    let occluder = variant.occluder();
+    let hit = ray.closest_hit(occluder);
+    assert_eq!(hit, expected, "{what}, {name}: {ray:?}");
+    if let Some((counted, tested, visited)) =
+        variant.closest_hit_counting(ray.origin, ray.direction, ray.max_t, ray.skip)
+    {
+        assert_eq!(counted, hit, "{what}, {name}: {ray:?}");
+        variant.check_counts(tested, visited, &format!("{what}, {name}: {ray:?}"));
+    }
+    if let Some(hit) = hit {
+        assert!(
+            (0.0..=ray.max_t).contains(&hit.t),
+            "{what}, {name}: {ray:?} {hit:?}"
+        );
+        let group = oracle.groups[hit.surface as usize];
+        assert!(
+            !ray.skip.contains(&group),
+            "{what}, {name}: {ray:?} {hit:?}"
+        );
+    }
+    if let Some(end) = ray.end() {
+        assert_eq!(
+            occluder.occluded(ray.origin, end, ray.skip),
+            hit.is_some(),
+            "{what}, {name}, occluded: {ray:?}"
+        );
+    }
+    hit
+}
+
+/// Runs `count` random rays: towards interesting points (their exact
+/// distance, beyond them or short of them) and in random directions, as
+/// segments (`max_t = 1`) and with unit directions, from random points and
+/// from points on surfaces, with and without skipped surfaces; on every
+/// fourth ray also checks that a longer ray's hit falls within the
+/// segment exactly when the segment is blocked. Returns the rays that hit.
+fn agree_on_random_rays(
+    variant: &Variant,
+    surfaces: &[Surface],
+    rng: &mut Rng,
+    count: usize,
+    what: &str,
+) -> usize {
+    let oracle = Oracle::new(surfaces);
+    let (lo, hi) = bounds_of(surfaces);
+    let diagonal = (hi - lo).length();
+    let mut hits = 0;
+    for i in 0..count {
+        let origin = if rng.chance(0.3) {
+            let id = rng.below(surfaces.len());
+            point_on(rng, &surfaces[id])
+        } else {
+            random_point(rng, surfaces, lo, hi)
+        };
+        let target = random_point(rng, surfaces, lo, hi);
+        let skip = if rng.chance(0.5) {
+            NOTHING_SKIPPED
+        } else {
+            random_skip(rng, surfaces.len())
+        };
+        let (direction, max_t) = match rng.below(4) {
+            0 => (target - origin, 1.0),
+            1 => (target - origin, rng.range(0.5, 3.0)),
+            2 => {
+                let d = target - origin;
+                let length = d.length();
+                (d / length, length)
+            }
+            _ => (rng.unit_vector(), rng.range(0.0, 2.0) * diagonal),
+        };
+        let ray = Ray::new(origin, direction, max_t).skipping(skip);
+        let hit = assert_closest_agrees(variant, &oracle, ray, what);
+        hits += usize::from(hit.is_some());
+        if i % 4 == 0 {
+            check_longer_ray(variant, surfaces, (origin, target), skip, what);
+        }
+    }
+    hits
+}
+
+/// The segment `from -> to` shortened as the solver shortens it is
+/// blocked when, and only when, the ray along it twice as long hits
+/// something within it. Not where the two segments' round-off may differ:
+/// a hit at the segment's end, or a surface whose plane holds both
+/// segments within round-off (a sliver the segment runs along, crossed by
+/// one and not the other).
+fn check_longer_ray(
+    variant: &Variant,
+    surfaces: &[Surface],
+    (from, to): (DVec3, DVec3),
+    skip: [u32; 2],
+    what: &str,
+) {
+    let (a, b) = shorten(from, to);
+    let direction = b - a;
+    let far = a + direction * 2.0;
+    let scale = a.abs().max(far.abs()).max_element().max(1.0);
+    let grazed = surfaces.iter().any(|s| {
+        let near = |p: DVec3| (s.normal.dot(p) - s.offset).abs() < 1e-12 * scale;
+        near(a) && near(far)
+    });
+    if a + direction != b || grazed {
+        return;
+    }
+    let occluder = variant.occluder();
+    let blocked = occluder.occluded(a, b, skip);
+    let hit = occluder.closest_hit(a, direction, 2.0, skip);
+    let message = format!(
+        "{what}, {}: {a:?} -> {b:?} skipping {skip:?}: {hit:?}",
+        variant.name
+    );
+    match hit {
+        Some(hit) if (hit.t - 1.0).abs() < 1e-9 => {}
+        Some(hit) if hit.t < 1.0 => assert!(blocked, "{message}"),
+        _ => assert!(!blocked, "{message}"),
+    }
+}
+
 /// Builds every variant over the surfaces (each its own surface id),
 /// checks its structure, and runs `count` random segments (from a generator
-/// seeded with `seed`) and segments ending on up to 60 surfaces.
+/// seeded with `seed`), segments ending on up to 60 surfaces and `count /
+/// 4` random closest-hit rays.
 fn check_scene(name: &str, surfaces: &[Surface], seed: u64, count: usize) {
     let numbered = numbered(surfaces);
     let surfaces = &numbered[..];
@@ -249,8 +477,13 @@ fn check_scene(name: &str, surfaces: &[Surface], seed: u64, count: usize) {
         let mut rng = Rng(seed);
         agree_on_random_segments(&variant, surfaces, &mut rng, count, name);
         agree_on_segments_ending_on_surfaces(&variant, surfaces, &mut rng, 60, name);
+        let mut rng = Rng(seed ^ RAY_SEED);
+        agree_on_random_rays(&variant, surfaces, &mut rng, count / 4, name);
     }
 }
+
+/// Mixed into a scene's seed for its closest-hit rays.
+const RAY_SEED: u64 = 0x5eed_0f0a_7500;
 
 /// A point of triangle `p[0], p[1], p[2]` of a surface.
 fn point_on(rng: &mut Rng, s: &Surface) -> DVec3 {
@@ -737,6 +970,405 @@ fn all_surfaces_coplanar() {
     }
 }
 
+// --------------------------------------------------------------- closest hit
+
+/// Random rays on random soups: the same surface at the same distance as
+/// brute force, from every variant (`check_scene` runs such rays on every
+/// other scene of this file too).
+#[test]
+fn closest_hits_on_random_soups_agree_with_brute_force() {
+    for seed in 0..6u64 {
+        let plain = numbered(&soup(100 + seed, 60 + 30 * seed as usize));
+        let varied = numbered(&varied_soup(100 + seed, 60 + 30 * seed as usize));
+        for (name, surfaces) in [("soup", &plain), ("varied soup", &varied)] {
+            let what = format!("{name} {seed}");
+            for variant in all_variants(surfaces) {
+                let mut rng = Rng(3000 + seed);
+                let hits = agree_on_random_rays(&variant, surfaces, &mut rng, 1_500, &what);
+                assert!(hits > 300, "{what}, {}: {hits} hits", variant.name);
+            }
+        }
+    }
+}
+
+/// Random segments, shortened as the solver shortens them: the segment as
+/// a ray (`max_t = 1`, or a unit direction and its length) hits a surface
+/// exactly when `occluded` finds it blocked, and a ray twice as long hits
+/// within the segment exactly then.
+#[test]
+fn closest_hit_is_consistent_with_occluded() {
+    let mut rng = Rng(41);
+    let scenes = [
+        ("room", numbered(&builtin("room").surfaces)),
+        ("soup", numbered(&soup(42, 200))),
+        (
+            "real-file soup",
+            numbered(&real_file_soup(&mut rng, DVec3::ZERO)),
+        ),
+    ];
+    for (name, surfaces) in &scenes {
+        let oracle = Oracle::new(surfaces);
+        let (lo, hi) = bounds_of(surfaces);
+        for variant in all_variants(surfaces) {
+            let mut rng = Rng(43);
+            let mut blocked = 0;
+            for _ in 0..2_000 {
+                let from = random_point(&mut rng, surfaces, lo, hi);
+                let to = random_point(&mut rng, surfaces, lo, hi);
+                let skip = if rng.chance(0.5) {
+                    NOTHING_SKIPPED
+                } else {
+                    random_skip(&mut rng, surfaces.len())
+                };
+                let (a, b) = shorten(from, to);
+                let segment = Ray::new(a, b - a, 1.0).skipping(skip);
+                let hit = assert_closest_agrees(&variant, &oracle, segment, name);
+                if a + (b - a) == b {
+                    let occluded = variant.occluder().occluded(a, b, skip);
+                    assert_eq!(occluded, hit.is_some(), "{name}, {}", variant.name);
+                }
+                blocked += usize::from(hit.is_some());
+                let length = (b - a).length();
+                if length > 0.0 {
+                    let unit = Ray::new(a, (b - a) / length, length).skipping(skip);
+                    assert_closest_agrees(&variant, &oracle, unit, name);
+                }
+                check_longer_ray(&variant, surfaces, (from, to), skip, name);
+            }
+            assert!(
+                blocked > 200 && blocked < 1_800,
+                "{name}, {}: {blocked} blocked",
+                variant.name
+            );
+        }
+    }
+}
+
+/// Ten squares stacked along z, surface ids 0..9 from the bottom.
+fn stacked_squares() -> Vec<Surface> {
+    let squares: Vec<Surface> = (0..10)
+        .filter_map(|i| {
+            let z = f64::from(i);
+            surface(vec![
+                DVec3::new(-1.0, -1.0, z),
+                DVec3::new(1.0, -1.0, z),
+                DVec3::new(1.0, 1.0, z),
+                DVec3::new(-1.0, 1.0, z),
+            ])
+        })
+        .collect();
+    numbered(&squares)
+}
+
+#[test]
+fn closest_hit_degenerate_inputs() {
+    for variant in all_variants(&[]) {
+        let occluder = variant.occluder();
+        assert_eq!(
+            occluder.closest_hit(DVec3::ZERO, DVec3::ONE, 1.0, NOTHING_SKIPPED),
+            None
+        );
+        if let Some(counts) =
+            variant.closest_hit_counting(DVec3::ZERO, DVec3::ONE, 1.0, NOTHING_SKIPPED)
+        {
+            assert_eq!(counts, (None, 0, 0), "{}", variant.name);
+        }
+    }
+    let surfaces = stacked_squares();
+    let oracle = Oracle::new(&surfaces);
+    let below = DVec3::new(0.1, 0.2, -0.5);
+    let nothing = [
+        Ray::new(below, DVec3::ZERO, 5.0),
+        Ray::new(below, DVec3::Z, 0.0),
+        Ray::new(below, DVec3::Z, -0.0),
+        Ray::new(DVec3::new(0.1, 0.2, 3.5), DVec3::Z, -3.0),
+        Ray::new(below, DVec3::Z, f64::NAN),
+        Ray::new(below, DVec3::Z, f64::INFINITY),
+        Ray::new(below, DVec3::new(0.0, 0.0, f64::INFINITY), 1.0),
+        Ray::new(below, DVec3::new(f64::NAN, 0.0, 1.0), 20.0),
+        Ray::new(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Z, 20.0),
+        Ray::new(below, DVec3::Z * 1e300, 1e300),
+        // In the squares' planes, or beside them.
+        Ray::new(DVec3::new(-3.0, 0.0, 2.0), DVec3::X, 6.0),
+        Ray::new(DVec3::new(3.0, 0.0, -1.0), DVec3::Z, 20.0),
+    ];
+    let huge = [
+        // Far beyond what the BVH's f32 boxes hold: every surface tested.
+        Ray::new(DVec3::new(0.0, 0.0, -1e35), DVec3::Z * 2e35, 1.0),
+        Ray::new(
+            DVec3::new(0.1, 0.0, -1e20),
+            DVec3::new(-0.1, 0.0, 2e20),
+            1.0,
+        ),
+        Ray::new(DVec3::new(0.1, 0.0, 1e20), -DVec3::Z, 1e21),
+    ];
+    for variant in all_variants(&surfaces) {
+        for ray in nothing {
+            let hit = assert_closest_agrees(&variant, &oracle, ray, "degenerate");
+            assert_eq!(hit, None, "{}: {ray:?}", variant.name);
+        }
+        for ray in huge {
+            let hit = assert_closest_agrees(&variant, &oracle, ray, "huge");
+            assert!(hit.is_some(), "{}: {ray:?}", variant.name);
+        }
+    }
+}
+
+/// The 6 x 6 grid of unit squares sharing edges in the plane z = 1 (ids
+/// `6 i + j` for the square at `(i, j)`), facing both ways, and the same
+/// with random triangles in the plane: rays through the shared edges and
+/// corners at random slopes never slip between neighbours and meet the
+/// plane there, on the lower-indexed of the squares meeting at the point
+/// (they are crossed at the same distance); rays lying in the plane,
+/// along the grid lines or across them, hit no square. Then the closed
+/// tetrahedra of the soups, through the midpoints of their edges: a hit at
+/// the edge at the latest, and one at the edge is on one of the two faces
+/// sharing it.
+#[test]
+fn closest_hit_along_and_through_shared_edges() {
+    let mut rng = Rng(11);
+    let surfaces = numbered(&coplanar_grid(&mut rng));
+    let squares = &surfaces[..36];
+    let oracle = Oracle::new(&surfaces);
+    let oracle_squares = Oracle::new(squares);
+    for (variant, only_squares) in all_variants(&surfaces)
+        .into_iter()
+        .zip(all_variants(squares))
+    {
+        let mut rng = Rng(12);
+        for _ in 0..1_500 {
+            let (line, along) = (f64::from(rng.below(7) as u32), rng.range(0.0, 6.0));
+            let (x, y) = if rng.chance(0.5) {
+                (line, along)
+            } else {
+                (along, line)
+            };
+            let p = DVec3::new(x, y, 1.0);
+            let mut d = rng.direction();
+            if d.z.abs() < 0.05 {
+                d.z = 0.5;
+            }
+            let ray = Ray::new(p - d, d, 2.0);
+            assert_closest_agrees(&variant, &oracle, ray, "through edges");
+            let hit = assert_closest_agrees(&only_squares, &oracle_squares, ray, "through edges")
+                .unwrap_or_else(|| panic!("{}: {ray:?} slips through", variant.name));
+            assert!((hit.t - 1.0).abs() < 1e-12, "{ray:?}: {hit:?}");
+            let lowest = (0..36u32)
+                .find(|&k| {
+                    let (i, j) = (f64::from(k / 6), f64::from(k % 6));
+                    (i..=i + 1.0).contains(&x) && (j..=j + 1.0).contains(&y)
+                })
+                .unwrap();
+            assert_eq!(hit.surface, lowest, "{}: {ray:?}", variant.name);
+            // In the plane: along this grid line, or across the grid.
+            let d = if x == line { DVec3::Y } else { DVec3::X };
+            let along_line = Ray::new(p - d * 3.0, d, 6.0);
+            let across = Ray::new(p, rng.direction() * DVec3::new(1.0, 1.0, 0.0), 3.0);
+            for ray in [along_line, across] {
+                assert_eq!(ray.closest_hit(only_squares.occluder()), None, "{ray:?}");
+                assert_closest_agrees(&variant, &oracle, ray, "in the plane");
+            }
+        }
+    }
+    // Closed tetrahedra: faces [0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3].
+    let mut rng = Rng(13);
+    let mut tetrahedra = Vec::new();
+    let mut corners = Vec::new();
+    for k in 0..8 {
+        // Three apart along x: a ray within 0.5 of one meets no other.
+        let base = DVec3::new(3.0 * f64::from(k), rng.unit(), rng.unit());
+        let p = [
+            base,
+            base + DVec3::new(rng.range(0.3, 1.0), 0.0, 0.0),
+            base + DVec3::new(0.0, rng.range(0.3, 1.0), 0.0),
+            base + DVec3::new(0.0, 0.0, rng.range(0.3, 1.0)),
+        ];
+        for [i, j, k] in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
+            tetrahedra.push(surface(vec![p[i], p[j], p[k]]).unwrap());
+        }
+        corners.push(p);
+    }
+    let tetrahedra = numbered(&tetrahedra);
+    let oracle = Oracle::new(&tetrahedra);
+    let faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    for variant in all_variants(&tetrahedra) {
+        let mut rng = Rng(14);
+        let mut at_edge = 0;
+        for (n, p) in corners.iter().enumerate() {
+            for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                let sharing: Vec<u32> = (0..4)
+                    .filter(|&f| faces[f].contains(&a) && faces[f].contains(&b))
+                    .map(|f| (4 * n + f) as u32)
+                    .collect();
+                let m = p[a].lerp(p[b], 0.5);
+                for _ in 0..20 {
+                    let d = rng.unit_vector() * 0.5;
+                    let ray = Ray::new(m - d, d, 2.0);
+                    let hit = assert_closest_agrees(&variant, &oracle, ray, "tetra");
+                    // From outside beyond another face, the ray may
+                    // enter through it first.
+                    let hit = hit.unwrap_or_else(|| panic!("{ray:?} slips through"));
+                    assert!(hit.t < 1.0 + 1e-9, "{ray:?}: {hit:?}");
+                    if (hit.t - 1.0).abs() < 1e-9 {
+                        assert!(sharing.contains(&hit.surface), "{ray:?}: {hit:?}");
+                        at_edge += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            at_edge > 480,
+            "{}: {at_edge} hits at the edge",
+            variant.name
+        );
+    }
+}
+
+/// Rays from points on surfaces. From exactly on a plane (the grid's
+/// corners and points with few binary digits in z = 1), no surface of that
+/// plane is hit, whichever way the ray leaves; the layer above or the
+/// floor below is. From a point of a tilted surface (off its plane by
+/// round-off), the surface itself may be hit at a distance of round-off
+/// unless its id is skipped, as shadow rays skip theirs; the accelerators
+/// agree either way.
+#[test]
+fn closest_hit_from_a_surface() {
+    let mut rng = Rng(21);
+    let grid = coplanar_grid(&mut rng);
+    let mut layers: Vec<Surface> = grid[..36].to_vec();
+    for s in &grid[..36] {
+        layers.extend(surface(
+            s.polygon.iter().map(|p| *p + DVec3::Z * 2.0).collect(),
+        ));
+    }
+    layers.extend(surface(vec![
+        DVec3::new(-1.0, -1.0, -1.0),
+        DVec3::new(7.0, -1.0, -1.0),
+        DVec3::new(7.0, 7.0, -1.0),
+        DVec3::new(-1.0, 7.0, -1.0),
+    ]));
+    let layers = numbered(&layers);
+    let oracle = Oracle::new(&layers);
+    for variant in all_variants(&layers) {
+        let mut rng = Rng(22);
+        for _ in 0..2_000 {
+            let quarter = |rng: &mut Rng| 0.25 * f64::from(rng.below(25) as u32);
+            let origin = DVec3::new(quarter(&mut rng), quarter(&mut rng), 1.0);
+            let d = rng.unit_vector();
+            let hit = assert_closest_agrees(&variant, &oracle, Ray::new(origin, d, 20.0), "on");
+            if let Some(hit) = hit {
+                assert!(
+                    hit.surface >= 36,
+                    "{}: hits its own plane: {hit:?}",
+                    variant.name
+                );
+                let z = origin.z + d.z * hit.t;
+                assert!((z - 3.0).abs() < 1e-9 || (z + 1.0).abs() < 1e-9, "{z}");
+            }
+        }
+    }
+    for (seed, at) in [(23, DVec3::ZERO), (24, DVec3::new(1.0e4, 30.0, -7.0e3))] {
+        let mut rng = Rng(seed);
+        let surfaces = numbered(&real_file_soup(&mut rng, at));
+        let oracle = Oracle::new(&surfaces);
+        for variant in all_variants(&surfaces) {
+            let mut rng = Rng(seed);
+            let mut hits = 0;
+            for _ in 0..1_500 {
+                let id = rng.below(surfaces.len());
+                let origin = point_on(&mut rng, &surfaces[id]);
+                let d = rng.unit_vector();
+                let ray = Ray::new(origin, d, 4.0);
+                assert_closest_agrees(&variant, &oracle, ray, "from a surface");
+                let skipping = ray.skipping([id as u32, u32::MAX]);
+                let hit = assert_closest_agrees(&variant, &oracle, skipping, "skipping");
+                hits += usize::from(hit.is_some());
+            }
+            assert!(hits > 100, "{}: {hits} hits", variant.name);
+        }
+    }
+}
+
+/// `max_t` is exclusive: a ray whose end lies exactly on a surface's plane
+/// does not hit it, and one a hair longer does; a ray from one square's
+/// plane to the next one's hits neither. Also rays ending exactly on the
+/// corners, edge midpoints and centroids of the soups' surfaces.
+#[test]
+fn closest_hit_with_max_distance_exactly_at_a_surface() {
+    let surfaces = stacked_squares();
+    let oracle = Oracle::new(&surfaces);
+    let origin = DVec3::new(0.25, 0.5, 0.25);
+    for variant in all_variants(&surfaces) {
+        let check = |ray: Ray| assert_closest_agrees(&variant, &oracle, ray, "exact");
+        for direction in [DVec3::Z, DVec3::Z * 0.5, DVec3::new(0.125, -0.25, 1.0)] {
+            // To the plane z = 1 exactly, and past it.
+            let to_plane = 0.75 / direction.z;
+            assert_eq!(check(Ray::new(origin, direction, to_plane)), None);
+            let hair = to_plane * (1.0 + 1e-12);
+            let hit = check(Ray::new(origin, direction, hair)).unwrap();
+            assert_eq!(hit.surface, 1);
+            assert!((hit.t - to_plane).abs() <= 1e-12 * to_plane, "{hit:?}");
+            let hit = check(Ray::new(origin, direction, 10.0)).unwrap();
+            assert_eq!(hit.surface, 1);
+            // From the plane z = 1 to z = 2 exactly.
+            let on = origin + direction * to_plane;
+            assert_eq!(on.z, 1.0);
+            assert_eq!(check(Ray::new(on, direction, 1.0 / direction.z)), None);
+            let hit = check(Ray::new(on, direction, 1.5 / direction.z)).unwrap();
+            assert_eq!(hit.surface, 2);
+        }
+    }
+    for (seed, surfaces) in [(31, soup(31, 120)), (32, varied_soup(32, 120))] {
+        let surfaces = numbered(&surfaces);
+        let oracle = Oracle::new(&surfaces);
+        let (lo, hi) = bounds_of(&surfaces);
+        for variant in all_variants(&surfaces) {
+            let mut rng = Rng(seed);
+            for (id, s) in surfaces.iter().enumerate().step_by(3) {
+                let n = s.polygon.len();
+                let mut targets = s.polygon.clone();
+                targets.extend((0..n).map(|i| s.polygon[i].lerp(s.polygon[(i + 1) % n], 0.5)));
+                targets.push(radiosity::geometry::centroid(&s.polygon));
+                for to in targets {
+                    let from = random_point(&mut rng, &surfaces, lo, hi);
+                    let ray = Ray::new(from, to - from, 1.0);
+                    for ray in [ray, ray.skipping([id as u32, u32::MAX])] {
+                        assert_closest_agrees(&variant, &oracle, ray, "to a surface");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Not a timing: a closest-hit ray up through a stack of 300 squares tests
+/// a few of them, not all: the trees walk front to back and shrink the ray
+/// at the first hit. Run with `--nocapture` to see the figures.
+#[test]
+fn closest_hit_through_a_stack_tests_few_surfaces() {
+    let surfaces = numbered(&parallel_squares());
+    let oracle = Oracle::new(&surfaces);
+    let ray = Ray::new(
+        DVec3::new(0.1, 0.2, -0.5),
+        DVec3::new(0.01, -0.02, 1.0),
+        4.0,
+    );
+    for variant in all_variants(&surfaces) {
+        let hit = assert_closest_agrees(&variant, &oracle, ray, "stack");
+        assert!(hit.is_some());
+        let Some((_, tested, visited)) =
+            variant.closest_hit_counting(ray.origin, ray.direction, ray.max_t, ray.skip)
+        else {
+            continue;
+        };
+        println!(
+            "{}: {tested} surfaces tested, {visited} visited",
+            variant.name
+        );
+        assert!(tested < 30, "{}: {tested} surfaces tested", variant.name);
+    }
+}
+
 // ------------------------------------------------------------------ proptest
 
 /// A point on a coarse grid, so polygons share corners and edges and
@@ -748,6 +1380,34 @@ fn grid_point() -> impl Strategy<Value = DVec3> {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn grid_triangles_closest_hits_agree_with_brute_force(
+        triangles in prop::collection::vec((grid_point(), grid_point(), grid_point()), 0..40),
+        rays in prop::collection::vec(
+            (grid_point(), grid_point(), 0u32..45, 0u32..45, 1u32..5),
+            1..40,
+        ),
+    ) {
+        let surfaces: Vec<Surface> = triangles
+            .into_iter()
+            .filter_map(|(a, b, c)| surface(vec![a, b, c]))
+            .collect();
+        let surfaces = numbered(&surfaces);
+        let oracle = Oracle::new(&surfaces);
+        for variant in all_variants(&surfaces) {
+            for &(origin, target, s0, s1, quarters) in &rays {
+                // Ends at a quarter, half, three quarters or exactly at
+                // the target, all grid points or on grid planes.
+                let max_t = 0.25 * f64::from(quarters);
+                let ray = Ray::new(origin, target - origin, max_t).skipping([s0, s1]);
+                assert_closest_agrees(&variant, &oracle, ray, "grid");
+                let (a, b) = shorten(origin, target);
+                let shortened = Ray::new(a, b - a, 1.0).skipping([s0, s1]);
+                assert_closest_agrees(&variant, &oracle, shortened, "grid, shortened");
+            }
+        }
+    }
 
     #[test]
     fn grid_triangles_agree_with_brute_force(

@@ -8,7 +8,8 @@ use approx::abs_diff_eq;
 use glam::DVec3;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, RenderSettings};
-use radiosity::scene::{Camera, Scene, Surface, builtin, interior};
+use radiosity::scene::{Camera, Scene, Surface, builtin};
+use radiosity::view::{camera_or_framing, interior};
 
 /// The six faces of the box `[lo, hi]`, facing inwards (a room) or
 /// outwards (a solid block).
@@ -92,7 +93,7 @@ fn framing(scene: &Scene) -> Camera {
 fn a_closed_room_is_seen_from_inside_at_eye_height() {
     let size = DVec3::new(8.0, 3.0, 5.0);
     let scene = common::scene_of(room(size));
-    let camera = scene.camera_or_framing();
+    let camera = camera_or_framing(&scene);
     assert!(inside(camera.eye, DVec3::ZERO, size), "{camera:?}");
     assert!(
         abs_diff_eq!(camera.eye.y, interior::EYE_HEIGHT, epsilon = 1e-9),
@@ -116,7 +117,7 @@ fn a_closed_room_is_seen_from_inside_at_eye_height() {
 fn a_room_in_centimetres_puts_the_eye_at_half_height() {
     let size = DVec3::new(800.0, 300.0, 500.0);
     let scene = common::scene_of(room(size));
-    let camera = scene.camera_or_framing();
+    let camera = camera_or_framing(&scene);
     assert!(inside(camera.eye, DVec3::ZERO, size), "{camera:?}");
     assert!(
         abs_diff_eq!(camera.eye.y, 150.0, epsilon = 1e-9),
@@ -167,7 +168,7 @@ fn eyes_inside_a_solid_or_facing_a_wall_are_not_chosen() {
         .map(|c| c.sight)
         .fold(0.0, f64::max);
     assert!(chosen.sight > 1.5 * blocked, "{chosen:?} against {blocked}");
-    assert_eq!(scene.camera_or_framing(), chosen.camera);
+    assert_eq!(camera_or_framing(&scene), chosen.camera);
     assert!(coverage(&scene, chosen.camera) > 0.995);
 }
 
@@ -192,7 +193,7 @@ fn open_scenes_keep_the_framing_camera() {
     let scene = common::scene_of(surfaces);
     let analysis = interior::analyse(&scene).unwrap();
     assert!(!analysis.interior, "escape {}", analysis.escape);
-    assert_eq!(scene.camera_or_framing(), framing(&scene));
+    assert_eq!(camera_or_framing(&scene), framing(&scene));
 
     // The Cornell box, open at the front, without its camera.
     let mut cornell = builtin::load("cornell").unwrap().unwrap();
@@ -200,14 +201,14 @@ fn open_scenes_keep_the_framing_camera() {
     let analysis = interior::analyse(&cornell).unwrap();
     assert!(!analysis.interior, "escape {}", analysis.escape);
     assert!(analysis.escape > 3.0 * interior::MAX_ESCAPE);
-    assert_eq!(cornell.camera_or_framing(), framing(&cornell));
+    assert_eq!(camera_or_framing(&cornell), framing(&cornell));
 
     // A closed room with no light: nothing to see inside.
     let mut dark = room(DVec3::new(8.0, 3.0, 5.0));
     dark.pop();
     let dark = common::scene_of(dark);
     assert!(interior::analyse(&dark).is_none());
-    assert_eq!(dark.camera_or_framing(), framing(&dark));
+    assert_eq!(camera_or_framing(&dark), framing(&dark));
 }
 
 #[test]
@@ -220,7 +221,7 @@ fn a_scene_camera_is_kept() {
         fov_degrees: 40.0,
     };
     scene.camera = Some(camera);
-    assert_eq!(scene.camera_or_framing(), camera);
+    assert_eq!(camera_or_framing(&scene), camera);
 }
 
 /// The shared real scenes: Sponza's atrium and the conference room are
@@ -241,7 +242,7 @@ fn shared_scenes() {
             "{file}: {}",
             analysis.escape
         );
-        let camera = scene.camera_or_framing();
+        let camera = camera_or_framing(&scene);
         let (lo, hi) = scene.bounds();
         assert_eq!(
             inside(camera.eye, lo, hi),

@@ -1,12 +1,47 @@
-//! Shadow-segment visibility (design.md section 3): does any surface cross
-//! the open segment between a subsource point and a receiving vertex?
+//! Visibility along segments and rays (design.md section 3): does any
+//! surface cross the open segment between a subsource point and a
+//! receiving vertex (the shadow query), and which surface does a ray meet
+//! first (the closest-hit query)?
 //!
 //! [`brute::BruteForce`] tests every surface, as Wallace et al. (1989) did;
 //! it is the oracle every accelerator is tested against. [`bsp::Bsp`] walks
 //! a BSP tree front to back from the segment's origin (Wong & Tsang,
 //! section 3); [`bvh::Bvh`] is a surface-area-heuristic bounding-volume
-//! hierarchy, the modern answer, kept beside it for comparison. The segment test
-//! itself, [`segment_crosses`], is shared by all of them.
+//! hierarchy, the modern answer, kept beside it for comparison. The segment
+//! test itself, [`segment_crosses`], is shared by all of them. As in pbrt's
+//! `IntersectP` beside `Intersect`, the cheap shadow query
+//! ([`Occluder::occluded`]) stops at the first blocker and the closest-hit
+//! query ([`Occluder::closest_hit`]) sits beside it.
+//!
+//! # Closest hit
+//!
+//! A ray `origin + t direction` with `0 < t < max_t` is the open segment
+//! from `origin` to `end = origin + direction * max_t`, and it hits exactly
+//! the surfaces that segment crosses by [`segment_crosses`]: so, for any
+//! ray that can hit something (below), `occluded(origin, end, skip)` holds
+//! exactly when `closest_hit(origin, direction, max_t, skip)` finds a
+//! surface. The hit's `t` is `max_t` times the crossing parameter the
+//! segment test computes ([`segment_crossing`]), the same number in every
+//! accelerator, and the nearest wins. The edge cases follow from the
+//! segment test:
+//!
+//! * A ray through an edge or corner shared by two surfaces crosses both
+//!   (edges count as inside, within [`EDGE_TOLERANCE`]): rays cannot slip
+//!   between neighbours. The nearer crossing is the hit; at the same
+//!   parameter (the shared edge of two surfaces in one plane) the lower
+//!   surface index wins, so every accelerator returns the same surface
+//!   whatever order it tests them in.
+//! * A surface whose plane holds the origin exactly is not hit (`t = 0` is
+//!   not a crossing), whichever way the ray leaves, as a shadow segment is
+//!   not blocked by the surfaces at its ends. A point computed on a tilted
+//!   surface is off its plane by round-off, and the surface may then be hit
+//!   at a `t` of that order: a ray leaving a surface should skip its id,
+//!   as shadow segments skip theirs.
+//! * A surface whose plane holds the end is not hit either: `max_t` is
+//!   exclusive, a surface exactly at the maximum distance is not met.
+//! * A ray lying in a surface's plane never hits it (it grazes it).
+//! * A ray with `max_t` not greater than 0 (or NaN), or whose end is not
+//!   finite, hits nothing; a zero direction hits nothing.
 
 pub mod brute;
 pub mod bsp;
@@ -48,7 +83,19 @@ impl Accel {
 #[error("{0}")]
 pub struct InvalidTree(pub String);
 
-/// A shadow-segment query structure.
+/// The surface a ray meets first: the answer of [`Occluder::closest_hit`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Index of the surface in the slice the accelerator was built over.
+    pub surface: u32,
+    /// Ray parameter of the crossing: the point is `origin + t direction`,
+    /// `0 < t < max_t` up to round-off (the distance along the ray when the
+    /// direction is a unit vector).
+    pub t: f64,
+}
+
+/// A visibility query structure over a scene's surfaces: shadow segments
+/// and closest hits.
 pub trait Occluder: Sync {
     /// True when a surface whose [`Surface::group`] is neither `skip[0]` nor
     /// `skip[1]` crosses the open segment `from -> to`. Callers pass the
@@ -56,6 +103,20 @@ pub trait Occluder: Sync {
     /// cannot hide its own points from a point in front of it, and skipping
     /// them makes the test immune to round-off at both ends.
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool;
+
+    /// The nearest surface whose [`Surface::group`] is neither `skip[0]`
+    /// nor `skip[1]` crossed by the ray `origin + t direction`, `0 < t <
+    /// max_t`; `None` when there is none. The ray crosses exactly the
+    /// surfaces [`Occluder::occluded`] finds on the segment `origin ->
+    /// origin + direction * max_t`; ties go to the lower surface index;
+    /// see the module notes for the edge cases.
+    fn closest_hit(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        max_t: f64,
+        skip: [u32; 2],
+    ) -> Option<Hit>;
 
     /// Like [`Occluder::occluded`], also returning how many surfaces were
     /// tested with [`segment_crosses`] and how many nodes (or child boxes)
@@ -100,15 +161,70 @@ pub const EDGE_TOLERANCE: f64 = 1e-9;
 /// faster.
 #[must_use]
 pub fn segment_crosses(surface: &Surface, from: DVec3, to: DVec3) -> bool {
+    segment_crossing(surface, from, to).is_some()
+}
+
+/// Where the segment `from -> to` crosses the surface, as the parameter `s`
+/// of the crossing point `from + s (to - from)`, when [`segment_crosses`]
+/// holds; `None` otherwise. A closest hit's distance is `max_t` times this
+/// parameter (see the module notes).
+#[must_use]
+pub fn segment_crossing(surface: &Surface, from: DVec3, to: DVec3) -> Option<f64> {
     let d0 = surface.normal.dot(from) - surface.offset;
     let d1 = surface.normal.dot(to) - surface.offset;
     if d0 == 0.0 || d1 == 0.0 || (d0 > 0.0) == (d1 > 0.0) {
-        return false;
+        return None;
     }
     let t = d0 / (d0 - d1);
     let p = from + (to - from) * t;
     let tolerance = EDGE_TOLERANCE * surface.area.sqrt();
-    geometry::convex_contains(&surface.polygon, surface.normal, p, tolerance)
+    geometry::convex_contains(&surface.polygon, surface.normal, p, tolerance).then_some(t)
+}
+
+/// The end `origin + direction * max_t` of a closest-hit ray, or `None`
+/// for a ray that can hit nothing: `max_t` not greater than 0 (or NaN), or
+/// an end that is not finite (see the module notes).
+#[must_use]
+pub(crate) fn ray_end(origin: DVec3, direction: DVec3, max_t: f64) -> Option<DVec3> {
+    let end = origin + direction * max_t;
+    (max_t > 0.0 && origin.is_finite() && end.is_finite()).then_some(end)
+}
+
+/// The nearest crossing a closest-hit query has found so far, as a
+/// parameter of its segment. Ties go to the lower surface index, so the
+/// answer does not depend on the order an accelerator tests surfaces in.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Nearest {
+    best: Option<(f64, u32)>,
+}
+
+impl Nearest {
+    /// Keeps surface `surface` crossed at parameter `s` if it is nearer.
+    #[inline]
+    pub(crate) fn offer(&mut self, surface: u32, s: f64) {
+        if self
+            .best
+            .is_none_or(|(t, id)| s < t || (s == t && surface < id))
+        {
+            self.best = Some((s, surface));
+        }
+    }
+
+    /// The segment parameter beyond which no crossing can be the answer:
+    /// the nearest so far (a crossing there may still win on its index),
+    /// else the segment's end.
+    #[inline]
+    pub(crate) fn limit(&self) -> f64 {
+        self.best.map_or(1.0, |(s, _)| s)
+    }
+
+    /// The answer of a ray whose segment is `max_t` long in parameter.
+    pub(crate) fn hit(self, max_t: f64) -> Option<Hit> {
+        self.best.map(|(s, surface)| Hit {
+            surface,
+            t: s * max_t,
+        })
+    }
 }
 
 /// The surfaces laid out for [`segment_crosses`]: each one's plane and, per
@@ -196,11 +312,21 @@ impl PreparedSurfaces {
     #[must_use]
     #[inline]
     pub fn crosses(&self, id: u32, from: DVec3, to: DVec3) -> bool {
+        self.crossing(id, from, to).is_some()
+    }
+
+    /// [`segment_crossing`] for surface `id`: the same parameter, bit for
+    /// bit, wherever both accept the crossing point. Every accelerator's
+    /// closest hit is computed with it, so their distances are equal, not
+    /// merely close.
+    #[must_use]
+    #[inline]
+    pub fn crossing(&self, id: u32, from: DVec3, to: DVec3) -> Option<f64> {
         let plane = &self.planes[id as usize];
         let d0 = plane.normal.dot(from) - plane.offset;
         let d1 = plane.normal.dot(to) - plane.offset;
         if d0 == 0.0 || d1 == 0.0 || (d0 > 0.0) == (d1 > 0.0) {
-            return false;
+            return None;
         }
         let t = d0 / (d0 - d1);
         let p = from + (to - from) * t;
@@ -210,6 +336,7 @@ impl PreparedSurfaces {
                 let side = e.inward.dot(p) - e.offset;
                 side >= 0.0 || side * side <= e.slack
             })
+            .then_some(t)
     }
 }
 
@@ -338,9 +465,10 @@ mod tests {
                 point()
             };
             for (id, surface) in scene.surfaces.iter().enumerate() {
-                let expected = segment_crosses(surface, from, to);
-                crossings += usize::from(expected);
-                assert_eq!(prepared.crosses(id as u32, from, to), expected);
+                let expected = segment_crossing(surface, from, to);
+                crossings += usize::from(expected.is_some());
+                assert_eq!(prepared.crossing(id as u32, from, to), expected);
+                assert_eq!(prepared.crosses(id as u32, from, to), expected.is_some());
             }
         }
         assert!(crossings > 1000);

@@ -101,7 +101,9 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         exposure: Exposure::Auto { ev: 0.0 },
         ambient: true,
     });
-    let camera = view.camera.unwrap_or_else(|| scene.camera_or_framing());
+    let camera = view
+        .camera
+        .unwrap_or_else(|| crate::view::camera_or_framing(&scene));
     let display = solver.display_radiosity(view.ambient);
     let mut exposure = None;
     if job.image.is_some() || job.bake.is_some() || job.ply.is_some() {

@@ -10,12 +10,12 @@
 //! [`builtin`] holds the scenes shipped inside the binary. Every load is
 //! bounded by [`Limits`], and input files are checked to be regular files
 //! of a sane size before they are read; [`merge`] gives adjacent coplanar
-//! faces one surface id; [`interior`] places the default camera inside an
-//! interior that brings none.
+//! faces one surface id. (The default camera of a scene that brings none
+//! is placed by [`crate::view`], above the accelerators it traces sight
+//! lines with.)
 
 pub mod builtin;
 pub mod gltf;
-pub mod interior;
 pub mod merge;
 pub mod mtl;
 pub mod obj;
@@ -255,32 +255,6 @@ impl Scene {
                 directive: None,
             }
         })
-    }
-
-    /// The scene's camera; for a scene that brings none, a view from
-    /// inside when it is an interior, else one framing its bounds from
-    /// outside ([`Camera::framing`]).
-    ///
-    /// An interior is a scene with lights whose surfaces close around the
-    /// space: of sight lines cast in all directions from candidate eyes
-    /// inside its bounding box, at most 5% leave the box. Its view is taken
-    /// at eye height (1.6 m above the bottom of the box for a scene 2 to 100
-    /// m tall, else half its height), from near one end of the longest
-    /// horizontal axis looking along it, from the candidate eye that is not
-    /// inside a solid, behind a wall or looking out of an opening and whose
-    /// view has the longest free sight lines. Sight lines are traced
-    /// through a BVH of the scene, so the first call on a large scene takes
-    /// a fraction of a second; the rule and its constants are in
-    /// [`interior`]. A box with an open side (the Cornell box) or an object
-    /// on a ground plane is framed from outside.
-    #[must_use]
-    pub fn camera_or_framing(&self) -> Camera {
-        self.camera
-            .or_else(|| interior::interior_camera(self))
-            .unwrap_or_else(|| {
-                let (lo, hi) = self.bounds();
-                Camera::framing(lo, hi)
-            })
     }
 }
 

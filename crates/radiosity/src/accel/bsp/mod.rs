@@ -25,7 +25,12 @@
 //! ray walks do; Ize, Wald & Parker 2008): a child is visited only if that
 //! part reaches it, so a segment visits only the regions it passes through,
 //! not every region on the far side of a plane it crosses somewhere else.
-//! It stops at the first blocker.
+//! It stops at the first blocker. A closest-hit ray takes the same walk to
+//! its end: front to back, the first crossing found is usually the answer,
+//! and every region or plane band the ray enters beyond the nearest
+//! crossing so far is skipped (the bands overlap by their tolerance, so
+//! the order is only nearly front to back and the walk cannot stop at the
+//! first hit).
 //!
 //! # Plane choice
 //!
@@ -116,6 +121,10 @@
 //!   segment's ends at each node, so their round-off (a few units of 1e-16
 //!   of the segment) does not accumulate with depth; the query's round-off
 //!   allowance covers it.
+//! * A closest-hit walk skips a region or a plane band only when its
+//!   interval starts beyond the nearest crossing found so far: a nearer
+//!   crossing lies in the intervals down to its fragment's node, so none
+//!   is skipped.
 //!
 //! # Layout
 //!
@@ -127,7 +136,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{AcceptanceRegion, InvalidTree, Occluder, PreparedSurfaces};
+use super::{AcceptanceRegion, Hit, InvalidTree, Nearest, Occluder, PreparedSurfaces, ray_end};
 use crate::geometry::{self, clip};
 use crate::scene::{self, Surface};
 
@@ -388,26 +397,8 @@ struct Plane {
     own: Option<u32>,
 }
 
-/// What the walk still has to do, on its stack.
-#[derive(Clone, Copy, Debug, Default)]
-struct Pending {
-    node: u32,
-    /// Test the node's own fragments (else walk its subtree).
-    plane: bool,
-    /// The segment's parameter interval inside the node's region.
-    t0: f64,
-    t1: f64,
-}
-
-/// A query's memory of split surfaces already tested: the last
-/// [`TESTED_MEMORY`], in a ring.
-struct Tested {
-    ids: [u32; TESTED_MEMORY],
-    len: usize,
-    next: usize,
-}
-
-/// A BSP tree over a scene's surfaces answering shadow-segment queries.
+/// A BSP tree over a scene's surfaces answering shadow-segment and
+/// closest-hit queries.
 pub struct Bsp<'a> {
     surfaces: &'a [Surface],
     /// The surfaces laid out for the segment test.
@@ -513,6 +504,10 @@ impl Occluder for Bsp<'_> {
 
     fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
         Bsp::occluded_counting(self, from, to, skip)
+    }
+
+    fn closest_hit(&self, o: DVec3, d: DVec3, max_t: f64, skip: [u32; 2]) -> Option<Hit> {
+        self.closest_hit_counting(o, d, max_t, skip).0
     }
 
     fn validate(&self) -> Result<(), InvalidTree> {

@@ -9,15 +9,18 @@
 //! hierarchies"), then collapsed into a four-wide tree (Dammertz et al.
 //! 2008; Wald et al. 2008) whose four child boxes are tested at once. A
 //! shadow segment walks it depth first, nearer children first, and stops at
-//! the first blocker (an any-hit query).
+//! the first blocker (an any-hit query). A closest-hit ray walks it the
+//! same way but to the end, skipping every box entered beyond the nearest
+//! crossing found so far (the ray shrinks as hits are found).
 //!
 //! The module is in files, one concern each: the settings and [`Bvh`],
 //! which ties the tree to the scene, here; `build` (the flattened layout,
 //! the build and the conservative box of a surface); `traverse` (the
-//! segment prepared for the walk, the wide layout and its walk); and
+//! segment prepared for the walk, the wide layout and its two walks); and
 //! `validate`. The tree itself
 //! knows primitive indices, never geometry: the build takes boxes, the
-//! traversal takes a closure deciding whether primitive `i` blocks.
+//! traversals take a closure deciding whether primitive `i` blocks, or
+//! testing it and returning how far the ray still reaches.
 //!
 //! # Agreement with the brute-force oracle
 //!
@@ -25,7 +28,9 @@
 //! the original surface, so an answer can only differ from
 //! [`BruteForce`](super::brute::BruteForce) if the walk fails to offer a
 //! surface the segment crosses. It cannot, because every box is
-//! conservative:
+//! conservative (and a closest-hit walk compares box entries with the
+//! nearest crossing's parameter rounded up to `f32`, entries at it
+//! included):
 //!
 //! * `segment_crosses` accepts a crossing point on the surface's plane up to
 //!   `1e-9 sqrt(area)` outside each edge line (further beyond a sharp corner,
@@ -63,7 +68,7 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::{AcceptanceRegion, InvalidTree, Occluder, PreparedSurfaces};
+use super::{AcceptanceRegion, Hit, InvalidTree, Nearest, Occluder, PreparedSurfaces, ray_end};
 use crate::scene::Surface;
 
 mod build;
@@ -200,7 +205,8 @@ pub struct BvhStats {
 
 // ----------------------------------------------------------------------- Bvh
 
-/// A BVH over a scene's surfaces answering shadow-segment queries.
+/// A BVH over a scene's surfaces answering shadow-segment and closest-hit
+/// queries.
 pub struct Bvh<'a> {
     surfaces: &'a [Surface],
     /// The surfaces laid out for the segment test, in leaf order (the
@@ -311,6 +317,47 @@ impl<'a> Bvh<'a> {
         let query = SegmentQuery::new(from, to, QUERY_MARGIN * reference);
         let (blocked, visited) = wide_any_hit(&self.wide, &query, blocks);
         (blocked, tested, visited)
+    }
+
+    /// Like [`Occluder::closest_hit`], also returning how many surfaces
+    /// were tested and how many child boxes of the four-wide tree were
+    /// tested (for benchmarks and tests).
+    #[must_use]
+    pub fn closest_hit_counting(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        max_t: f64,
+        skip: [u32; 2],
+    ) -> (Option<Hit>, u32, u32) {
+        let Some(end) = ray_end(origin, direction, max_t) else {
+            return (None, 0, 0);
+        };
+        let mut nearest = Nearest::default();
+        let mut tested = 0u32;
+        // `position` is in leaf order; answers and ties are on surface ids.
+        let mut offer = |position: u32| {
+            if !self.prepared.skips(position, skip) {
+                tested += 1;
+                if let Some(s) = self.prepared.crossing(position, origin, end) {
+                    nearest.offer(self.tree.primitives[position as usize], s);
+                }
+            }
+            nearest.limit()
+        };
+        let magnitude = origin.abs().max_element().max(end.abs().max_element());
+        let reference = magnitude.max(self.scale);
+        let visited = if reference < F32_SAFE_COORDINATE {
+            let query = SegmentQuery::new(origin, end, QUERY_MARGIN * reference);
+            wide_closest_hit(&self.wide, &query, offer)
+        } else {
+            // Huge coordinates: the f32 walk could not be trusted.
+            for p in 0..self.surfaces.len() as u32 {
+                offer(p);
+            }
+            0
+        };
+        (nearest.hit(max_t), tested, visited)
     }
 
     /// Checks the tree's invariants: a well-formed depth-first node array
@@ -425,6 +472,16 @@ impl Occluder for Bvh<'_> {
         Bvh::occluded_counting(self, from, to, skip)
     }
 
+    fn closest_hit(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        max_t: f64,
+        skip: [u32; 2],
+    ) -> Option<Hit> {
+        self.closest_hit_counting(origin, direction, max_t, skip).0
+    }
+
     fn validate(&self) -> Result<(), InvalidTree> {
         Bvh::validate(self)
     }
@@ -526,6 +583,35 @@ mod tests {
             );
             assert!(!blocked);
             assert!(tested <= settings.max_leaf_size as u32, "{name}: {tested}");
+        }
+    }
+
+    #[test]
+    fn closest_hit_walks_front_to_back() {
+        let surfaces: Vec<Surface> = (0..40).map(|i| square_at_z(f64::from(i), 1.0)).collect();
+        let brute = BruteForce::new(&surfaces);
+        for (name, settings) in BvhSettings::presets() {
+            let bvh = Bvh::with_settings(&surfaces, settings);
+            for (z, up) in [(-0.5, 1.0), (20.5, 1.0), (39.5, -1.0), (12.25, -1.0)] {
+                let origin = DVec3::new(0.1, -0.2, z);
+                let direction = DVec3::new(0.0, 0.0, up);
+                let (hit, tested, _) =
+                    bvh.closest_hit_counting(origin, direction, 50.0, NONE_SKIPPED);
+                assert_eq!(
+                    hit,
+                    brute.closest_hit(origin, direction, 50.0, NONE_SKIPPED),
+                    "{name}"
+                );
+                let expected = if up > 0.0 { z.ceil() } else { z.floor() };
+                assert_eq!(hit.unwrap().surface, expected as u32, "{name}");
+                assert!((hit.unwrap().t - (expected - z).abs()).abs() < 1e-12);
+                // Boxes beyond the first hit are skipped: a leaf or two of
+                // the 40 squares.
+                assert!(
+                    tested <= 2 * settings.max_leaf_size as u32,
+                    "{name}: {tested}"
+                );
+            }
         }
     }
 

@@ -1,6 +1,8 @@
 //! The BVH's traversal: the segment prepared for the slab test, the
 //! four-wide layout the binary tree is collapsed into (Dammertz et al. 2008;
-//! Wald et al. 2008) and its depth-first any-hit walk.
+//! Wald et al. 2008), its depth-first any-hit walk for shadow segments and
+//! its front-to-back closest-hit walk, which shrinks the segment as hits
+//! are found.
 
 use super::*;
 
@@ -248,5 +250,145 @@ pub(super) fn wide_any_hit(
         }
         top -= 1;
         at = stack[top];
+    }
+}
+
+/// `s` rounded up to `f32`: a box entered at or before `s` is entered at
+/// or before it in `f32` too.
+#[inline]
+fn f32_at_least(s: f64) -> f32 {
+    let rounded = s as f32;
+    if f64::from(rounded) < s {
+        rounded.next_up()
+    } else {
+        rounded
+    }
+}
+
+/// Walks the wide tree front to back for the closest hit: the child boxes
+/// the segment meets are taken in order of entry, and a box entered beyond
+/// the limit is skipped, on the stack too. `offer(p)` tests the primitive
+/// at leaf-order position `p` and returns the limit: the segment parameter
+/// of the nearest crossing so far (1 while there is none), so the segment
+/// shrinks as hits are found. A box entered exactly at the limit is still
+/// entered, since a crossing there may win on its index. Returns the
+/// number of child boxes tested.
+pub(super) fn wide_closest_hit(
+    nodes: &[WideNode],
+    query: &SegmentQuery,
+    mut offer: impl FnMut(u32) -> f64,
+) -> u32 {
+    if nodes.is_empty() {
+        return 0;
+    }
+    // Each node pushes at most WIDTH - 1 entries above its ancestors',
+    // each with the parameter where its box is entered.
+    let mut stack = [(0u32, 0.0f32); (WIDTH - 1) * MAX_DEPTH + 1];
+    let mut top = 0;
+    let mut at = 0u32;
+    let mut limit = 1.0f32;
+    let mut tested = 0u32;
+    let o_min = query.origin_for_min.to_array();
+    let o_max = query.origin_for_max.to_array();
+    let inv = query.inverse_direction.to_array();
+    // The faces met first and last per axis, as in `wide_any_hit`.
+    let negative = inv.map(f32::is_sign_negative);
+    let o_near = [0, 1, 2].map(|a| if negative[a] { o_max[a] } else { o_min[a] });
+    let o_far = [0, 1, 2].map(|a| if negative[a] { o_min[a] } else { o_max[a] });
+    loop {
+        let node = &nodes[at as usize];
+        tested += WIDTH as u32;
+        // As in `wide_any_hit`, but the segment ends at the limit.
+        let mut enter = [0.0f32; WIDTH];
+        let mut exit = [limit; WIDTH];
+        for axis in 0..3 {
+            let (near, far) = if negative[axis] {
+                (&node.max[axis], &node.min[axis])
+            } else {
+                (&node.min[axis], &node.max[axis])
+            };
+            for k in 0..WIDTH {
+                let t_near = (near[k] - o_near[axis]) * inv[axis];
+                let t_far = (far[k] - o_far[axis]) * inv[axis];
+                enter[k] = if t_near > enter[k] { t_near } else { enter[k] };
+                exit[k] = if t_far < exit[k] { t_far } else { exit[k] };
+            }
+        }
+        let mut order = [0usize; WIDTH];
+        let mut hits = 0;
+        for k in 0..WIDTH {
+            if enter[k] <= exit[k] {
+                let mut i = hits;
+                while i > 0 && enter[order[i - 1]] > enter[k] {
+                    order[i] = order[i - 1];
+                    i -= 1;
+                }
+                order[i] = k;
+                hits += 1;
+            }
+        }
+        // Leaf children in order of entry, each while it can still hold
+        // the answer (a hit lowers the limit); then the nearest interior
+        // child still within the limit is walked next, the others pushed
+        // farthest first.
+        for &k in &order[..hits] {
+            let count = node.count[k];
+            if count > 0 && enter[k] <= limit {
+                let first = node.link[k];
+                for p in first..first + count {
+                    limit = f32_at_least(offer(p));
+                }
+            }
+        }
+        let mut next: Option<(u32, f32)> = None;
+        for &k in order[..hits].iter().rev() {
+            if node.count[k] > 0 || enter[k] > limit {
+                continue;
+            }
+            if let Some(farther) = next {
+                prefetch(nodes, farther.0);
+                stack[top] = farther;
+                top += 1;
+            }
+            next = Some((node.link[k], enter[k]));
+        }
+        if let Some((link, _)) = next {
+            at = link;
+            continue;
+        }
+        // The nearest pending box still within the limit.
+        loop {
+            if top == 0 {
+                return tested;
+            }
+            top -= 1;
+            let (node, entered) = stack[top];
+            if entered <= limit {
+                at = node;
+                break;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::f32_at_least;
+
+    #[test]
+    fn limits_round_up_to_f32() {
+        for s in [
+            0.0,
+            1.0,
+            0.1,
+            1.0 / 3.0,
+            0.999_999_999_9,
+            1e-30,
+            0.5 + 1e-12,
+        ] {
+            let limit = f32_at_least(s);
+            assert!(f64::from(limit) >= s, "{s}");
+            assert!(f64::from(limit.next_down()) < s, "{s}");
+        }
     }
 }

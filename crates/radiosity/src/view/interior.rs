@@ -1,8 +1,8 @@
-//! The default view of an interior (issue 9, item 6; beyond the paper,
-//! which always brings its camera): when a scene brings no camera and its
-//! surfaces enclose the space its lights are in (Sponza's atrium, the
-//! conference room), [`Scene::camera_or_framing`] looks from inside, at eye
-//! height along the longest horizontal axis, instead of framing the
+//! The default view of an interior (beyond the paper, which always brings
+//! its camera): when a scene brings no camera and its surfaces enclose the
+//! space its lights are in (Sponza's atrium, the conference room),
+//! [`camera_or_framing`](super::camera_or_framing) looks from inside, at
+//! eye height along the longest horizontal axis, instead of framing the
 //! bounding box from outside, which shows the outer walls.
 //!
 //! The rule, with y up:
@@ -17,10 +17,13 @@
 //!    that fits the far end's cross-section, kept within [`FOV_DEGREES`].
 //! 2. **Sight lines.** From each eye, [`SPHERE_RAYS`] rays in all directions
 //!    and a [`VIEW_RAYS`] grid over its 4:3 view are traced through a BVH
-//!    (the shadow-ray accelerator, [`crate::accel::bvh`]): the free
-//!    distance is found by bisection on occlusion queries, and a ray that
-//!    meets no surface before leaving the bounding box escapes. For the
-//!    sphere rays, the surface met is found and its side noted.
+//!    of the scene ([`crate::accel::bvh`]) with closest-hit queries
+//!    ([`Occluder::closest_hit`]): a ray's free distance is that of the
+//!    first surface it meets, and a ray that meets none before leaving the
+//!    bounding box escapes. For the sphere rays, the side of the surface met
+//!    is noted: the back, unless a surface facing the eye is crossed within
+//!    [`COINCIDENT`] of the ray's length beyond it (a wall modelled as two
+//!    faces back to back shows its front from either side).
 //! 3. **Rejects.** An eye is rejected when more than [`MAX_BACK`] of its
 //!    sphere rays meet a surface from behind (it is inside a solid, or
 //!    behind a wall) or more than [`MAX_VIEW_ESCAPE`] of its view rays escape
@@ -32,17 +35,19 @@
 //!    object on a ground plane (half) is seen from outside.
 //! 5. **Choice.** Of the eyes not rejected, the one whose view rays have
 //!    the longest mean free distance (capped at the bounding-box diagonal)
-//!    sees the most of the space; ties go to the first in candidate order,
-//!    so the choice is deterministic.
+//!    sees the most of the space. Sights within [`SIGHT_TIE`] of each other
+//!    tie (the mirror-image eyes of a symmetric scene differ by round-off
+//!    only), and ties go to the first in candidate order, so the choice is
+//!    deterministic.
 //!
 //! No candidate passing, or no light, gives `None`: the framing camera.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{Camera, Scene};
 use crate::accel::bvh::Bvh;
-use crate::accel::{Occluder, segment_crosses};
+use crate::accel::{Hit, Occluder};
+use crate::scene::{Camera, Scene, Surface};
 
 /// Eye height above the floor for scenes in metres.
 pub const EYE_HEIGHT: f64 = 1.6;
@@ -80,8 +85,18 @@ pub const MAX_VIEW_ESCAPE: f64 = 0.1;
 /// inside solids, for the scene to count as an interior.
 pub const MAX_ESCAPE: f64 = 0.05;
 
-/// Bisection steps for a free distance: 2^-16 of the diagonal.
-const BISECTIONS: u32 = 16;
+/// Faces back to back (a panel modelled once per side, as real files have
+/// them) are crossed at nearly the same distance, in either order: a sight
+/// line whose first surface faces away from the eye still meets a front
+/// when a surface facing the eye is crossed within this fraction of the
+/// line's length (to the bounding box's exit) beyond it. 2^-16, a
+/// millimetre or less in a building.
+pub const COINCIDENT: f64 = 1.0 / 65_536.0;
+
+/// Relative difference of mean sights within which two eyes tie (rule 5):
+/// above the round-off that tells mirror-image eyes apart, far below any
+/// difference a view shows.
+pub const SIGHT_TIE: f64 = 1e-6;
 
 /// One candidate eye and what its sight lines found.
 #[derive(Clone, Debug)]
@@ -134,7 +149,7 @@ impl Analysis {
 /// horizontal or vertical extent.
 #[must_use]
 pub fn analyse(scene: &Scene) -> Option<Analysis> {
-    if !scene.surfaces.iter().any(super::Surface::is_emitter) {
+    if !scene.surfaces.iter().any(Surface::is_emitter) {
         return None;
     }
     let (lo, hi) = scene.bounds();
@@ -198,7 +213,8 @@ pub fn analyse(scene: &Scene) -> Option<Analysis> {
     let mut chosen: Option<usize> = None;
     if interior {
         for (i, c) in candidates.iter().enumerate() {
-            if c.usable() && chosen.is_none_or(|b| c.sight > candidates[b].sight) {
+            let better = |b: usize| c.sight > candidates[b].sight * (1.0 + SIGHT_TIE);
+            if c.usable() && chosen.is_none_or(better) {
                 chosen = Some(i);
             }
         }
@@ -235,8 +251,8 @@ fn sphere_directions(n: usize) -> Vec<DVec3> {
 enum Sight {
     /// It leaves the bounding box without meeting a surface.
     Escapes,
-    /// It meets a surface at this distance.
-    Hits(f64),
+    /// It meets a surface first: this one, at this distance.
+    Hits(Hit),
 }
 
 /// Sight lines through the scene's BVH.
@@ -259,8 +275,8 @@ impl Tracer<'_> {
         for &d in sphere {
             match self.sight(eye, d) {
                 Sight::Escapes => escaped += 1,
-                Sight::Hits(t) => {
-                    if self.front_facing(eye, d, t) == Some(false) {
+                Sight::Hits(hit) => {
+                    if !self.front_facing(eye, d, hit) {
                         back += 1;
                     }
                 }
@@ -281,7 +297,7 @@ impl Tracer<'_> {
                 let d = (forward + right * (u * tan_h) + up * (v * tan_v)).normalize();
                 match self.sight(eye, d) {
                     Sight::Escapes => view_escaped += 1,
-                    Sight::Hits(t) => sight += t.min(self.diagonal) / self.diagonal,
+                    Sight::Hits(hit) => sight += hit.t.min(self.diagonal) / self.diagonal,
                 }
             }
         }
@@ -309,41 +325,37 @@ impl Tracer<'_> {
         t.max(0.0) + 0.01 * self.diagonal
     }
 
-    /// The free distance along `d` from `eye`, by bisection on occlusion
-    /// queries.
+    /// The first surface met along `d` (unit) from `eye` before the ray
+    /// leaves the bounding box, and its distance.
     fn sight(&self, eye: DVec3, d: DVec3) -> Sight {
-        let far = self.exit(eye, d);
-        if !self.occluder.occluded(eye, eye + d * far, NO_SKIP) {
-            return Sight::Escapes;
+        match self
+            .occluder
+            .closest_hit(eye, d, self.exit(eye, d), NO_SKIP)
+        {
+            Some(hit) => Sight::Hits(hit),
+            None => Sight::Escapes,
         }
-        let (mut free, mut blocked) = (0.0, far);
-        for _ in 0..BISECTIONS {
-            let mid = 0.5 * (free + blocked);
-            if self.occluder.occluded(eye, eye + d * mid, NO_SKIP) {
-                blocked = mid;
-            } else {
-                free = mid;
-            }
-        }
-        Sight::Hits(blocked)
     }
 
-    /// Whether the surface the ray meets near `t` faces the eye: the
-    /// surfaces crossing the ray between the bisection's last free and
-    /// blocked distances (a few steps wide) are found by testing every
-    /// surface; `None` if round-off hides them all.
-    fn front_facing(&self, eye: DVec3, d: DVec3, t: f64) -> Option<bool> {
-        let step = self.exit(eye, d) / f64::from(1u32 << BISECTIONS);
-        let (a, b) = (eye + d * (t - 2.0 * step).max(0.0), eye + d * (t + step));
-        let mut seen = None;
-        for s in &self.scene.surfaces {
-            if segment_crosses(s, a, b) {
-                if s.normal.dot(d) < 0.0 {
-                    return Some(true);
-                }
-                seen = Some(false);
+    /// Whether the ray from `eye` along `d` meets a front at `hit`: the
+    /// surface hit faces the eye, or one facing it is crossed within
+    /// [`COINCIDENT`] of the ray's length beyond. The surfaces behind the
+    /// first are found by asking again with the ids already seen skipped,
+    /// so up to three are looked at (a query skips two ids).
+    fn front_facing(&self, eye: DVec3, d: DVec3, hit: Hit) -> bool {
+        let reach = hit.t + COINCIDENT * self.exit(eye, d);
+        let mut skip = NO_SKIP;
+        let mut surface = &self.scene.surfaces[hit.surface as usize];
+        for slot in 0..skip.len() {
+            if surface.normal.dot(d) < 0.0 {
+                return true;
+            }
+            skip[slot] = surface.group;
+            match self.occluder.closest_hit(eye, d, reach, skip) {
+                Some(next) => surface = &self.scene.surfaces[next.surface as usize],
+                None => return false,
             }
         }
-        seen
+        surface.normal.dot(d) < 0.0
     }
 }
