@@ -13,7 +13,7 @@
 //! * **What shoots** ([`hierarchy`]): the shooter (a node of the element
 //!   tree no larger than the patch size) with the most unshot power, as in
 //!   Wallace et al. (1989) and Cohen et al. (1988).
-//! * **Groups of receivers** ([`gather`]; clusters at both ends as in
+//! * **Groups of receivers** (clusters at both ends as in
 //!   Smits, Arvo & Greenberg 1994): a group of receivers (a node of the
 //!   receivers' tree) takes a source node as one *link* when every receiver
 //!   is beyond [`FAR_RATIO`] of the source's radius, the group spans at
@@ -21,7 +21,7 @@
 //!   (below [`LINK_FACTOR`] times the negligible irradiance), and shadow
 //!   rays between points spread over both agree on their visibility; each
 //!   receiver then takes the source's corrected point sources
-//!   ([`sources`]) with that shared visibility, without rays of its own.
+//!   ([`super::hierarchy::sources`]) with that shared visibility, without rays of its own.
 //!   Otherwise the group is split, never the source: each receiver refines
 //!   the source for itself far more cheaply than pairs of pieces could.
 //! * **Per-receiver refinement** (the adaptive source subdivision of
@@ -41,19 +41,19 @@
 //!   coarsely where it adds little.
 //!
 //! How accurate an accepted node's geometry is, is said once, at
-//! [`sources::point_factor`].
+//! [`super::hierarchy::sources::point_factor`].
 
-pub mod gather;
-pub mod hierarchy;
-pub mod sources;
+mod gather;
 
 use std::time::Instant;
 
 use glam::DVec3;
 
 use self::gather::{Counters, Gatherer};
-use self::hierarchy::{Hierarchy, Tree};
-use self::sources::Sources;
+use super::hierarchy::sources::Sources;
+pub use super::hierarchy::transfer::FAR_RATIO;
+use super::hierarchy::transfer::Transfer;
+use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
     self, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
     ShotInputs, Stats, VISIBILITY, Value, Visibility,
@@ -179,10 +179,6 @@ impl Method for AdaptiveSettings {
     }
 }
 
-/// A node is far from a receiver beyond this many of its radii, where its
-/// corrected point sources are accurate ([`sources::point_factor`]).
-pub const FAR_RATIO: f64 = 3.0;
-
 /// A far node is accepted with one shadow ray a bin while the irradiance
 /// it can send is below this many times the negligible irradiance.
 pub const FAR_FACTOR: f64 = 30.0;
@@ -201,21 +197,12 @@ pub const LINK_MIN_RECEIVERS: u32 = 16;
 /// irradiance; brighter transfers go down to each receiver's own rays.
 pub const LINK_FACTOR: f64 = 30.0;
 
-/// An accepted node's geometry is integrated over pieces at least this
-/// many of their radii from the receiver, each a corrected point source
-/// ([`sources::point_factor`]).
-pub const QUADRATURE_RATIO: f64 = 4.0;
-
 /// Receiver groups at least this large check whether the shot is to be
 /// abandoned before they are refined.
 pub(super) const ABORT_CHECK_RECEIVERS: u32 = 64;
 
 /// Receiver groups at least this large are refined in parallel.
 pub(super) const PARALLEL_RECEIVERS: u32 = 1024;
-
-/// One ray or factor in this many is timed, for the statistics' phase
-/// times (a clock read costs a tenth of a ray).
-pub(super) const TIMING_SAMPLE: u64 = 16;
 
 /// The state of adaptive shooting.
 struct AdaptiveShooting {
@@ -358,18 +345,20 @@ impl Shooter for AdaptiveShooting {
 
         let gather_start = Instant::now();
         let gatherer = Gatherer {
-            scene,
-            mesh,
-            hierarchy: &self.hierarchy,
+            transfer: Transfer {
+                scene,
+                mesh,
+                hierarchy: &self.hierarchy,
+                unshot: &self.unshot,
+                sources: &self.sources,
+                root,
+                origin: self.hierarchy.tree.nodes[root as usize].centre,
+                occluder: inputs.occluder,
+                form_factor: inputs.settings.form_factor,
+            },
             receiver_tree: &self.receiver_tree,
             receivers: inputs.receivers,
             negligible: &negligible,
-            unshot: &self.unshot,
-            sources: &self.sources,
-            root,
-            origin: self.hierarchy.tree.nodes[root as usize].centre,
-            occluder: inputs.occluder,
-            form_factor: inputs.settings.form_factor,
             abort: inputs.abort,
         };
         // Irradiance in the receiver tree's order, then put back in order.
@@ -389,13 +378,14 @@ impl Shooter for AdaptiveShooting {
         let gather_end = Instant::now();
 
         self.counters += counters;
-        stats.pairs += counters.pairs;
-        stats.rays_cast += counters.rays;
-        stats.ray_time += counters.ray_time;
-        stats.form_factor_time += counters.form_factor_time;
+        let cost = counters.cost;
+        stats.pairs += cost.pairs;
+        stats.rays_cast += cost.rays;
+        stats.ray_time += cost.ray_time;
+        stats.form_factor_time += cost.form_factor_time;
         stats.pretest_time += (gather_end - gather_start)
             .mul_f64(rayon::current_num_threads() as f64)
-            .saturating_sub(counters.ray_time + counters.form_factor_time);
+            .saturating_sub(cost.ray_time + cost.form_factor_time);
         for &e in self.hierarchy.tree.items_of(root) {
             self.unshot[e as usize] = DVec3::ZERO;
         }

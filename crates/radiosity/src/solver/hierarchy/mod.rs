@@ -1,12 +1,15 @@
-//! The hierarchies of adaptive shooting: binary trees over the mesh's
-//! elements (the sources) and over its receivers (vertices and sensors),
-//! whose nodes are the pieces a transfer may treat as one.
+//! The hierarchies of the clustered methods (adaptive shooting and its
+//! successors): binary trees over the mesh's elements (the sources) and
+//! over its receivers (vertices and sensors), whose nodes are the pieces a
+//! transfer may treat as one; a node's unshot power as a source
+//! ([`sources`]) and one receiver's transfer from a node or an element
+//! ([`transfer`]).
 //!
 //! Wallace, Elmquist & Haines (1989, section 4) subdivided a source per
 //! receiver until its form factor was accurate; hierarchical radiosity
 //! (Hanrahan, Salzman & Aupperle 1991) subdivides both ends of a transfer
 //! until it is; here both subdivisions are precomputed as trees and each
-//! transfer takes the coarsest accurate pair of nodes ([`super`]).
+//! transfer takes the coarsest accurate pair of nodes.
 //! Below the level of a surface a tree splits one surface's items (planar
 //! nodes, one surface id); above it, it groups whole surfaces, or pieces of
 //! large ones, that are near each other (clusters, as in the clustering
@@ -22,13 +25,16 @@
 //! median along the longest axis of the item (or piece) centres, so a tree
 //! is balanced and its depth is `O(log n)`.
 
+pub mod sources;
+pub mod transfer;
+
 use glam::{DMat3, DVec3};
 
 use crate::geometry;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
-use super::Receiver;
+use crate::solver::Receiver;
 
 /// No such node.
 pub const NONE: u32 = u32::MAX;

@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 
 use glam::{DMat3, DVec3};
 
-use super::hierarchy::Hierarchy;
+use super::Hierarchy;
 use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -18,22 +18,22 @@ use crate::scene::Scene;
 /// The sources of one shot: per node of the shooting subtree (indexed from
 /// its root), its power and bins.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Sources {
+pub(crate) struct Sources {
     /// Per node, children before parents.
-    pub(super) nodes: Vec<NodeSource>,
+    pub(crate) nodes: Vec<NodeSource>,
     /// Their bins.
-    pub(super) bins: Vec<Bin>,
+    pub(crate) bins: Vec<Bin>,
 }
 
 /// A node's unshot power, in bins by normal direction.
 #[derive(Clone, Copy, Debug, Default)]
-pub(super) struct NodeSource {
+pub(crate) struct NodeSource {
     /// Total luminance power.
-    pub(super) weight: f64,
+    pub(crate) weight: f64,
     /// First of its bins in [`Sources::bins`].
-    pub(super) first_bin: u32,
+    pub(crate) first_bin: u32,
     /// Number of its bins.
-    pub(super) bins: u8,
+    pub(crate) bins: u8,
 }
 
 /// Unshot power of elements whose normals share a dominant axis, with the
@@ -42,27 +42,27 @@ pub(super) struct NodeSource {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Bin {
     /// Power per channel, `sum A_e dB_e`.
-    pub(super) power: DVec3,
+    pub(crate) power: DVec3,
     /// Luminance of the power: the weight of the sums below.
-    pub(super) weight: f64,
+    pub(crate) weight: f64,
     /// Weighted sum of normals.
-    pub(super) normal: DVec3,
+    pub(crate) normal: DVec3,
     /// Weighted sum of element centroids, relative to the shooting node's
     /// centre (so the spread below loses no digits far from the origin).
-    pub(super) position: DVec3,
+    pub(crate) position: DVec3,
     /// Weighted sum of the outer products of those offsets, each element's
     /// own second moment included.
-    pub(super) moment: DMat3,
+    pub(crate) moment: DMat3,
     /// The element whose centroid the shadow rays start from.
-    pub(super) representative: u32,
+    pub(crate) representative: u32,
     /// The dominant axis and sign of its normals (0..6).
-    pub(super) axis: u8,
+    pub(crate) axis: u8,
 }
 
 impl Sources {
     /// Fills the sources and their bins for the nodes of the subtree at `root`,
     /// children before parents.
-    pub(super) fn prepare(
+    pub(crate) fn prepare(
         &mut self,
         scene: &Scene,
         mesh: &Mesh,
@@ -174,7 +174,7 @@ fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mu
 }
 
 /// `v v^T`.
-pub(super) fn outer(v: DVec3) -> DMat3 {
+pub(crate) fn outer(v: DVec3) -> DMat3 {
     DMat3::from_cols(v * v.x, v * v.y, v * v.z)
 }
 
@@ -194,7 +194,8 @@ pub(super) fn outer(v: DVec3) -> DMat3 {
 /// 1.5% of its exact factor, from four within 0.6%, where the plain point
 /// errs by several per cent and equation (1) by up to twelve (the test
 /// below). This is the accuracy the far-field rules of adaptive shooting
-/// rest on ([`super::FAR_RATIO`], [`super::QUADRATURE_RATIO`]). Clamped
+/// rest on ([`super::transfer::FAR_RATIO`],
+/// [`super::transfer::QUADRATURE_RATIO`]). Clamped
 /// where the expansion fails (a receiver seeing the source almost edge-on,
 /// whose factor is then small anyway).
 pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
@@ -222,7 +223,7 @@ pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f6
 
 #[cfg(test)]
 mod tests {
-    use super::super::hierarchy;
+    use super::super as hierarchy;
     use super::*;
 
     /// The corrected point source against the exact factor (the analytic

@@ -1,0 +1,364 @@
+//! One receiver and one node of the element tree as a source: the
+//! primitives every clustered method's transfers are made of. A node is
+//! taken as corrected point sources, one per bin of its unshot power by
+//! normal direction ([`super::sources::point_factor`]), its visibility
+//! judged by one shadow ray (a dim node) or by four spread over it (a
+//! bright one, accepted only when they agree); an element is the finest
+//! source, its exact factor by the paper's equation (2) on its polygon
+//! clipped to the receiver's front and a shadow ray from the centre of
+//! that part (design.md sections 3 and 4).
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+
+use super::sources::{Bin, NodeSource, Sources, point_factor};
+use super::{Hierarchy, NONE, Node, Tree};
+use crate::accel::{self, Occluder};
+use crate::form_factor::{FormFactor, Source};
+use crate::geometry;
+use crate::luminance;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::solver::Receiver;
+
+/// A node is far from a receiver beyond this many of its radii, where its
+/// corrected point sources are accurate ([`point_factor`]).
+pub const FAR_RATIO: f64 = 3.0;
+
+/// An accepted node's geometry is integrated over pieces at least this
+/// many of their radii from the receiver, each a corrected point source
+/// ([`point_factor`]).
+pub const QUADRATURE_RATIO: f64 = 4.0;
+
+/// One ray or factor in this many is timed, for the statistics' phase
+/// times (a clock read costs a tenth of a ray).
+pub(crate) const TIMING_SAMPLE: u64 = 16;
+
+/// What transfers cost: pairs considered, shadow rays, factors, and the
+/// (sampled) time in rays and factors.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Cost {
+    /// Receiver-source pairs considered.
+    pub(crate) pairs: u64,
+    /// Shadow rays cast.
+    pub(crate) rays: u64,
+    /// Node geometries evaluated.
+    pub(crate) factors: u64,
+    /// Thread time in shadow rays.
+    pub(crate) ray_time: Duration,
+    /// Thread time in node geometries.
+    pub(crate) form_factor_time: Duration,
+}
+
+impl std::ops::AddAssign for Cost {
+    fn add_assign(&mut self, o: Cost) {
+        self.pairs += o.pairs;
+        self.rays += o.rays;
+        self.factors += o.factors;
+        self.ray_time += o.ray_time;
+        self.form_factor_time += o.form_factor_time;
+    }
+}
+
+/// Buffers a task reuses from receiver to receiver.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    /// Nodes still to visit.
+    pub(crate) stack: Vec<u32>,
+    /// Pieces of a node still to integrate.
+    pub(crate) pieces: Vec<u32>,
+    /// An element's corners.
+    pub(crate) polygon: Vec<DVec3>,
+    /// The part of an element in front of the receiver.
+    pub(crate) clipped: Vec<DVec3>,
+}
+
+/// What a shot's transfers read of the sources.
+pub(crate) struct Transfer<'s> {
+    pub(crate) scene: &'s Scene,
+    pub(crate) mesh: &'s Mesh,
+    pub(crate) hierarchy: &'s Hierarchy,
+    /// Unshot radiosity of each element.
+    pub(crate) unshot: &'s [DVec3],
+    /// The shooting subtree's sources.
+    pub(crate) sources: &'s Sources,
+    /// The shooting node.
+    pub(crate) root: u32,
+    /// Its centre, the origin of the bins' sums.
+    pub(crate) origin: DVec3,
+    pub(crate) occluder: &'s dyn Occluder,
+    pub(crate) form_factor: FormFactor,
+}
+
+impl Transfer<'_> {
+    pub(crate) fn source(&self, n: u32) -> &NodeSource {
+        &self.sources.nodes[(n - self.root) as usize]
+    }
+
+    pub(crate) fn bins_of(&self, n: u32) -> &[Bin] {
+        let s = self.source(n);
+        &self.sources.bins[s.first_bin as usize..s.first_bin as usize + s.bins as usize]
+    }
+
+    pub(crate) fn source_node(&self, n: u32) -> &Node {
+        &self.hierarchy.tree.nodes[n as usize]
+    }
+
+    /// The surface of a node within one surface id.
+    pub(crate) fn plane_of(&self, node: &Node) -> &crate::scene::Surface {
+        let e = self.hierarchy.tree.items[node.first as usize];
+        &self.scene.surfaces[self.mesh.elements[e as usize].surface as usize]
+    }
+
+    /// Up to four nodes spread over node `n`: its grandchildren, or children
+    /// where the tree ends, or itself.
+    pub(crate) fn samples(&self, tree: &Tree, n: u32) -> ([u32; 4], usize) {
+        let mut out = [n; 4];
+        let node = &tree.nodes[n as usize];
+        if node.is_leaf() {
+            return (out, 1);
+        }
+        let mut count = 0;
+        for child in [n + 1, node.second] {
+            let c = &tree.nodes[child as usize];
+            if c.is_leaf() {
+                out[count] = child;
+                count += 1;
+            } else {
+                out[count] = child + 1;
+                out[count + 1] = c.second;
+                count += 2;
+            }
+        }
+        (out, count)
+    }
+
+    /// The representative element of a source node's brightest bin.
+    pub(crate) fn representative(&self, n: u32) -> Option<u32> {
+        self.bins_of(n)
+            .iter()
+            .max_by(|a, b| a.weight.total_cmp(&b.weight))
+            .map(|b| b.representative)
+    }
+
+    /// False when no point of `node` can send light to the receiver: its
+    /// sphere is behind the receiver's tangent plane, it lies in the
+    /// receiver's own surface, or (within one surface) the receiver is
+    /// behind its plane.
+    pub(crate) fn faces(&self, node: &Node, r: &Receiver) -> bool {
+        if r.normal.dot(node.centre - r.point) < -node.radius {
+            return false;
+        }
+        if node.group == NONE {
+            return true;
+        }
+        if node.group == r.group {
+            return false;
+        }
+        let surface = self.plane_of(node);
+        surface.normal.dot(r.point) - surface.offset > 0.0
+    }
+
+    /// A node that can send the receiver little, as up to six sources by
+    /// normal direction behind one shadow ray, from the representative of
+    /// the bin that sends the most: an error in its visibility costs at
+    /// most what the node sends.
+    pub(crate) fn dim_irradiance(
+        &self,
+        n: u32,
+        r: &Receiver,
+        scratch: &mut Scratch,
+        cost: &mut Cost,
+    ) -> DVec3 {
+        let geometry = self.node_geometry(n, r, scratch, cost);
+        let Some((bin, _)) = self
+            .bins_of(n)
+            .iter()
+            .zip(&geometry)
+            .filter(|(_, g)| **g != DVec3::ZERO)
+            .max_by(|a, b| luminance(*a.1).total_cmp(&luminance(*b.1)))
+        else {
+            return DVec3::ZERO;
+        };
+        cost.pairs += 1;
+        if self.visible_from(bin.representative, r, cost) {
+            geometry.iter().sum()
+        } else {
+            DVec3::ZERO
+        }
+    }
+
+    /// Whether the receiver sees all of a node or none of it, judged by
+    /// shadow rays from up to four points spread over it (the
+    /// representatives of its grandchildren, or children where the tree
+    /// ends); `None` when they disagree, and the node must be refined. A
+    /// bright source's node is accepted this way only in full view or full
+    /// shadow, so penumbrae are resolved down to elements while open view
+    /// costs four rays.
+    pub(crate) fn uniform_visibility(&self, n: u32, r: &Receiver, cost: &mut Cost) -> Option<bool> {
+        let (samples, count) = self.samples(&self.hierarchy.tree, n);
+        unanimous(samples[..count].iter().filter_map(|&piece| {
+            let e = self.representative(piece)?;
+            cost.pairs += 1;
+            Some(self.visible_from(e, r, cost))
+        }))
+    }
+
+    /// The irradiance each of a node's bins sends to the receiver, ignoring
+    /// occlusion. The geometry of each is integrated over pieces of the node
+    /// (its descendants) small enough to be seen as points, at least
+    /// [`QUADRATURE_RATIO`] of their radii away (elements nearer than that
+    /// by their exact factor): the midpoint rule over a node seen from three
+    /// of its radii errs by a few per cent, over pieces seen from four with
+    /// the correction of [`point_factor`] by far less, and the extra factors
+    /// cost no rays.
+    pub(crate) fn node_geometry(
+        &self,
+        n: u32,
+        r: &Receiver,
+        scratch: &mut Scratch,
+        cost: &mut Cost,
+    ) -> Vec<DVec3> {
+        let timed = cost.factors.is_multiple_of(TIMING_SAMPLE);
+        let t0 = timed.then(Instant::now);
+        let axes: Vec<u8> = self.bins_of(n).iter().map(|b| b.axis).collect();
+        let mut geometry = vec![DVec3::ZERO; axes.len()];
+        let slot = |axis: u8| axes.iter().position(|&a| a == axis);
+        let mut pieces = std::mem::take(&mut scratch.pieces);
+        pieces.clear();
+        pieces.push(n);
+        while let Some(piece) = pieces.pop() {
+            let node = self.source_node(piece);
+            let near = r.point.distance_squared(node.centre)
+                < (QUADRATURE_RATIO * node.radius).powi(2)
+                || straddles(node, r);
+            if near && !node.is_leaf() {
+                pieces.push(node.second);
+                pieces.push(piece + 1);
+                continue;
+            }
+            for bin in self.bins_of(piece) {
+                let Some(k) = slot(bin.axis) else { continue };
+                geometry[k] += if near {
+                    // An element close by: its exact factor.
+                    let e = bin.representative;
+                    self.element_factor(e, r, &mut scratch.polygon) * self.unshot[e as usize]
+                } else {
+                    bin.power * point_factor(bin, self.origin, r.point, r.normal)
+                };
+            }
+        }
+        scratch.pieces = pieces;
+        cost.factors += 1;
+        if let Some(t0) = t0 {
+            cost.form_factor_time += t0.elapsed() * TIMING_SAMPLE as u32;
+        }
+        geometry
+    }
+
+    /// One element as a source: its polygon's factor (clipped to the
+    /// receiver's front) and a shadow ray from the centre of the part in
+    /// front.
+    pub(crate) fn element_irradiance(
+        &self,
+        e: u32,
+        r: &Receiver,
+        scratch: &mut Scratch,
+        cost: &mut Cost,
+    ) -> DVec3 {
+        let element = &self.mesh.elements[e as usize];
+        let surface = &self.scene.surfaces[element.surface as usize];
+        let polygon = &mut scratch.polygon;
+        polygon.clear();
+        polygon.extend(
+            element
+                .vertices()
+                .iter()
+                .map(|&v| self.mesh.vertices[v as usize].position),
+        );
+        let tolerance = 1e-9 * element.area.sqrt().max(1e-300);
+        let (mut any_front, mut all_front) = (false, true);
+        for c in polygon.iter() {
+            let h = r.normal.dot(*c - r.point);
+            any_front |= h > tolerance;
+            all_front &= h > tolerance;
+        }
+        if !any_front {
+            return DVec3::ZERO;
+        }
+        let origin = if all_front {
+            self.hierarchy.centroids[e as usize]
+        } else {
+            geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
+            if geometry::area(&scratch.clipped) <= 0.0 {
+                return DVec3::ZERO;
+            }
+            geometry::centroid(&scratch.clipped)
+        };
+        cost.pairs += 1;
+        if !self.visible(origin, r, surface.group, cost) {
+            return DVec3::ZERO;
+        }
+        let factor = self.element_factor(e, r, &mut scratch.polygon);
+        self.unshot[e as usize] * factor
+    }
+
+    /// The factor of element `e`'s polygon at the receiver (clipped to its
+    /// front by the formula).
+    pub(crate) fn element_factor(&self, e: u32, r: &Receiver, polygon: &mut Vec<DVec3>) -> f64 {
+        let element = &self.mesh.elements[e as usize];
+        let surface = &self.scene.surfaces[element.surface as usize];
+        polygon.clear();
+        polygon.extend(
+            element
+                .vertices()
+                .iter()
+                .map(|&v| self.mesh.vertices[v as usize].position),
+        );
+        self.form_factor.evaluate(
+            r.point,
+            r.normal,
+            &Source {
+                polygon,
+                centroid: self.hierarchy.centroids[e as usize],
+                normal: surface.normal,
+                area: element.area,
+            },
+        )
+    }
+
+    /// Whether the receiver sees the centre of element `e`.
+    pub(crate) fn visible_from(&self, e: u32, r: &Receiver, cost: &mut Cost) -> bool {
+        let e = e as usize;
+        let group = self.scene.surfaces[self.mesh.elements[e].surface as usize].group;
+        self.visible(self.hierarchy.centroids[e], r, group, cost)
+    }
+
+    pub(crate) fn visible(&self, origin: DVec3, r: &Receiver, group: u32, cost: &mut Cost) -> bool {
+        let timed = cost.rays.is_multiple_of(TIMING_SAMPLE);
+        let t0 = timed.then(Instant::now);
+        let (from, to) = accel::shorten(origin, r.point);
+        let blocked = self.occluder.occluded(from, to, [group, r.group]);
+        cost.rays += 1;
+        if let Some(t0) = t0 {
+            cost.ray_time += t0.elapsed() * TIMING_SAMPLE as u32;
+        }
+        !blocked
+    }
+}
+
+/// The answer every vote gives, `None` when there are none or two differ;
+/// stops drawing votes (shadow rays) at the first that differs.
+pub(crate) fn unanimous(mut votes: impl Iterator<Item = bool>) -> Option<bool> {
+    let first = votes.next()?;
+    votes.all(|v| v == first).then_some(first)
+}
+
+/// True when the receiver's tangent plane cuts the node's bounding sphere:
+/// part of the node may be behind the receiver and part in front, which no
+/// point source (whose centre is on one side) can stand for; such a node is
+/// refined down to elements, whose factors clip exactly.
+pub(crate) fn straddles(node: &Node, r: &Receiver) -> bool {
+    r.normal.dot(node.centre - r.point).abs() < node.radius
+}
