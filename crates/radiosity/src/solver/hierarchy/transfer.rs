@@ -267,6 +267,20 @@ impl Transfer<'_> {
         scratch: &mut Scratch,
         cost: &mut Cost,
     ) -> DVec3 {
+        self.unshot[e as usize] * self.visible_element_factor(e, r, scratch, cost)
+    }
+
+    /// The factor of element `e` at the receiver times its visibility from
+    /// the centre of the part in front of the receiver (one shadow ray): 0
+    /// when the element is behind or hidden. Geometry only, so a method may
+    /// keep it from pass to pass.
+    pub(crate) fn visible_element_factor(
+        &self,
+        e: u32,
+        r: &Receiver,
+        scratch: &mut Scratch,
+        cost: &mut Cost,
+    ) -> f64 {
         let element = &self.mesh.elements[e as usize];
         let surface = &self.scene.surfaces[element.surface as usize];
         let polygon = &mut scratch.polygon;
@@ -285,23 +299,22 @@ impl Transfer<'_> {
             all_front &= h > tolerance;
         }
         if !any_front {
-            return DVec3::ZERO;
+            return 0.0;
         }
         let origin = if all_front {
             self.hierarchy.centroids[e as usize]
         } else {
             geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
             if geometry::area(&scratch.clipped) <= 0.0 {
-                return DVec3::ZERO;
+                return 0.0;
             }
             geometry::centroid(&scratch.clipped)
         };
         cost.pairs += 1;
         if !self.visible(origin, r, surface.group, cost) {
-            return DVec3::ZERO;
+            return 0.0;
         }
-        let factor = self.element_factor(e, r, &mut scratch.polygon);
-        self.unshot[e as usize] * factor
+        self.element_factor(e, r, &mut scratch.polygon)
     }
 
     /// The factor of element `e`'s polygon at the receiver (clipped to its
