@@ -1,4 +1,4 @@
-//! The command line end to end: every bad-input case of the issue gets one
+//! The command line end to end: every kind of bad input gets one
 //! clear error naming the file (and line), a non-zero exit, no panic and no
 //! output file; good input writes the picture, CSV and JSON of design.md
 //! section 6.
@@ -218,7 +218,7 @@ fn path_that_does_not_exist() {
 fn bad_settings_are_refused_before_any_work() {
     let case = Case::new(&obj(""), MTL);
     let scene = case.path("scene.obj");
-    let cases: [(&[&str], &str); 13] = [
+    let cases: [(&[&str], &str); 16] = [
         (&["--threads", "0"], "--threads"),
         (&["--threads", "1000000"], "--threads"),
         (&["--element-size", "0"], "--element-size"),
@@ -236,6 +236,20 @@ fn bad_settings_are_refused_before_any_work() {
             "use it with --shooting patches",
         ),
         (&["--tolerance", "0"], "--tolerance"),
+        // A preset's hemicube pre-test kept when its method is switched.
+        (
+            &["--preset", "wong-tsang93", "--shooting", "adaptive"],
+            "use it with --shooting patches",
+        ),
+        // Another method's parameter out of range, though not used.
+        (
+            &["--subsources", "65"],
+            "--subsources must be between 1 and 64",
+        ),
+        (
+            &["--shooting", "patches", "--tolerance", "2"],
+            "--tolerance must be a fraction",
+        ),
         (&["--camera", "1,2,3"], "10 numbers"),
         (&["--output", "/no/such/folder/x.png"], "does not exist"),
     ];
@@ -248,6 +262,32 @@ fn bad_settings_are_refused_before_any_work() {
         assert!(stderr.contains(message), "{flags:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
+}
+
+/// A parameter of a method other than the one running is checked, then
+/// ignored with a warning naming the methods that take it.
+#[test]
+fn another_methods_parameter_is_ignored_with_a_warning() {
+    let case = Case::new(&obj(""), MTL);
+    let scene = case.path("scene.obj");
+    let png = case.path("p.png");
+    let out = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--subsources",
+        "5",
+        "--max-shots",
+        "1",
+        "--output",
+        png.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert_eq!(
+        stderr.trim(),
+        "warning: --subsources is a setting of --shooting patches; adaptive shooting does not use it"
+    );
 }
 
 #[test]

@@ -227,10 +227,9 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = Preset::Adaptive)]
     pub preset: Preset,
 
-    /// How shooters send their unshot radiosity: patches (the paper's: one
-    /// uniform radiosity per patch, a fixed grid of subsources) or adaptive
-    /// (per element, refined per receiver). Overrides the preset.
-    #[arg(long, value_name = "NAME")]
+    /// How shooters send their unshot radiosity (each method's summary).
+    /// Overrides the preset.
+    #[arg(long, value_name = "NAME", help = shooting_help())]
     pub shooting: Option<Shooting>,
 
     /// The methods' own parameters (`--tolerance`, `--subsources`, ...).
@@ -367,6 +366,20 @@ pub struct RenderArgs {
     #[arg(long, value_name = "SIZE", help_heading = LIMITS, allow_hyphen_values = true,
           value_parser = memory_size)]
     pub max_memory: Option<u64>,
+}
+
+/// `--shooting`'s help: every registered method with its summary.
+fn shooting_help() -> String {
+    let methods: Vec<String> = Shooting::ALL
+        .iter()
+        .map(|m| format!("{m} ({})", m.summary()))
+        .collect();
+    let list = match methods.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    format!("How shooters send their unshot radiosity: {list}. Overrides the preset")
 }
 
 /// Help heading of the options that bound a load.

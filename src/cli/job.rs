@@ -11,7 +11,6 @@ use radiosity::app::{BakeJob, ImageJob, Job, SensorJob};
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Limits};
 use radiosity::sensors;
-use radiosity::solver::MethodSettings;
 
 impl RenderArgs {
     /// The validated job (second stage after clap's raw values), with
@@ -19,10 +18,8 @@ impl RenderArgs {
     pub fn job(&self) -> Result<(Job, Vec<String>)> {
         let mut warnings = Vec::new();
         let mut settings = self.preset.settings();
-        if let Some(shooting) = self.shooting
-            && shooting != settings.method.shooting()
-        {
-            settings.method = MethodSettings::default_for(shooting);
+        if let Some(shooting) = self.shooting {
+            settings.switch_method(shooting)?;
         }
         warnings.extend(settings.set_parameters(&self.method.given)?);
         if let Some(switch) = self.merge_coplanar {

@@ -14,7 +14,7 @@ use radiosity::form_factor::FormFactor;
 use radiosity::mesh::Mesh;
 use radiosity::scene::Scene;
 use radiosity::solver::patches::PatchSettings;
-use radiosity::solver::{Counter, MethodSettings, Settings, Solver, Stats, Visibility};
+use radiosity::solver::{MethodSettings, Settings, Solver, Stats, Visibility};
 
 /// The median time of the first shot alone (the solver, with its
 /// accelerator and item buffers, built beforehand), and its counters.
@@ -33,10 +33,7 @@ fn median_first_shot(
         solver.shoot();
         times.push(start.elapsed().as_secs_f64());
         stats = solver.stats().clone();
-        pretest = ["pretest_visible", "pretest_hidden"].map(|name| match solver.counter(name) {
-            Some(Counter::Count(n)) => n,
-            _ => 0,
-        });
+        pretest = ["pretest_visible", "pretest_hidden"].map(|name| solver.count(name));
     }
     (median(&mut times), stats, pretest)
 }

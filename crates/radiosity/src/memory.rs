@@ -25,8 +25,6 @@
 
 use std::fmt;
 
-use crate::solver::Settings;
-
 /// The process before any scene: binary, libraries, thread stacks.
 pub const BASE: u64 = 6 << 20;
 /// A loaded surface.
@@ -168,10 +166,10 @@ impl fmt::Display for Estimate {
     }
 }
 
-/// Estimates a run's peak from its sizes and settings.
+/// Estimates a run's peak from its sizes and its solving method's own
+/// costs ([`crate::solver::Method::memory`]).
 #[must_use]
-pub fn estimate(sizes: &Sizes, settings: &Settings) -> Estimate {
-    let solver = settings.method.method().memory();
+pub fn estimate(sizes: &Sizes, solver: SolverCosts) -> Estimate {
     let element_remedy = "raise --element-size";
     let mut kept = vec![
         Part {
@@ -463,6 +461,7 @@ pub enum SizeError {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solver::Settings;
 
     #[test]
     fn sizes_parse() {
@@ -492,7 +491,7 @@ mod tests {
             view: false,
             bake: false,
         };
-        let e = estimate(&sizes, &Settings::adaptive());
+        let e = estimate(&sizes, Settings::adaptive().method.method().memory());
         // The shot's buffers are the largest last stage.
         let expected =
             120e6 * (ELEMENT + 270.0) + 100e6 * (VERTEX + 104.0 + DISPLAY_VERTEX + SHOT_VERTEX);

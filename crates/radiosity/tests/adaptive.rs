@@ -1,4 +1,4 @@
-//! The default solver (adaptive shooting, src/solver/adaptive.rs) against
+//! The default solver (adaptive shooting, src/solver/adaptive/) against
 //! closed forms and brute force:
 //!
 //! * its book-keeping conserves energy exactly;
@@ -98,7 +98,7 @@ fn energy_is_conserved_to_round_off() {
 /// The furnace: a closed cube, every face emitting 1 and reflecting 0.5, so
 /// `B = 1 / (1 - 0.5) = 2` at every point. The elements' exact factors and
 /// the corrected point sources (within 0.3% of exact beyond three radii,
-/// tested in src/solver/adaptive.rs) bound the error at every vertex, edges
+/// tested in src/solver/hierarchy/sources.rs) bound the error at every vertex, edges
 /// and corners included, by 0.5%; the mean is tighter.
 #[test]
 fn furnace_at_the_default_settings() {

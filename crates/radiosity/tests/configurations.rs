@@ -6,7 +6,7 @@
 //!   give bit-identical radiosities.
 //! * The hemicube pre-test changes a few visibility answers (a pixel is not
 //!   a point; tests/hemicube.rs bounds the disagreement below 1% of pairs),
-//!   so the mean radiosity may move, by at most 0.5% (the bound),
+//!   so the mean radiosity may move, by at most 0.5% (the bound set for it),
 //!   while the rays cast at least halve.
 //! * The form factor changes the answer by the formula's own error, bounded
 //!   per formula below.

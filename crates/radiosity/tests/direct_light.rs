@@ -19,19 +19,7 @@ const SUBSOURCES: u32 = 3;
 /// A 4 x 4 m floor at y = 0 under a square emitter of side 0.5 m at
 /// height 1 m facing down, plus `extra` surfaces.
 fn scene(extra: Vec<radiosity::scene::Surface>) -> Scene {
-    let floor = common::floor(RHO);
-    let h = SIDE / 2.0;
-    let light = quad(
-        DVec3::new(-h, HEIGHT, -h),
-        DVec3::X * SIDE,
-        DVec3::Z * SIDE,
-        0.0,
-        1.0,
-        1,
-    );
-    assert_eq!(floor.normal, DVec3::Y);
-    assert_eq!(light.normal, -DVec3::Y);
-    let mut surfaces = vec![floor, light];
+    let mut surfaces = common::lamp_over_floor(RHO, SIDE, HEIGHT, 1.0);
     surfaces.extend(extra);
     scene_of(surfaces)
 }

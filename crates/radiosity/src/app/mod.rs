@@ -56,7 +56,10 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     let mesh_time = mesh_start.elapsed();
     let mut counts = Counts::of(&scene, &mesh);
-    let memory_estimate = memory::estimate(&memory_sizes(job, &scene, &mesh), &settings);
+    let memory_estimate = memory::estimate(
+        &memory_sizes(job, &scene, &mesh),
+        settings.method.method().memory(),
+    );
     memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
     observer.started(&scene, &mesh);
 

@@ -107,12 +107,18 @@ pub struct Parameter {
 }
 
 impl Parameter {
-    /// The command-line flag, without its dashes: the name with `-` for
-    /// `_`.
+    /// The command-line flag, without its dashes ([`flag`]).
     #[must_use]
     pub fn flag(&self) -> String {
-        self.name.replace('_', "-")
+        flag(self.name)
     }
+}
+
+/// The command-line flag of a parameter name, without its dashes: the name
+/// with `-` for `_`.
+#[must_use]
+pub fn flag(name: &str) -> String {
+    name.replace('_', "-")
 }
 
 /// The values a parameter takes.
@@ -146,9 +152,8 @@ pub enum SetError {
     Refused(MethodError),
 }
 
-/// A method's settings error: its own typed error (downcast
-/// [`MethodError::source`] to reach it), whose message names the flag to
-/// change.
+/// A method's settings error: its own typed error, whose message names
+/// the flag to change.
 #[derive(Clone, Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct MethodError(pub std::sync::Arc<dyn std::error::Error + Send + Sync>);
@@ -157,12 +162,6 @@ impl MethodError {
     /// Wraps a method's own error.
     pub fn new(error: impl std::error::Error + Send + Sync + 'static) -> MethodError {
         MethodError(std::sync::Arc::new(error))
-    }
-
-    /// The method's own error.
-    #[must_use]
-    pub fn source(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
-        &*self.0
     }
 }
 
@@ -337,6 +336,20 @@ pub const VISIBILITY: Parameter = Parameter {
 };
 
 impl Value {
+    /// A value as [`Method::values`] writes it: a string is a choice, an
+    /// unsigned integer a count, any other number a number.
+    #[must_use]
+    pub fn from_json(value: &serde_json::Value) -> Value {
+        match value {
+            serde_json::Value::String(s) => Value::Choice(s.clone()),
+            serde_json::Value::Number(n) => match n.as_u64() {
+                Some(count) => Value::Count(count),
+                None => Value::Number(n.as_f64().unwrap_or(f64::NAN)),
+            },
+            other => Value::Choice(other.to_string()),
+        }
+    }
+
     /// The count, or the error a method gives for a value of another kind.
     pub fn count(&self, name: &str) -> Result<u64, SetError> {
         match self {
@@ -370,7 +383,7 @@ impl Value {
 
 fn wrong_kind(name: &str, kind: &'static str) -> SetError {
     SetError::Refused(MethodError::new(WrongKind {
-        flag: name.replace('_', "-"),
+        flag: flag(name),
         kind,
     }))
 }

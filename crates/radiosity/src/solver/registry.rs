@@ -14,7 +14,7 @@ use super::{adaptive, patches};
 /// [`MethodSettings`] enum holding one method's settings.
 macro_rules! methods {
     (
-        $( $(#[$meta:meta])* $variant:ident = $name:literal => $settings:ty, )+
+        $( $(#[$meta:meta])* $variant:ident = $name:literal ($summary:literal) => $settings:ty, )+
     ) => {
         crate::choice::named_choice! {
             /// A way of solving, by name (`--shooting`).
@@ -27,6 +27,17 @@ macro_rules! methods {
         #[derive(Clone, Debug, PartialEq)]
         pub enum MethodSettings {
             $( $(#[$meta])* $variant($settings), )+
+        }
+
+        impl Shooting {
+            /// What the method does, in a few words for a command line's
+            /// help.
+            #[must_use]
+            pub fn summary(self) -> &'static str {
+                match self {
+                    $( Shooting::$variant => $summary, )+
+                }
+            }
         }
 
         impl MethodSettings {
@@ -75,10 +86,11 @@ macro_rules! methods {
 methods! {
     /// The paper's: a patch shoots one uniform unshot radiosity from a
     /// fixed grid of subsources (Wallace et al. 1989; [`patches`]).
-    Patches = "patches" => patches::PatchSettings,
+    Patches = "patches" ("the paper's: one uniform radiosity per patch, a fixed grid of subsources")
+        => patches::PatchSettings,
     /// Beyond the paper: unshot radiosity per element, clusters of elements
     /// as shooters, the source refined per receiver ([`adaptive`]).
-    Adaptive = "adaptive" => adaptive::AdaptiveSettings,
+    Adaptive = "adaptive" ("per element, refined per receiver") => adaptive::AdaptiveSettings,
 }
 
 impl MethodSettings {
@@ -139,23 +151,12 @@ impl serde::Serialize for MethodSettings {
     /// method.
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
-        let mut values: Vec<(&'static str, serde_json::Value)> = Vec::new();
+        let mut values = self.method().values();
         for method in MethodSettings::all_defaults() {
-            let source = if method.shooting() == self.shooting() {
-                self
-            } else {
-                &method
-            };
-            for (name, value) in source.method().values() {
+            for (name, value) in method.method().values() {
                 if !values.iter().any(|v| v.0 == name) {
                     values.push((name, value));
                 }
-            }
-        }
-        // The running method's own values win over another's defaults.
-        for (name, value) in self.method().values() {
-            if let Some(slot) = values.iter_mut().find(|v| v.0 == name) {
-                slot.1 = value;
             }
         }
         let mut map = serializer.serialize_map(Some(values.len() + 1))?;
@@ -169,6 +170,8 @@ impl serde::Serialize for MethodSettings {
 
 #[cfg(test)]
 mod tests {
+    use super::super::method::{SetError, Value};
+    use super::super::{Settings, Stats};
     use super::*;
 
     /// Every method parses back its own values, and refuses none of its
@@ -179,17 +182,10 @@ mod tests {
             method.method().validate().unwrap();
             let before = method.clone();
             for (name, value) in before.method().values() {
-                let value = match value {
-                    serde_json::Value::String(s) => super::super::method::Value::Choice(s),
-                    serde_json::Value::Number(n) if n.is_u64() => {
-                        super::super::method::Value::Count(n.as_u64().unwrap())
-                    }
-                    serde_json::Value::Number(n) => {
-                        super::super::method::Value::Number(n.as_f64().unwrap())
-                    }
-                    other => panic!("{name}: {other}"),
-                };
-                method.method_mut().set(name, &value).unwrap();
+                method
+                    .method_mut()
+                    .set(name, &Value::from_json(&value))
+                    .unwrap();
             }
             assert_eq!(method, before);
         }
@@ -201,8 +197,51 @@ mod tests {
         for mut method in MethodSettings::all_defaults() {
             let result = method
                 .method_mut()
-                .set("no_such_parameter", &super::super::method::Value::Count(1));
-            assert_eq!(result, Err(super::super::method::SetError::NotMine));
+                .set("no_such_parameter", &Value::Count(1));
+            assert_eq!(result, Err(SetError::NotMine));
+        }
+    }
+
+    /// The statistics file flattens the methods' parameters into the
+    /// settings and their counters beside the shared ones: no method's name
+    /// may take a shared key (it would be written twice and one would be
+    /// lost), and a method's values are its parameters.
+    #[test]
+    fn method_keys_are_distinct_from_the_shared_keys() {
+        for method in MethodSettings::all_defaults() {
+            let names: Vec<&str> = method.method().values().iter().map(|v| v.0).collect();
+            let declared: Vec<&str> = method
+                .method()
+                .parameters()
+                .iter()
+                .map(|p| p.name)
+                .collect();
+            assert_eq!(
+                names,
+                declared,
+                "{}: values are its parameters",
+                method.shooting()
+            );
+            let settings = Settings {
+                method,
+                ..Settings::wallace89()
+            };
+            let text = serde_json::to_string(&settings).unwrap();
+            let value = serde_json::to_value(&settings).unwrap();
+            for key in value.as_object().unwrap().keys() {
+                let written = text.matches(&format!("\"{key}\":")).count();
+                assert_eq!(written, 1, "{key} written {written} times: {text}");
+            }
+        }
+        let shared_counters: Vec<String> = serde_json::to_value(Stats::default())
+            .unwrap()
+            .as_object()
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect();
+        for (name, _) in MethodSettings::all_zero_counters() {
+            assert!(!shared_counters.iter().any(|k| k == name), "{name}");
         }
     }
 }

@@ -8,9 +8,9 @@
 use std::time::Duration;
 
 use super::adaptive::AdaptiveSettings;
-use super::method::{MethodError, SetError, Value, Visibility};
+use super::method::{self, MethodError, SetError, Value, Visibility};
 use super::patches::PatchSettings;
-use super::registry::MethodSettings;
+use super::registry::{MethodSettings, Shooting};
 use crate::accel::Accel;
 use crate::form_factor::FormFactor;
 use crate::mesh::MeshSettings;
@@ -112,25 +112,31 @@ impl Settings {
         }
     }
 
-    /// Checks the settings a user can get wrong: the method's, then the
-    /// stopping rules.
-    pub fn validate(&self) -> Result<(), SettingsError> {
-        self.method.method().validate()?;
-        if !(self.converge.is_finite() && (0.0..1.0).contains(&self.converge)) {
-            return Err(SettingsError::Converge(self.converge));
+    /// Switches to the method `shooting` with its default settings, keeping
+    /// the values of the parameters it shares with the method it replaces
+    /// (a preset's `visibility`, say): a value the new method refuses is an
+    /// error, as if given to it.
+    pub fn switch_method(&mut self, shooting: Shooting) -> Result<(), SettingsError> {
+        if shooting == self.method.shooting() {
+            return Ok(());
         }
-        if self.converge == 0.0
-            && self.max_shots.is_none()
-            && self.max_subsources.is_none()
-            && self.time_limit.is_none()
-        {
-            return Err(SettingsError::NeverStops);
+        let mut method = MethodSettings::default_for(shooting);
+        let taken = method.method().parameters();
+        for (name, value) in self.method.method().values() {
+            if taken.iter().any(|p| p.name == name) {
+                method
+                    .method_mut()
+                    .set(name, &Value::from_json(&value))
+                    .map_err(|e| match e {
+                        SetError::Refused(e) => SettingsError::Method(e),
+                        SetError::NotMine => unreachable!("{name} is among its parameters"),
+                    })?;
+            }
         }
+        self.method = method;
         Ok(())
     }
-}
 
-impl Settings {
     /// Sets the method's parameters from a front end (a command line's
     /// flags), by [`super::method::Parameter::name`]. A parameter the method takes is set;
     /// one it does not take is checked by the methods that do take it (so
@@ -167,7 +173,7 @@ impl Settings {
             let owners: Vec<&str> = owners.iter().map(|o| o.name()).collect();
             warnings.push(format!(
                 "--{} is a setting of --shooting {}; {} shooting does not use it",
-                name.replace('_', "-"),
+                method::flag(name),
                 owners.join(" or "),
                 self.method.shooting()
             ));
@@ -176,6 +182,23 @@ impl Settings {
             other.method().validate()?;
         }
         Ok(warnings)
+    }
+
+    /// Checks the settings a user can get wrong: the method's, then the
+    /// stopping rules.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        self.method.method().validate()?;
+        if !(self.converge.is_finite() && (0.0..1.0).contains(&self.converge)) {
+            return Err(SettingsError::Converge(self.converge));
+        }
+        if self.converge == 0.0
+            && self.max_shots.is_none()
+            && self.max_subsources.is_none()
+            && self.time_limit.is_none()
+        {
+            return Err(SettingsError::NeverStops);
+        }
+        Ok(())
     }
 }
 

@@ -67,6 +67,23 @@ pub fn floor(rho: f64) -> Surface {
     )
 }
 
+/// A black square lamp of side `side` and exitance `exitance` facing down
+/// at `height` above the origin, over the 4 x 4 m [`floor`] of reflectance
+/// `rho` (surface ids: floor 0, lamp 1).
+pub fn lamp_over_floor(rho: f64, side: f64, height: f64, exitance: f64) -> Vec<Surface> {
+    let h = side / 2.0;
+    let lamp = quad(
+        DVec3::new(-h, height, -h),
+        DVec3::X * side,
+        DVec3::Z * side,
+        0.0,
+        exitance,
+        1,
+    );
+    assert_eq!(lamp.normal, -DVec3::Y, "the lamp faces the floor");
+    vec![floor(rho), lamp]
+}
+
 /// The six inward faces of the cube `[0, side]^3`, all with the same
 /// reflectance and emission (the furnace).
 pub fn furnace(side: f64, rho: f64, emission: f64) -> Scene {
