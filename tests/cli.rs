@@ -348,6 +348,10 @@ fn cornell_writes_picture_vertices_and_stats() {
             "accel_build",
             "accel_build_seconds",
             "bookkeeping_seconds",
+            "cut_entries",
+            "cut_evaluations",
+            "cut_samples",
+            "cut_splits",
             "element_sources",
             "elements",
             "estimated_memory_bytes",
@@ -388,6 +392,7 @@ fn cornell_writes_picture_vertices_and_stats() {
         [
             "accel",
             "converge",
+            "cut_error",
             "element_size",
             "form_factor",
             "hemicube_resolution",

@@ -78,8 +78,17 @@ fn tolerance(case: Case, settings: &Settings) -> (Statistic, f64, &'static str) 
     // new method must say.
     let approximate = match settings.method.shooting() {
         Shooting::Patches => false,
-        Shooting::Adaptive => true,
+        Shooting::Adaptive | Shooting::Cuts => true,
     };
+    if settings.method.shooting() == Shooting::Cuts && exact && case != Case::ClosedBox {
+        // Far nodes are integrated as corrected point sources at four of
+        // their radii, whose error the cut does not refine further.
+        return (
+            Statistic::Worst,
+            5e-3,
+            "point-source quadrature at four radii",
+        );
+    }
     match (case, exact, approximate) {
         (Case::ClosedBox, true, _) => (Statistic::Mean, 2e-2, "E integrated over elements"),
         (_, true, false) => (Statistic::Worst, 1e-5, "exact factors, remainder 1e-6"),

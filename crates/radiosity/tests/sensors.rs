@@ -223,6 +223,7 @@ fn sensors_under_a_square_light_get_the_closed_form() {
             let allowed = match &settings.method {
                 MethodSettings::Patches(_) => 1e-9,
                 MethodSettings::Adaptive(a) => a.tolerance,
+                MethodSettings::Cuts(c) => c.error,
             };
             assert!(
                 error < allowed,

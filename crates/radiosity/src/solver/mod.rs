@@ -20,6 +20,7 @@
 //! fixed order, so the result does not depend on the number of threads.
 
 pub mod adaptive;
+pub mod cuts;
 pub mod hierarchy;
 pub mod method;
 pub mod patches;

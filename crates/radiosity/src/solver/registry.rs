@@ -8,7 +8,7 @@
 //! [`Settings`]: super::Settings
 
 use super::method::{Counter, Method, Parameter};
-use super::{adaptive, patches};
+use super::{adaptive, cuts, patches};
 
 /// Declares the methods: the [`Shooting`] choice of names and the
 /// [`MethodSettings`] enum holding one method's settings.
@@ -91,6 +91,11 @@ methods! {
     /// Beyond the paper: unshot radiosity per element, clusters of elements
     /// as shooters, the source refined per receiver ([`adaptive`]).
     Adaptive = "adaptive" ("per element, refined per receiver") => adaptive::AdaptiveSettings,
+    /// Beyond the paper: the whole scene shoots in every pass, each
+    /// receiver gathering through its own cut of the tree of all unshot
+    /// power ([`cuts`]).
+    Cuts = "cuts" ("the whole scene each pass, each receiver through its own cut of the light")
+        => cuts::CutSettings,
 }
 
 impl MethodSettings {

@@ -57,6 +57,10 @@ pub struct Node {
     pub centre: DVec3,
     /// Radius of a sphere about `centre` holding all its items.
     pub radius: f64,
+    /// Lower corner of the box holding all its items.
+    pub lo: DVec3,
+    /// Upper corner of that box.
+    pub hi: DVec3,
     /// The surface id all its items share, or [`NONE`] for a cluster of
     /// several.
     pub group: u32,
@@ -78,6 +82,10 @@ pub struct Item {
     pub centre: DVec3,
     /// Radius of a sphere about `centre` holding it.
     pub radius: f64,
+    /// Lower corner of a box holding it.
+    pub lo: DVec3,
+    /// Upper corner of that box.
+    pub hi: DVec3,
     /// Its weight in centres (area).
     pub area: f64,
     /// Its surface id.
@@ -200,9 +208,15 @@ impl Hierarchy {
                 .fold(0.0, f64::max);
             centroids.push(centre);
             covariances.push(second_moment(&corners, centre));
+            let (lo, hi) = corners.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), c| (lo.min(*c), hi.max(*c)),
+            );
             items.push(Item {
                 centre,
                 radius,
+                lo,
+                hi,
                 area: e.area,
                 group: scene.surfaces[e.surface as usize].group,
             });
@@ -234,6 +248,8 @@ pub fn receiver_tree(receivers: &[Receiver], piece_size: f64) -> Tree {
         .map(|r| Item {
             centre: r.point,
             radius: 0.0,
+            lo: r.point,
+            hi: r.point,
             area: 1.0,
             group: r.group,
         })
@@ -330,6 +346,8 @@ impl Builder<'_> {
                 area: item.area,
                 centre: item.centre,
                 radius: item.radius,
+                lo: item.lo,
+                hi: item.hi,
                 group: item.group,
             });
             return index;
@@ -353,6 +371,8 @@ impl Builder<'_> {
             area: 0.0,
             centre: DVec3::ZERO,
             radius: 0.0,
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
             group: NONE,
         });
         index
@@ -378,6 +398,8 @@ impl Builder<'_> {
         node.area = area;
         node.centre = centre;
         node.radius = radius;
+        node.lo = a.lo.min(b.lo);
+        node.hi = a.hi.max(b.hi);
         node.group = if a.group == b.group { a.group } else { NONE };
     }
 }
@@ -442,18 +464,24 @@ mod tests {
         let mut items = Vec::new();
         for i in 0..40 {
             for j in 0..25 {
-                items.push(Item {
-                    centre: DVec3::new(i as f64 * 0.1, 0.0, j as f64 * 0.1),
+                let item = |centre: DVec3, area: f64, group: u32| Item {
+                    centre,
                     radius: 0.07,
-                    area: 0.01 + 0.001 * ((i * 7 + j) % 5) as f64,
-                    group: 0,
-                });
-                items.push(Item {
-                    centre: DVec3::new(i as f64 * 0.1, j as f64 * 0.1, 0.0),
-                    radius: 0.07,
-                    area: 0.01,
-                    group: 1,
-                });
+                    lo: centre - DVec3::splat(0.05),
+                    hi: centre + DVec3::splat(0.05),
+                    area,
+                    group,
+                };
+                items.push(item(
+                    DVec3::new(i as f64 * 0.1, 0.0, j as f64 * 0.1),
+                    0.01 + 0.001 * ((i * 7 + j) % 5) as f64,
+                    0,
+                ));
+                items.push(item(
+                    DVec3::new(i as f64 * 0.1, j as f64 * 0.1, 0.0),
+                    0.01,
+                    1,
+                ));
             }
         }
         let tree = Tree::build(&items, 0.8);
@@ -466,6 +494,7 @@ mod tests {
             for &i in tree.items_of(n as u32) {
                 let item = &items[i as usize];
                 assert!(item.centre.distance(node.centre) + item.radius <= node.radius + 1e-12);
+                assert!(item.lo.cmpge(node.lo).all() && item.hi.cmple(node.hi).all());
                 if node.group != NONE {
                     assert_eq!(item.group, node.group);
                 }

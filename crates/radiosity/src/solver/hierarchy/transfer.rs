@@ -160,6 +160,28 @@ impl Transfer<'_> {
         surface.normal.dot(r.point) - surface.offset > 0.0
     }
 
+    /// The most irradiance (luminance) node `n` can send the receiver
+    /// whatever its visibility and however its power `weight` lies within
+    /// its box: all of it from the box's nearest point, at the smallest
+    /// angles to the receiver's normal and (within one surface) to the
+    /// surface's normal that any point of the box makes; infinite when the
+    /// receiver is inside the box.
+    pub(crate) fn bound(&self, n: u32, weight: f64, r: &Receiver) -> f64 {
+        let node = self.source_node(n);
+        let clearance = box_distance(node, r.point);
+        if clearance <= 0.0 {
+            return f64::INFINITY;
+        }
+        let receiving = (box_extent(node, r.point, r.normal).1 / clearance).clamp(0.0, 1.0);
+        let sending = if node.group == NONE {
+            1.0
+        } else {
+            let normal = self.plane_of(node).normal;
+            (-box_extent(node, r.point, normal).0 / clearance).clamp(0.0, 1.0)
+        };
+        weight * receiving * sending / (std::f64::consts::PI * clearance * clearance)
+    }
+
     /// A node that can send the receiver little, as up to six sources by
     /// normal direction behind one shadow ray, from the representative of
     /// the bin that sends the most: an error in its visibility costs at
@@ -203,6 +225,37 @@ impl Transfer<'_> {
             cost.pairs += 1;
             Some(self.visible_from(e, r, cost))
         }))
+    }
+
+    /// The share of a node's power the receiver sees, judged by shadow rays
+    /// from up to four points spread over it (as [`Transfer::uniform_visibility`]),
+    /// each weighted by the power of the piece it stands for; and whether
+    /// they all agreed. `None` when no piece has power.
+    pub(crate) fn sampled_visibility(
+        &self,
+        n: u32,
+        r: &Receiver,
+        cost: &mut Cost,
+    ) -> Option<(f64, bool)> {
+        let (samples, count) = self.samples(&self.hierarchy.tree, n);
+        let (mut seen, mut total) = (0.0, 0.0);
+        let (mut any_visible, mut any_hidden) = (false, false);
+        for &piece in &samples[..count] {
+            let weight = self.source(piece).weight;
+            let Some(e) = self.representative(piece) else {
+                continue;
+            };
+            cost.pairs += 1;
+            let visible = self.visible_from(e, r, cost);
+            total += weight;
+            if visible {
+                seen += weight;
+                any_visible = true;
+            } else {
+                any_hidden = true;
+            }
+        }
+        (total > 0.0).then(|| (seen / total, !(any_visible && any_hidden)))
     }
 
     /// The irradiance each of a node's bins sends to the receiver, ignoring
@@ -366,6 +419,30 @@ impl Transfer<'_> {
 pub(crate) fn unanimous(mut votes: impl Iterator<Item = bool>) -> Option<bool> {
     let first = votes.next()?;
     votes.all(|v| v == first).then_some(first)
+}
+
+/// The distance from `point` to a node's box (0 inside it).
+pub(crate) fn box_distance(node: &Node, point: DVec3) -> f64 {
+    (node.lo - point)
+        .max(point - node.hi)
+        .max(DVec3::ZERO)
+        .length()
+}
+
+/// The smallest and largest `direction . (x - point)` over a node's box.
+pub(crate) fn box_extent(node: &Node, point: DVec3, direction: DVec3) -> (f64, f64) {
+    let centre = 0.5 * (node.lo + node.hi);
+    let half = 0.5 * (node.hi - node.lo);
+    let middle = direction.dot(centre - point);
+    let reach = direction.abs().dot(half);
+    (middle - reach, middle + reach)
+}
+
+/// True when the receiver's tangent plane cuts a node's box: part of it
+/// may be behind the receiver and part in front.
+pub(crate) fn box_straddles(node: &Node, r: &Receiver) -> bool {
+    let (low, high) = box_extent(node, r.point, r.normal);
+    low < 0.0 && high > 0.0
 }
 
 /// True when the receiver's tangent plane cuts the node's bounding sphere:
