@@ -9,6 +9,17 @@ use std::path::Path;
 
 use common::assert_table;
 
+/// The names of a built-in scene's configurations in quick mode, the
+/// default first.
+fn configurations_of(scene: &str) -> Vec<String> {
+    let scenes = radiosity_experiments::scale::builtin_scenes();
+    let scene = scenes.iter().find(|s| s.spec.name == scene).unwrap();
+    radiosity_experiments::scale::configurations(scene, true)
+        .into_iter()
+        .map(|c| c.name)
+        .collect()
+}
+
 fn context(dir: &Path) -> radiosity_experiments::Context {
     common::context(dir, "cargo test --test scale")
 }
@@ -54,8 +65,8 @@ fn scale_on_the_builtin_scenes_measures_every_case() {
             let row = format!("| {} | {} | ", scene.spec.name, configuration.name);
             assert_eq!(
                 report.body.matches(&row).count(),
-                2,
-                "{row} twice (one a table) in:\n{}",
+                3,
+                "{row} three times (once a table) in:\n{}",
                 report.body
             );
         }
@@ -102,6 +113,31 @@ fn scale_on_the_builtin_scenes_measures_every_case() {
             })
             .collect();
         assert!(sizes.windows(2).all(|w| w[0] == w[1]), "{scene}: {sizes:?}");
+    }
+    // Where the time goes, for every case; the early pictures for each
+    // scene's default configuration.
+    assert_table(
+        &report,
+        "| scene | configuration | solve s | gathering s | form factors | shadow rays |",
+    );
+    assert_table(
+        &report,
+        "| scene | final state | after 2 s | after 5 s | after 10 s |",
+    );
+    for case in &cases {
+        let run = case.result.as_ref().unwrap();
+        assert!(run.gather_seconds <= run.solve_seconds, "{case:?}");
+        let default = case.configuration == configurations_of(case.scene)[0];
+        assert_eq!(!case.early.is_empty(), default, "{case:?}");
+        for early in &case.early {
+            let (l1, unshot) = early.result.clone().unwrap();
+            assert!((0.0..1.0).contains(&l1), "{case:?}");
+            // A run that converged within its limit is the full run's
+            // solve, to the last bit (the solve is deterministic).
+            if unshot <= 0.01 && run.converged() {
+                assert_eq!(l1, 0.0, "{} after {} s", case.scene, early.seconds);
+            }
+        }
     }
     let svg = std::fs::read_to_string(dir.path().join("scale.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("input faces"));

@@ -24,16 +24,19 @@
 //! A case that fails (a memory refusal, a child that outlives its watchdog)
 //! is reported as such and the others still run.
 
-use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use plotters::prelude::*;
 
+mod report;
+
+pub use self::report::markdown;
 use super::charts;
+use super::early::{self, EARLY_SECONDS, Early};
 use super::rays::{SceneSpec, scenes_folder};
-use super::{Context, Error, Report, table, write_file};
+use super::{Context, Error, Report, write_file};
 use radiosity::accel::Accel;
 use radiosity::solver::{DEFAULT_CONVERGE, Preset, Settings};
 
@@ -199,6 +202,17 @@ pub struct Run {
     pub rays: u64,
     /// Thread time spent tracing shadow rays, summed over threads, seconds.
     pub ray_thread_seconds: f64,
+    /// Thread time spent in form factors (point and element factors),
+    /// seconds.
+    pub form_factor_thread_seconds: f64,
+    /// The rest of the gathering's thread time: refinement (choosing
+    /// which parts of a source each receiver takes) or the paper's
+    /// hemicube pre-test, seconds.
+    pub refinement_thread_seconds: f64,
+    /// Wall time of the shots' gathering, seconds.
+    pub gather_seconds: f64,
+    /// Wall time of the book-keeping after each shot, seconds.
+    pub bookkeeping_seconds: f64,
     /// Worker threads.
     pub threads: u64,
     /// Peak resident memory of the child, bytes, where the system says.
@@ -241,6 +255,10 @@ impl Run {
                 .to_string(),
             rays: count("rays_cast")?,
             ray_thread_seconds: number("ray_thread_seconds")?,
+            form_factor_thread_seconds: number("form_factor_thread_seconds")?,
+            refinement_thread_seconds: number("pretest_thread_seconds")?,
+            gather_seconds: number("gather_seconds")?,
+            bookkeeping_seconds: number("bookkeeping_seconds")?,
             threads: count("threads")?,
             peak_memory_bytes: stats["peak_memory_bytes"].as_u64(),
             estimated_memory_bytes: count("estimated_memory_bytes")?,
@@ -282,6 +300,9 @@ pub struct Case {
     pub wall_seconds: f64,
     /// What it measured, or why it failed.
     pub result: Result<Run, String>,
+    /// The default configuration's early pictures against its final state
+    /// ([`early`]); empty for the others.
+    pub early: Vec<Early>,
 }
 
 /// `radiosity experiment scale`: every scene of [`SCENES`], each case a
@@ -333,18 +354,32 @@ pub fn measure(
                 format!("{}", QUICK_COARSENING * element_size),
             ]);
         }
-        for configuration in configurations(scene, context.quick) {
+        for (k, configuration) in configurations(scene, context.quick).into_iter().enumerate() {
             let stem = stem(scene.spec.name, &configuration.name);
             let mut args = common.clone();
             args.extend(configuration.flags.iter().cloned());
+            // The default configuration keeps its vertices for its early
+            // pictures to be scored against.
+            let keep = k == 0;
             let (wall_seconds, result) =
-                run_case(context, binary, &source, &stem, &args, time_limit)?;
+                run_case(context, binary, &source, &stem, &args, time_limit, keep)?;
+            let early = if keep {
+                let reference = context.path(&format!("{stem}-vertices.csv"));
+                let early = early_pictures(
+                    context, binary, &source, &stem, &args, time_limit, &reference,
+                );
+                let _ = std::fs::remove_file(&reference);
+                early?
+            } else {
+                Vec::new()
+            };
             cases.push(Case {
                 scene: scene.spec.name,
                 configuration: configuration.name,
                 time_limit,
                 wall_seconds,
                 result,
+                early,
             });
         }
     }
@@ -370,9 +405,10 @@ fn slug(name: &str) -> String {
 }
 
 /// Runs one `radiosity render` child: its picture and statistics go to
-/// `STEM.png` and `STEM.json` in the output folder, its vertices to a CSV
-/// removed afterwards, its error output to `STEM.log` (removed when the
-/// run succeeds). Returns its wall time and what it measured.
+/// `STEM.png` and `STEM.json` in the output folder, its vertices to
+/// `STEM-vertices.csv` (removed afterwards unless `keep`), its error output
+/// to `STEM.log` (removed when the run succeeds). Returns its wall time and
+/// what it measured.
 fn run_case(
     context: &Context,
     binary: &Path,
@@ -380,6 +416,7 @@ fn run_case(
     stem: &str,
     args: &[String],
     time_limit: u64,
+    keep: bool,
 ) -> Result<(f64, Result<Run, String>), Error> {
     let picture = context.path(&format!("{stem}.png"));
     let stats = context.path(&format!("{stem}.json"));
@@ -425,7 +462,9 @@ fn run_case(
         }
     };
     let wall_seconds = start.elapsed().as_secs_f64();
-    let _ = std::fs::remove_file(&vertices);
+    if !keep {
+        let _ = std::fs::remove_file(&vertices);
+    }
     let result = status.and_then(|status| {
         if status.success() {
             let text =
@@ -445,22 +484,56 @@ fn run_case(
     Ok((wall_seconds, result))
 }
 
-fn seconds(s: f64) -> String {
-    if s < 0.01 {
-        format!("{s:.4}")
-    } else if s < 10.0 {
-        format!("{s:.2}")
-    } else {
-        format!("{s:.1}")
+/// The default configuration's early pictures: the same job with
+/// `--time-limit` each of [`EARLY_SECONDS`] shorter than the case's own
+/// limit, its vertices scored against the final state's (`reference`,
+/// written by the full run); their files are removed.
+fn early_pictures(
+    context: &Context,
+    binary: &Path,
+    source: &str,
+    stem: &str,
+    args: &[String],
+    time_limit: u64,
+    reference: &Path,
+) -> Result<Vec<Early>, Error> {
+    let Ok(final_state) = early::vertex_radiosity(reference) else {
+        return Ok(Vec::new());
+    };
+    let mut out = Vec::new();
+    for seconds in EARLY_SECONDS.into_iter().filter(|&s| s < time_limit) {
+        let early_stem = format!("{stem}-after-{seconds}s");
+        let mut early_args = args.to_vec();
+        let limit = early_args
+            .iter()
+            .position(|a| a == "--time-limit")
+            .expect("every case has a time limit");
+        early_args[limit + 1] = seconds.to_string();
+        let (_, run) = run_case(
+            context,
+            binary,
+            source,
+            &early_stem,
+            &early_args,
+            seconds,
+            true,
+        )?;
+        let vertices = context.path(&format!("{early_stem}-vertices.csv"));
+        let result = run.and_then(|run| {
+            let values = early::vertex_radiosity(&vertices)?;
+            Ok((early::l1(&values, &final_state)?, run.unshot_fraction))
+        });
+        for extension in ["png", "json", "log"] {
+            let _ = std::fs::remove_file(context.path(&format!("{early_stem}.{extension}")));
+        }
+        let _ = std::fs::remove_file(&vertices);
+        out.push(Early { seconds, result });
     }
-}
-
-fn megabytes(bytes: Option<u64>) -> String {
-    bytes.map_or("-".into(), |b| format!("{:.0}", b as f64 / 1e6))
+    Ok(out)
 }
 
 /// The plot's file in the output folder.
-const PLOT_FILE: &str = "scale.svg";
+pub(crate) const PLOT_FILE: &str = "scale.svg";
 
 /// The report and its files: the Markdown of [`markdown`], the plot of
 /// [`plot`] written to `scale.svg`, and every successful case's picture and
@@ -486,138 +559,6 @@ pub fn report(context: &Context, scenes: &[ScaleScene], cases: &[Case]) -> Resul
         }
     }
     Ok(report)
-}
-
-/// The Markdown of the report: the settings, the two tables, and the link
-/// to the plot.
-#[must_use]
-pub fn markdown(quick: bool, scenes: &[ScaleScene], cases: &[Case]) -> Report {
-    let mut report = Report::default();
-    report.setting(
-        "cases",
-        "each a child `radiosity render SCENE --output STEM.png --vertices STEM.csv --stats \
-         STEM.json --quiet --time-limit S --threads N [flags]`",
-    );
-    report.setting("threads", rayon::current_num_threads());
-    let limits: Vec<String> = scenes
-        .iter()
-        .map(|s| format!("{} {} s", s.spec.name, s.effective_time_limit(quick)))
-        .collect();
-    report.setting("solve time limits", limits.join(", "));
-    report.setting("converge", DEFAULT_CONVERGE);
-    if quick {
-        report.setting(
-            "quick mode",
-            format!("elements {QUICK_COARSENING} times the scene's suggested size"),
-        );
-    }
-    let failed = |case: &Case, message: &str, columns: usize| {
-        let mut row = vec![case.scene.to_string(), case.configuration.clone()];
-        row.push(format!("failed: {}", message.replace('|', "/")));
-        row.extend(std::iter::repeat_n("-".to_string(), columns - 3));
-        row
-    };
-    let mut size_rows = Vec::new();
-    let mut solve_rows = Vec::new();
-    for case in cases {
-        match &case.result {
-            Ok(run) => {
-                size_rows.push(vec![
-                    case.scene.to_string(),
-                    case.configuration.clone(),
-                    run.faces.to_string(),
-                    run.surfaces.to_string(),
-                    run.elements.to_string(),
-                    run.vertices.to_string(),
-                    seconds(run.load_seconds),
-                    seconds(run.mesh_seconds),
-                    seconds(run.accel_build_seconds),
-                    seconds(run.solve_seconds),
-                    seconds(run.write_seconds),
-                    seconds(run.total_seconds),
-                    seconds(case.wall_seconds),
-                ]);
-                solve_rows.push(vec![
-                    case.scene.to_string(),
-                    case.configuration.clone(),
-                    run.shots.to_string(),
-                    format!("{:.3}%", 100.0 * run.unshot_fraction),
-                    if run.converged() {
-                        "converged".to_string()
-                    } else {
-                        format!("{} ({} s)", run.stop_reason, case.time_limit)
-                    },
-                    run.rays.to_string(),
-                    format!("{:.0}", run.rays_per_second_per_thread()),
-                    format!("{:.0}", run.tracing_rays_per_second()),
-                    megabytes(run.peak_memory_bytes),
-                    megabytes(Some(run.estimated_memory_bytes)),
-                ]);
-            }
-            Err(message) => {
-                size_rows.push(failed(case, message, 13));
-                solve_rows.push(failed(case, message, 10));
-            }
-        }
-    }
-    report.paragraph(
-        "Sizes and the time of each phase, seconds of wall time in the child: load (reading \
-         the scene, merging coplanar faces), mesh, accel build (the shadow-ray accelerator), \
-         solve (solver set-up and shots, after the build), write (drawing the 800 x 600 \
-         picture, writing it and the vertices CSV), total (the whole job, process start and \
-         the statistics file excepted), process (the child's wall time, start to exit). Faces: input polygons after loading (the shared \
-         scenes' are triangles); surfaces: after merging adjacent coplanar faces.",
-    );
-    report.body.push_str(&table(
-        &[
-            "scene",
-            "configuration",
-            "faces",
-            "surfaces",
-            "elements",
-            "vertices",
-            "load s",
-            "mesh s",
-            "accel build s",
-            "solve s",
-            "write s",
-            "total s",
-            "process s",
-        ],
-        &size_rows,
-    ));
-    report.paragraph(&format!(
-        "The solves: shots, the unshot power left over the emitted power, whether it fell \
-         below {:.0}% (converged) or the time limit stopped the solve, shadow rays traced, rays \
-         per second of solve per thread (throughput, form factors and book-keeping included) \
-         and per second of tracing thread time (the accelerator's own rate), the child's peak \
-         resident memory and its own estimate (MB).",
-        100.0 * DEFAULT_CONVERGE
-    ));
-    report.body.push_str(&table(
-        &[
-            "scene",
-            "configuration",
-            "shots",
-            "unshot",
-            "stopped",
-            "rays",
-            "rays/s/thread",
-            "tracing rays/s/thread",
-            "peak MB",
-            "estimated MB",
-        ],
-        &solve_rows,
-    ));
-    let _ = writeln!(
-        report.body,
-        "![solve time and peak memory against faces]({PLOT_FILE})\n"
-    );
-    report.paragraph(
-        "Filled markers: converged; open markers: stopped at the time limit (the solve time \
-         is then the limit, not the cost of converging).",
-    );
-    report
 }
 
 /// Colours of the configurations, in order of appearance.
