@@ -15,8 +15,12 @@
 //! limit ([`ScaleScene::time_limit`]) ends the solve, draws an 800 x 600
 //! picture and writes it and the vertices CSV. The report tables its
 //! `--stats`: sizes, the time of each phase, shots, the unshot fraction
-//! left, rays and their rate, and the peak memory; a plot shows solve time
-//! and peak memory against the number of input faces, both logarithmic.
+//! left, rays and their rate, the peak memory, and where the solve's time
+//! goes (form factors, shadow rays, refinement, book-keeping); a plot shows
+//! solve time and peak memory against the number of input faces, both
+//! logarithmic. Each scene's default job is run again stopped after 2, 5
+//! and 10 seconds of solve, and its vertex radiosity scored against the
+//! full run's ([`crate::early`]): how useful a time-limited picture is.
 //! The pictures and statistics files stay in the output folder; the
 //! vertices CSVs (hundreds of MB for the conference room) are written, to
 //! time the writing, and removed.
