@@ -9,17 +9,6 @@ use std::path::Path;
 
 use common::assert_table;
 
-/// The names of a built-in scene's configurations in quick mode, the
-/// default first.
-fn configurations_of(scene: &str) -> Vec<String> {
-    let scenes = radiosity_experiments::scale::builtin_scenes();
-    let scene = scenes.iter().find(|s| s.spec.name == scene).unwrap();
-    radiosity_experiments::scale::configurations(scene, true)
-        .into_iter()
-        .map(|c| c.name)
-        .collect()
-}
-
 fn context(dir: &Path) -> radiosity_experiments::Context {
     common::context(dir, "cargo test --test scale")
 }
@@ -127,7 +116,9 @@ fn scale_on_the_builtin_scenes_measures_every_case() {
     for case in &cases {
         let run = case.result.as_ref().unwrap();
         assert!(run.gather_seconds <= run.solve_seconds, "{case:?}");
-        let default = case.configuration == configurations_of(case.scene)[0];
+        let default = scenes.iter().any(|s| {
+            s.spec.name == case.scene && configurations(s, true)[0].name == case.configuration
+        });
         assert_eq!(!case.early.is_empty(), default, "{case:?}");
         for early in &case.early {
             let (l1, unshot) = early.result.clone().unwrap();

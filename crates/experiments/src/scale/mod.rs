@@ -342,12 +342,7 @@ pub fn measure(
             scene.spec.source.to_string()
         };
         let time_limit = scene.effective_time_limit(context.quick);
-        let mut common = vec![
-            "--time-limit".to_string(),
-            time_limit.to_string(),
-            "--threads".into(),
-            threads.to_string(),
-        ];
+        let mut common = vec!["--threads".to_string(), threads.to_string()];
         if context.quick {
             let element_size = radiosity::scene::load(&source)
                 .map_err(radiosity::app::Error::from)?
@@ -368,12 +363,7 @@ pub fn measure(
             let (wall_seconds, result) =
                 run_case(context, binary, &source, &stem, &args, time_limit, keep)?;
             let early = if keep {
-                let reference = context.path(&format!("{stem}-vertices.csv"));
-                let early = early_pictures(
-                    context, binary, &source, &stem, &args, time_limit, &reference,
-                );
-                let _ = std::fs::remove_file(&reference);
-                early?
+                early_pictures(context, binary, &source, &stem, &args, time_limit)?
             } else {
                 Vec::new()
             };
@@ -408,7 +398,8 @@ fn slug(name: &str) -> String {
     out.trim_end_matches('-').to_string()
 }
 
-/// Runs one `radiosity render` child: its picture and statistics go to
+/// Runs one `radiosity render` child with `--time-limit time_limit` and
+/// `args`: its picture and statistics go to
 /// `STEM.png` and `STEM.json` in the output folder, its vertices to
 /// `STEM-vertices.csv` (removed afterwards unless `keep`), its error output
 /// to `STEM.log` (removed when the run succeeds). Returns its wall time and
@@ -443,6 +434,8 @@ fn run_case(
         .arg("--stats")
         .arg(&stats)
         .arg("--quiet")
+        .arg("--time-limit")
+        .arg(time_limit.to_string())
         .args(args)
         .stdout(Stdio::null())
         .stderr(stderr)
@@ -488,10 +481,11 @@ fn run_case(
     Ok((wall_seconds, result))
 }
 
-/// The default configuration's early pictures: the same job with
+/// The default configuration's early pictures: the same job (`args`) with
 /// `--time-limit` each of [`EARLY_SECONDS`] shorter than the case's own
-/// limit, its vertices scored against the final state's (`reference`,
-/// written by the full run); their files are removed.
+/// limit, its vertices scored against the final state's (kept by the full
+/// run, case `stem`); their files and the final state's vertices are
+/// removed.
 fn early_pictures(
     context: &Context,
     binary: &Path,
@@ -499,29 +493,17 @@ fn early_pictures(
     stem: &str,
     args: &[String],
     time_limit: u64,
-    reference: &Path,
 ) -> Result<Vec<Early>, Error> {
-    let Ok(final_state) = early::vertex_radiosity(reference) else {
+    let reference = context.path(&format!("{stem}-vertices.csv"));
+    let final_state = early::vertex_radiosity(&reference);
+    let _ = std::fs::remove_file(&reference);
+    let Ok(final_state) = final_state else {
         return Ok(Vec::new());
     };
     let mut out = Vec::new();
     for seconds in EARLY_SECONDS.into_iter().filter(|&s| s < time_limit) {
         let early_stem = format!("{stem}-after-{seconds}s");
-        let mut early_args = args.to_vec();
-        let limit = early_args
-            .iter()
-            .position(|a| a == "--time-limit")
-            .expect("every case has a time limit");
-        early_args[limit + 1] = seconds.to_string();
-        let (_, run) = run_case(
-            context,
-            binary,
-            source,
-            &early_stem,
-            &early_args,
-            seconds,
-            true,
-        )?;
+        let (_, run) = run_case(context, binary, source, &early_stem, args, seconds, true)?;
         let vertices = context.path(&format!("{early_stem}-vertices.csv"));
         let result = run.and_then(|run| {
             let values = early::vertex_radiosity(&vertices)?;

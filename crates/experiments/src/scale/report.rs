@@ -9,8 +9,9 @@ use crate::early::{EARLY_SECONDS, Early};
 use crate::{Report, table};
 use radiosity::solver::DEFAULT_CONVERGE;
 
-/// The Markdown of the report: the settings, the two tables, and the link
-/// to the plot.
+/// The Markdown of the report: the settings, the tables (sizes and
+/// phases, solves, where the solve's time goes, the early pictures), and
+/// the link to the plot.
 #[must_use]
 pub fn markdown(quick: bool, scenes: &[ScaleScene], cases: &[Case]) -> Report {
     let mut report = Report::default();
