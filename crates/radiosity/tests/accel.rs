@@ -115,10 +115,10 @@ impl Variant<'_> {
     /// Per-query bounds on the counts `occluded_counting` returns.
     fn check_counts(&self, tested: u32, visited: u32, what: &str) {
         if let Built::Bvh(b) = &self.built {
-            // Boxes tested: four per node of the four-wide tree, each at
-            // most once.
+            // Boxes tested: WIDTH per node of the wide tree, each at most
+            // once.
             let stats = b.stats();
-            assert!(visited as usize <= 4 * stats.wide_nodes, "{what}");
+            assert!(visited as usize <= bvh::WIDTH * stats.wide_nodes, "{what}");
             assert!(
                 tested as usize <= stats.leaves * stats.max_leaf_size,
                 "{what}"

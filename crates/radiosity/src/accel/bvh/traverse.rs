@@ -1,8 +1,11 @@
 //! The BVH's traversal: the segment prepared for the slab test, the
-//! four-wide layout the binary tree is collapsed into (Dammertz et al. 2008;
-//! Wald et al. 2008), its depth-first any-hit walk for shadow segments and
-//! its front-to-back closest-hit walk, which shrinks the segment as hits
-//! are found.
+//! eight-wide layout the binary tree is collapsed into (Dammertz et al.
+//! 2008; Wald et al. 2008), the slab test of a node's eight child boxes in
+//! two groups of four SIMD lanes, the depth-first any-hit walk for shadow
+//! segments and the front-to-back closest-hit walk, which shrinks the
+//! segment as hits are found.
+
+use glam::Vec4;
 
 use super::*;
 
@@ -33,43 +36,55 @@ impl SegmentQuery {
 
 // ---------------------------------------------------------------- wide layout
 
-/// Children per node of the traversed tree.
-pub(super) const WIDTH: usize = 4;
+/// Children per node of the tree the queries walk: the child boxes a node
+/// visit tests (the count `occluded_counting` reports per node).
+pub const WIDTH: usize = 8;
 
 /// No child in a slot.
 pub(super) const EMPTY_SLOT: u32 = u32::MAX;
 
-/// A node of the four-wide tree the queries walk: the boxes of up to four
-/// children side by side, one array per coordinate (structure of arrays),
-/// so one pass of four-lane arithmetic tests them all (Dammertz et al.
-/// 2008, "Shallow bounding volume hierarchies"; Wald et al. 2008, "Getting
-/// rid of packets"). 128 bytes: two cache lines.
+/// A node of the eight-wide tree the queries walk: the boxes of up to
+/// eight children side by side, one array per coordinate and side
+/// (structure of arrays), so two passes of four-lane arithmetic test them
+/// all (Dammertz et al. 2008, "Shallow bounding volume hierarchies"; Wald
+/// et al. 2008, "Getting rid of packets"). 256 bytes: four cache lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct WideNode {
-    /// Lower corners: `min[axis][child]`.
-    pub(super) min: [[f32; WIDTH]; 3],
-    /// Upper corners.
-    pub(super) max: [[f32; WIDTH]; 3],
+    /// `bounds[axis][0][child]` is the lower corner's coordinate,
+    /// `bounds[axis][1][child]` the upper one's: a segment's near face on
+    /// an axis is `bounds[axis][runs_down]`, its far face the other one.
+    pub(super) bounds: [[[f32; WIDTH]; 2]; 3],
     /// Interior child: its node index. Leaf child: its first primitive.
     /// [`EMPTY_SLOT`] for no child.
     pub(super) link: [u32; WIDTH],
     /// Primitives of a leaf child; 0 for an interior child or no child.
-    pub(super) count: [u32; WIDTH],
+    pub(super) count: [u8; WIDTH],
+    /// Bit `k` set where child `k` is a leaf.
+    pub(super) leaves: u32,
 }
 
 impl WideNode {
     pub(super) const UNUSED: WideNode = WideNode {
-        min: [[f32::INFINITY; WIDTH]; 3],
-        max: [[f32::NEG_INFINITY; WIDTH]; 3],
+        bounds: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3],
         link: [EMPTY_SLOT; WIDTH],
         count: [0; WIDTH],
+        leaves: 0,
     };
+
+    /// Child `k`'s lower and upper corners.
+    pub(super) fn child_box(&self, k: usize) -> ([f32; 3], [f32; 3]) {
+        (
+            [0, 1, 2].map(|a| self.bounds[a][0][k]),
+            [0, 1, 2].map(|a| self.bounds[a][1][k]),
+        )
+    }
 }
 
-/// The binary tree collapsed into a four-wide one: each wide node takes the
-/// place of a binary node and holds up to four of its descendants, found by
-/// opening the child of largest surface area until there are four (the
+/// The binary tree collapsed into a wide one: each wide node takes the
+/// place of a binary node and holds up to [`WIDTH`] of its descendants,
+/// found by opening the child of largest surface area until there are
+/// [`WIDTH`] (the
 /// usual collapse of a binary SAH tree; the boxes are the binary nodes'
 /// own, so every box still contains what is below it).
 pub(super) fn collapse(tree: &Tree) -> Vec<WideNode> {
@@ -118,12 +133,14 @@ pub(super) fn collapse_node(tree: &Tree, at: u32, wide: &mut Vec<WideNode>) -> u
     for (slot, &c) in children.iter().enumerate() {
         let child = tree.nodes[c as usize];
         for axis in 0..3 {
-            out.min[axis][slot] = child.min[axis];
-            out.max[axis][slot] = child.max[axis];
+            out.bounds[axis][0][slot] = child.min[axis];
+            out.bounds[axis][1][slot] = child.max[axis];
         }
         if child.is_leaf() {
             out.link[slot] = child.link;
-            out.count[slot] = child.kind;
+            // Leaves hold at most `MAX_LEAF_SIZE` (64) primitives.
+            out.count[slot] = child.kind as u8;
+            out.leaves |= 1 << slot;
         } else {
             out.link[slot] = collapse_node(tree, c, wide);
         }
@@ -140,25 +157,120 @@ pub(super) fn prefetch(nodes: &[WideNode], index: u32) {
     if let Some(node) = nodes.get(index as usize) {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         let p = std::ptr::from_ref(node).cast::<i8>();
-        // SAFETY: prefetching is a hint: it never faults, and `p` and
-        // `p + 64` lie within the node (128 bytes).
+        // SAFETY: prefetching is a hint: it never faults, and every line
+        // prefetched lies within the node.
         unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.add(64));
+            for line in 0..size_of::<WideNode>() / 64 {
+                _mm_prefetch::<_MM_HINT_T0>(p.add(64 * line));
+            }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (nodes, index);
 }
 
+/// A segment prepared for [`slab_test`]: per axis, whether it runs towards
+/// lower coordinates and the origins its near and far faces are met from,
+/// and its inverse direction, each in all four lanes of a group.
+struct Slabs {
+    down: [bool; 3],
+    o_near: [Vec4; 3],
+    o_far: [Vec4; 3],
+    inv: [Vec4; 3],
+}
+
+impl Slabs {
+    fn new(query: &SegmentQuery) -> Slabs {
+        let o_min = query.origin_for_min.to_array();
+        let o_max = query.origin_for_max.to_array();
+        let inv = query.inverse_direction.to_array();
+        // Per axis, which face the segment meets first: the lower one
+        // unless it runs towards lower coordinates (`1 / -0` counts as
+        // running down, as its infinite parameter does). Lower faces are
+        // met from the origin moved up by the margin and upper faces from
+        // it moved down, so choosing the face once per segment keeps the
+        // widening.
+        let down = inv.map(f32::is_sign_negative);
+        let pick =
+            |a: usize, lower: bool| Vec4::splat(if down[a] == lower { o_max[a] } else { o_min[a] });
+        Slabs {
+            down,
+            o_near: [0, 1, 2].map(|a| pick(a, true)),
+            o_far: [0, 1, 2].map(|a| pick(a, false)),
+            inv: inv.map(Vec4::splat),
+        }
+    }
+}
+
+/// The parameters where the segment enters the child boxes of
+/// `node`, and a mask with bit `k` set where it meets child `k` before
+/// `limit`. Unused slots have an empty box (lower corner +inf, upper -inf),
+/// which is entered at +inf: never met. A NaN parameter (the origin exactly
+/// on a widened face while parallel to it) loses every `max` and `min`
+/// below and so leaves that axis unconstrained: a hit costs a test, never
+/// an answer.
+#[inline(always)]
+fn slab_test(node: &WideNode, slabs: &Slabs, limit: f32) -> ([f32; WIDTH], u32) {
+    let mut entries = [0.0f32; WIDTH];
+    let mut mask = 0;
+    for group in 0..WIDTH / 4 {
+        let lanes = 4 * group..4 * group + 4;
+        let mut enter = Vec4::ZERO;
+        let mut exit = Vec4::splat(limit);
+        for axis in 0..3 {
+            let faces = &node.bounds[axis];
+            let down = usize::from(slabs.down[axis]);
+            let near = Vec4::from_slice(&faces[down][lanes.clone()]);
+            let far = Vec4::from_slice(&faces[1 - down][lanes.clone()]);
+            let t_near = (near - slabs.o_near[axis]) * slabs.inv[axis];
+            let t_far = (far - slabs.o_far[axis]) * slabs.inv[axis];
+            enter = later(t_near, enter);
+            exit = earlier(t_far, exit);
+        }
+        enter.write_to_slice(&mut entries[lanes]);
+        mask |= enter.cmple(exit).bitmask() << (4 * group);
+    }
+    (entries, mask)
+}
+
+/// `x > y ? x : y` lane by lane, so a NaN `x` gives `y` (not glam's `max`,
+/// whose rule for NaN depends on the instruction set): SSE's `maxps` is
+/// exactly this.
+#[inline(always)]
+fn later(x: Vec4, y: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: SSE is part of every x86-64 processor.
+        Vec4::from(unsafe { std::arch::x86_64::_mm_max_ps(x.into(), y.into()) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::select(x.cmpgt(y), x, y)
+    }
+}
+
+/// `x < y ? x : y` lane by lane, so a NaN `x` gives `y` (SSE's `minps`).
+#[inline(always)]
+fn earlier(x: Vec4, y: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: SSE is part of every x86-64 processor.
+        Vec4::from(unsafe { std::arch::x86_64::_mm_min_ps(x.into(), y.into()) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::select(x.cmplt(y), x, y)
+    }
+}
+
 /// Walks the wide tree: every child box the segment meets is entered,
-/// nearer first; the primitives of a leaf child are offered to `blocks` at
-/// once, by position in the leaf order. Returns the answer and the number
-/// of child boxes tested.
+/// nearer first; a leaf child is offered to `blocks` whole, as its first
+/// primitive's position in the leaf order and its count. Returns the answer
+/// and the number of child boxes tested.
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
     query: &SegmentQuery,
-    mut blocks: impl FnMut(u32) -> bool,
+    mut blocks: impl FnMut(u32, u32) -> bool,
 ) -> (bool, u32) {
     if nodes.is_empty() {
         return (false, 0);
@@ -168,88 +280,59 @@ pub(super) fn wide_any_hit(
     let mut top = 0;
     let mut at = 0u32;
     let mut tested = 0u32;
-    let o_min = query.origin_for_min.to_array();
-    let o_max = query.origin_for_max.to_array();
-    let inv = query.inverse_direction.to_array();
-    // Per axis, which face the segment meets first: the lower one unless
-    // it runs towards lower coordinates (`1 / -0` counts as running down,
-    // as its infinite parameter does). Lower faces are met from the origin
-    // moved up by the margin and upper faces from it moved down, so
-    // choosing the face once per segment keeps the widening.
-    let negative = inv.map(f32::is_sign_negative);
-    let o_near = [0, 1, 2].map(|a| if negative[a] { o_max[a] } else { o_min[a] });
-    let o_far = [0, 1, 2].map(|a| if negative[a] { o_min[a] } else { o_max[a] });
+    let slabs = Slabs::new(query);
     loop {
         let node = &nodes[at as usize];
         tested += WIDTH as u32;
-        // Unused slots have an empty box (lower corner +inf, upper -inf),
-        // which enters at +inf: never hit. A NaN parameter (the origin
-        // exactly on a widened face while parallel to it) fails the
-        // comparisons and so leaves that axis unconstrained: a hit costs a
-        // test, never an answer.
-        let mut enter = [0.0f32; WIDTH];
-        let mut exit = [1.0f32; WIDTH];
-        for axis in 0..3 {
-            let (near, far) = if negative[axis] {
-                (&node.max[axis], &node.min[axis])
-            } else {
-                (&node.min[axis], &node.max[axis])
-            };
-            for k in 0..WIDTH {
-                let t_near = (near[k] - o_near[axis]) * inv[axis];
-                let t_far = (far[k] - o_far[axis]) * inv[axis];
-                enter[k] = if t_near > enter[k] { t_near } else { enter[k] };
-                exit[k] = if t_far < exit[k] { t_far } else { exit[k] };
+        let (enter, hits) = slab_test(node, &slabs, 1.0);
+        // Leaf children first: their tests may end the walk.
+        let mut leaves = hits & node.leaves;
+        while leaves != 0 {
+            let k = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            if blocks(node.link[k], u32::from(node.count[k])) {
+                return (true, tested);
             }
         }
-        // Hit children, nearest first (insertion sort of at most four).
-        let mut order = [0usize; WIDTH];
-        let mut hits = 0;
-        for k in 0..WIDTH {
-            if enter[k] <= exit[k] {
-                let mut i = hits;
-                while i > 0 && enter[order[i - 1]] > enter[k] {
-                    order[i] = order[i - 1];
-                    i -= 1;
-                }
-                order[i] = k;
-                hits += 1;
+        // Then the nearest interior child, walked next without a trip
+        // through the stack; the others pushed farthest first.
+        let interior = hits & !node.leaves;
+        if interior == 0 {
+            if top == 0 {
+                return (false, tested);
             }
-        }
-        // Leaf children first (their tests may end the walk), then the
-        // nearest interior child is walked next without a trip through the
-        // stack, the others pushed farthest first.
-        let mut next = EMPTY_SLOT;
-        for &k in &order[..hits] {
-            let count = node.count[k];
-            if count > 0 {
-                let first = node.link[k];
-                for p in first..first + count {
-                    if blocks(p) {
-                        return (true, tested);
-                    }
-                }
-            } else if next == EMPTY_SLOT {
-                next = node.link[k];
-            }
-        }
-        if next != EMPTY_SLOT {
-            for &k in order[..hits].iter().rev() {
-                let link = node.link[k];
-                if node.count[k] == 0 && link != next {
-                    prefetch(nodes, link);
-                    stack[top] = link;
-                    top += 1;
-                }
-            }
-            at = next;
+            top -= 1;
+            at = stack[top];
             continue;
         }
-        if top == 0 {
-            return (false, tested);
+        let first = interior.trailing_zeros() as usize;
+        let rest = interior & (interior - 1);
+        if rest == 0 {
+            at = node.link[first];
+            continue;
         }
-        top -= 1;
-        at = stack[top];
+        let mut order = [0usize; WIDTH];
+        let mut n = 0;
+        let mut bits = interior;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            // Insertion sort, farthest first.
+            let mut i = n;
+            while i > 0 && enter[order[i - 1]] < enter[k] {
+                order[i] = order[i - 1];
+                i -= 1;
+            }
+            order[i] = k;
+            n += 1;
+        }
+        for &k in &order[..n - 1] {
+            let link = node.link[k];
+            prefetch(nodes, link);
+            stack[top] = link;
+            top += 1;
+        }
+        at = node.link[order[n - 1]];
     }
 }
 
@@ -288,51 +371,31 @@ pub(super) fn wide_closest_hit(
     let mut at = 0u32;
     let mut limit = 1.0f32;
     let mut tested = 0u32;
-    let o_min = query.origin_for_min.to_array();
-    let o_max = query.origin_for_max.to_array();
-    let inv = query.inverse_direction.to_array();
-    // The faces met first and last per axis, as in `wide_any_hit`.
-    let negative = inv.map(f32::is_sign_negative);
-    let o_near = [0, 1, 2].map(|a| if negative[a] { o_max[a] } else { o_min[a] });
-    let o_far = [0, 1, 2].map(|a| if negative[a] { o_min[a] } else { o_max[a] });
+    let slabs = Slabs::new(query);
     loop {
         let node = &nodes[at as usize];
         tested += WIDTH as u32;
         // As in `wide_any_hit`, but the segment ends at the limit.
-        let mut enter = [0.0f32; WIDTH];
-        let mut exit = [limit; WIDTH];
-        for axis in 0..3 {
-            let (near, far) = if negative[axis] {
-                (&node.max[axis], &node.min[axis])
-            } else {
-                (&node.min[axis], &node.max[axis])
-            };
-            for k in 0..WIDTH {
-                let t_near = (near[k] - o_near[axis]) * inv[axis];
-                let t_far = (far[k] - o_far[axis]) * inv[axis];
-                enter[k] = if t_near > enter[k] { t_near } else { enter[k] };
-                exit[k] = if t_far < exit[k] { t_far } else { exit[k] };
-            }
-        }
+        let (enter, mut mask) = slab_test(node, &slabs, limit);
         let mut order = [0usize; WIDTH];
         let mut hits = 0;
-        for k in 0..WIDTH {
-            if enter[k] <= exit[k] {
-                let mut i = hits;
-                while i > 0 && enter[order[i - 1]] > enter[k] {
-                    order[i] = order[i - 1];
-                    i -= 1;
-                }
-                order[i] = k;
-                hits += 1;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let mut i = hits;
+            while i > 0 && enter[order[i - 1]] > enter[k] {
+                order[i] = order[i - 1];
+                i -= 1;
             }
+            order[i] = k;
+            hits += 1;
         }
         // Leaf children in order of entry, each while it can still hold
         // the answer (a hit lowers the limit); then the nearest interior
         // child still within the limit is walked next, the others pushed
         // farthest first.
         for &k in &order[..hits] {
-            let count = node.count[k];
+            let count = u32::from(node.count[k]);
             if count > 0 && enter[k] <= limit {
                 let first = node.link[k];
                 for p in first..first + count {
