@@ -320,7 +320,7 @@ impl PreparedSurfaces {
     /// closest hit is computed with it, so their distances are equal, not
     /// merely close.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn crossing(&self, id: u32, from: DVec3, to: DVec3) -> Option<f64> {
         let plane = &self.planes[id as usize];
         let d0 = plane.normal.dot(from) - plane.offset;
