@@ -616,6 +616,7 @@ mod tests {
                 .enumerate()
                 .map(|(i, p)| Surface::new(p, DVec3::splat(0.5), DVec3::ONE, i as u32).unwrap())
                 .collect(),
+            lights: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

@@ -373,6 +373,7 @@ mod tests {
         let scene = Scene {
             name: "t".into(),
             surfaces: vec![Surface::new(square, DVec3::splat(0.5), DVec3::ONE, 0).unwrap()],
+            lights: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

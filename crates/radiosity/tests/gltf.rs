@@ -164,15 +164,24 @@ fn hierarchy_transforms_materials_camera_and_warnings() {
         epsilon = 1e-12
     ));
     assert_abs_diff_eq!(camera.fov_degrees, 0.8f64.to_degrees(), epsilon = 1e-9);
-    // One warning each: the POINTS primitive, the punctual light, the cap.
+    // The punctual light: a 100 cd point light at its node's origin,
+    // (0, 3, 0) under the room's scale 2.
+    assert_eq!(scene.lights.len(), 1);
+    let light = &scene.lights[0];
+    assert_eq!(light.name, "light 0 ('sun lamp')");
+    assert_eq!(
+        light.kind,
+        radiosity::scene::LightKind::Point {
+            position: DVec3::new(0.0, 6.0, 0.0)
+        }
+    );
+    assert_eq!((light.intensity, light.colour), (100.0, DVec3::ONE));
+    // One warning each: the POINTS primitive, the cap.
     let warnings = scene.warnings.join("\n");
-    assert_eq!(scene.warnings.len(), 3, "{warnings}");
+    assert_eq!(scene.warnings.len(), 2, "{warnings}");
     let file = path.display();
     assert!(warnings.contains(&format!(
         "{file}: mesh 4 ('markers'), primitive 0 has mode POINTS: ignored"
-    )));
-    assert!(warnings.contains(&format!(
-        "{file}: ignored 1 KHR_lights_punctual light(s): light 0 ('sun lamp')"
     )));
     assert!(warnings.contains(&format!(
         "{file}: reflectance above 0.9 clamped (--reflectance-cap) for material 2 ('lamp')"

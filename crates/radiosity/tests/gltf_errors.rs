@@ -12,6 +12,7 @@ use std::path::Path;
 use common::test_data;
 use glam::DVec3;
 use radiosity::app;
+use radiosity::scene::LightKind;
 use radiosity::scene::{self, LoadOptions, gltf};
 use serde_json::{Value, json};
 
@@ -92,6 +93,68 @@ fn the_valid_triangle_loads() {
     assert_eq!(scene.surfaces[0].emission, DVec3::splat(PI));
     assert_eq!(scene.surfaces[0].rho, DVec3::splat(0.9));
     assert_eq!(appearance.material, [Some(0)]);
+}
+
+#[test]
+fn lights_take_their_nodes_transforms_and_light_a_scene_alone() {
+    let (mut doc, bin) = triangle();
+    // No emitter: the lights alone light the scene.
+    doc["materials"][0]["emissiveFactor"] = json!([0, 0, 0]);
+    doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"name": "spot", "type": "spot", "color": [1, 0.5, 0.25], "intensity": 40,
+         "spot": {"innerConeAngle": 0.25, "outerConeAngle": 0.5}},
+        {"name": "sun", "type": "directional", "intensity": 80000},
+        {"name": "bulb", "type": "point"}
+    ]}});
+    // A quarter turn about x takes -z to -y: the spot and the sun point
+    // down; the spot's node sits 2 m up inside a parent moved 1 m along x.
+    let quarter = [-(0.5f64.sqrt()), 0.0, 0.0, 0.5f64.sqrt()];
+    doc["scenes"][0]["nodes"] = json!([0, 1, 3]);
+    doc["nodes"] = json!([
+        {"name": "tri", "mesh": 0},
+        {"name": "rig", "translation": [1, 0, 0], "children": [2]},
+        {"name": "spot node", "translation": [0, 2, 0], "rotation": quarter,
+         "extensions": {"KHR_lights_punctual": {"light": 0}}},
+        {"name": "sun node", "rotation": quarter,
+         "extensions": {"KHR_lights_punctual": {"light": 1}}},
+    ]);
+    let bytes = serde_json::to_vec(&doc).unwrap();
+    let (scene, _) = gltf::load_slice(
+        "lit",
+        Path::new("lit.gltf"),
+        &bytes,
+        &mut |_: &str| Ok(bin.clone()),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        scene.lights.len(),
+        2,
+        "the unused point light is not placed"
+    );
+    let near = |a: DVec3, b: DVec3| (a - b).length() < 1e-6;
+    let spot = &scene.lights[0];
+    assert_eq!(spot.name, "light 0 ('spot')");
+    assert_eq!(spot.intensity, 40.0);
+    assert_eq!(spot.colour, DVec3::new(1.0, 0.5, 0.25));
+    let LightKind::Spot {
+        position,
+        direction,
+        inner,
+        outer,
+    } = spot.kind
+    else {
+        panic!("{:?}", spot.kind)
+    };
+    assert!(near(position, DVec3::new(1.0, 2.0, 0.0)), "{position}");
+    assert!(near(direction, -DVec3::Y), "{direction}");
+    assert!((inner - 0.25).abs() < 1e-7 && (outer - 0.5).abs() < 1e-7);
+    let LightKind::Sun { direction } = scene.lights[1].kind else {
+        panic!("{:?}", scene.lights[1].kind)
+    };
+    assert!(near(direction, -DVec3::Y), "{direction}");
+    assert_eq!(scene.lights[1].intensity, 80000.0);
 }
 
 /// `n` nested nodes each scaling by 1e38, the last holding mesh 0.
@@ -211,17 +274,47 @@ fn every_bad_input_gets_its_error() {
             "a scene or node refers to node 3, but the file has 1",
         ),
         (
+            with(&|d| d["materials"][0]["emissiveFactor"] = json!([0, 0, 0])),
+            bin.clone(),
+            "the scene has no emitter: no material has an emissiveFactor > 0 and no node has a \
+             KHR_lights_punctual light; give the lamps an emissive material or a light",
+        ),
+        (
             with(&|d| {
-                d["materials"][0]["emissiveFactor"] = json!([0, 0, 0]);
-                d["extensionsUsed"] = json!(["KHR_lights_punctual"]);
-                d["extensions"] =
-                    json!({"KHR_lights_punctual": {"lights": [{"name": "bulb", "type": "point"}]}});
-                d["nodes"] = json!([{"name": "tri", "mesh": 0, "extensions": {"KHR_lights_punctual": {"light": 0}}}]);
+                d["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+                    {"name": "bulb", "type": "point", "intensity": -5}]}});
+                d["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 0}});
             }),
             bin.clone(),
-            "the scene has no emitter: no material has an emissiveFactor > 0; its \
-             KHR_lights_punctual lights (light 0 ('bulb')) are not area lights and are ignored; \
-             give the lamps a mesh with an emissive material",
+            "light 0 ('bulb') (on node 0 ('tri')): its intensity -5 is not a finite number at \
+             least 0",
+        ),
+        (
+            with(&|d| {
+                d["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+                    {"type": "spot", "spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}]}});
+                d["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 0}});
+            }),
+            bin.clone(),
+            "light 0 (on node 0 ('tri')): its cone angles are wrong: inner 34.37746770784939 and \
+             outer 28.64788975654116 degrees must satisfy 0 <= inner <= outer <= 90 and outer > 0",
+        ),
+        (
+            with(&|d| {
+                d["extensions"] = json!({"KHR_lights_punctual": {"lights": []}});
+                d["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 2}});
+            }),
+            bin.clone(),
+            "node 0 ('tri') uses KHR_lights_punctual light 2, which the file does not have",
+        ),
+        (
+            with(&|d| {
+                d["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+                    {"type": "area"}]}});
+                d["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 0}});
+            }),
+            bin.clone(),
+            "light 0 (on node 0 ('tri')): its type is not one of directional, point, spot",
         ),
         (
             with(&|d| d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"])),

@@ -16,6 +16,7 @@
 
 pub mod builtin;
 pub mod gltf;
+pub mod light;
 pub mod merge;
 pub mod mtl;
 pub mod obj;
@@ -28,6 +29,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use crate::geometry;
+pub use light::{Light, LightKind};
 use text::quoted;
 
 /// One planar convex polygon of the input, the unit of visibility.
@@ -210,6 +212,9 @@ pub struct Scene {
     pub name: String,
     /// The planar convex surfaces.
     pub surfaces: Vec<Surface>,
+    /// Lights that are not surfaces: point, spot and sun lights
+    /// ([`light`]).
+    pub lights: Vec<Light>,
     /// The camera the scene file suggests, if any.
     pub camera: Option<Camera>,
     /// The mesh sizes the scene file suggests (`#@mesh PATCH ELEMENT`).

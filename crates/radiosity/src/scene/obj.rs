@@ -7,8 +7,10 @@
 //! in [0, 1), `Ke` the emitted radiant exitance in W/m^2). Faces are
 //! single-sided, front by counter-clockwise winding; [`super::polygon`]
 //! turns each into planar convex pieces. The comment directive
-//! `#@camera ex ey ez tx ty tz ux uy uz fov` gives the scene's camera and
-//! `#@mesh PATCH ELEMENT` its suggested mesh sizes in metres.
+//! `#@camera ex ey ez tx ty tz ux uy uz fov` gives the scene's camera,
+//! `#@mesh PATCH ELEMENT` its suggested mesh sizes in metres and `#@light`
+//! a point, spot or sun light ([`super::light::parse_directive`]); other
+//! programs read them as comments.
 //!
 //! Text is read as [`super::text`] says: it may start with a UTF-8
 //! byte-order mark and end its lines with LF, CR LF or CR alone (old Mac
@@ -24,7 +26,7 @@ use glam::DVec3;
 use super::mtl::{Material, parse_mtl_into};
 use super::polygon::{self, FaceProblem, Warp};
 use super::text::{decode, length, logical_lines, number, quoted};
-use super::{Camera, Limits, Location, MeshHint, Scene, SceneError, Surface};
+use super::{Camera, Light, Limits, Location, MeshHint, Scene, SceneError, Surface};
 
 pub use super::polygon::PLANARITY_TOLERANCE;
 
@@ -102,6 +104,7 @@ pub fn parse_bytes(
         degenerate: Vec::new(),
         warped: Vec::new(),
         camera: None,
+        lights: Vec::new(),
         mesh_hint: None,
         ignored: Vec::new(),
         warnings: Vec::new(),
@@ -164,6 +167,7 @@ struct ObjParser<'a> {
     degenerate: Vec<usize>,
     warped: Vec<(usize, Warp)>,
     camera: Option<Camera>,
+    lights: Vec<Light>,
     mesh_hint: Option<MeshHint>,
     ignored: Vec<String>,
     warnings: Vec<String>,
@@ -201,6 +205,13 @@ impl ObjParser<'_> {
             let camera = Camera::parse(rest)
                 .map_err(|m| self.error(line_no, format!("bad #@camera directive: {m}")))?;
             self.camera = Some(camera);
+            return Ok(());
+        }
+        if let Some(rest) = trimmed.strip_prefix("#@light") {
+            let name = format!("#@light at line {line_no}");
+            let light = super::light::parse_directive(rest, name)
+                .map_err(|m| self.error(line_no, format!("bad #@light directive: {m}")))?;
+            self.lights.push(light);
             return Ok(());
         }
         if let Some(rest) = trimmed.strip_prefix("#@mesh") {
@@ -504,9 +515,11 @@ impl ObjParser<'_> {
                 self.faces
             )));
         }
-        if !self.surfaces.iter().any(Surface::is_emitter) {
+        if self.lights.is_empty() && !self.surfaces.iter().any(Surface::is_emitter) {
             return Err(file_error(
-                "the scene has no emitter: no face uses a material with Ke > 0".into(),
+                "the scene has no emitter: no face uses a material with Ke > 0 and there is no \
+                 #@light directive"
+                    .into(),
             ));
         }
         let mut warnings = self.warnings;
@@ -554,6 +567,7 @@ impl ObjParser<'_> {
         Ok(Scene {
             name: name.to_string(),
             surfaces,
+            lights: self.lights,
             camera: self.camera,
             mesh_hint: self.mesh_hint,
             warnings,

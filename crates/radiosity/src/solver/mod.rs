@@ -15,13 +15,17 @@
 //!
 //! The loop here is the same for every method: it owns the receivers (the
 //! unique mesh vertices and any sensor points), their irradiance and
-//! radiosity, the energy ledger and the stopping rules. Receivers are
+//! radiosity, the energy ledger and the stopping rules. It also shoots the
+//! scene's point, spot and sun lights ([`lights`]), each once and before
+//! any surface, whatever the method: the method then takes what they
+//! reflect as unshot light of its own. Receivers are
 //! processed in parallel in chunks of a fixed size, each one's sum in a
 //! fixed order, so the result does not depend on the number of threads.
 
 pub mod adaptive;
 pub mod cuts;
 pub mod hierarchy;
+pub mod lights;
 pub mod method;
 pub mod patches;
 pub mod registry;
@@ -166,6 +170,8 @@ pub struct Solver<'a> {
     energy: Energy,
     stats: Stats,
     interrupt: Option<Arc<AtomicBool>>,
+    /// The scene's lights not shot yet, next first.
+    lights_pending: Vec<usize>,
 }
 
 impl<'a> Solver<'a> {
@@ -234,6 +240,7 @@ impl<'a> Solver<'a> {
             energy: Energy::default(),
             stats: Stats::default(),
             interrupt: None,
+            lights_pending: lights::shooting_order(&scene.lights),
         };
         solver.energy.emitted = solver.unshot_power();
         solver
@@ -324,10 +331,23 @@ impl<'a> Solver<'a> {
         self.shooter.shooters()
     }
 
-    /// Unshot power left, per channel (W).
+    /// Unshot power left, per channel (W): the method's, and the flux of
+    /// the point and spot lights not shot yet (a sun's power is counted
+    /// when it shoots: what reaches the scene's surfaces).
     #[must_use]
     pub fn unshot_power(&self) -> DVec3 {
         self.shooter.unshot_power(self.mesh)
+            + self
+                .lights_pending
+                .iter()
+                .filter_map(|&i| self.scene.lights[i].flux())
+                .sum::<DVec3>()
+    }
+
+    /// Lights not shot yet.
+    #[must_use]
+    pub fn lights_pending(&self) -> usize {
+        self.lights_pending.len()
     }
 
     /// Unshot power left over emitted power (luminance-weighted).
@@ -385,6 +405,9 @@ impl<'a> Solver<'a> {
         {
             return Some(StopReason::MaxSubsources);
         }
+        if !self.lights_pending.is_empty() {
+            return None;
+        }
         let fraction = self.unshot_fraction();
         if fraction <= 0.0 {
             return Some(StopReason::NothingUnshot);
@@ -436,8 +459,11 @@ impl<'a> Solver<'a> {
     }
 
     /// [`Solver::shoot`], abandoned (returning false, nothing changed) if
-    /// `abort` fires during it.
+    /// `abort` fires during it. Lights not shot yet go first.
     fn shoot_unless(&mut self, abort: &Abort) -> bool {
+        if let Some(&next) = self.lights_pending.first() {
+            return self.shoot_light(next, abort);
+        }
         let context = ShotInputs {
             scene: self.scene,
             mesh: self.mesh,
@@ -452,8 +478,17 @@ impl<'a> Solver<'a> {
             return false;
         };
         let book_start = Instant::now();
+        self.book(&shot.irradiance, Some(shot.power));
+        self.stats.bookkeeping_time += (Instant::now() - book_start) + shot.selection_time;
+        true
+    }
+
+    /// The book-keeping of design.md step 5 after a shot that gave the
+    /// receivers `irradiance` and sent `power` (`None` for a sun: the power
+    /// that arrived at the elements, which then also counts as emitted).
+    fn book(&mut self, irradiance: &[DVec3], power: Option<DVec3>) {
         let vertices = self.mesh.vertices.len();
-        for (i, e) in shot.irradiance.iter().enumerate() {
+        for (i, e) in irradiance.iter().enumerate() {
             self.irradiance[i] += *e;
             if i < vertices {
                 let rho = self.scene.surfaces[self.mesh.vertices[i].surface as usize].rho;
@@ -462,13 +497,41 @@ impl<'a> Solver<'a> {
         }
         let received = self
             .shooter
-            .receive(self.scene, self.mesh, &shot.irradiance[..vertices]);
-        self.energy.shot += shot.power;
+            .receive(self.scene, self.mesh, &irradiance[..vertices]);
+        let power = power.unwrap_or_else(|| {
+            self.energy.emitted += received.incident;
+            received.incident
+        });
+        self.energy.shot += power;
         self.energy.received += received.incident;
         self.energy.absorbed += received.absorbed;
-        self.energy.escaped += shot.power - received.incident;
+        self.energy.escaped += power - received.incident;
         self.stats.shots += 1;
-        self.stats.bookkeeping_time += (Instant::now() - book_start) + shot.selection_time;
+    }
+}
+
+impl Solver<'_> {
+    /// Shoots light `index` of the scene: its irradiance at every receiver,
+    /// then the book-keeping every shot has. A sun's power is what arrives
+    /// at the mesh's elements, added to the emitted power as it shoots.
+    fn shoot_light(&mut self, index: usize, abort: &Abort) -> bool {
+        let light = &self.scene.lights[index];
+        let context = ShotInputs {
+            scene: self.scene,
+            mesh: self.mesh,
+            settings: &self.settings,
+            occluder: self.occluder.as_ref(),
+            receivers: &self.receivers,
+            irradiance: &self.irradiance,
+            abort,
+        };
+        let Some(irradiance) = lights::gather(light, &context, &mut self.stats) else {
+            return false;
+        };
+        let book_start = Instant::now();
+        self.lights_pending.remove(0);
+        self.book(&irradiance, light.flux());
+        self.stats.bookkeeping_time += Instant::now() - book_start;
         true
     }
 }

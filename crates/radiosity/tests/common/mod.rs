@@ -117,6 +117,7 @@ pub fn scene_of(surfaces: Vec<Surface>) -> Scene {
     Scene {
         name: "test".into(),
         surfaces,
+        lights: Vec::new(),
         camera: None,
         mesh_hint: None,
         warnings: Vec::new(),

@@ -29,8 +29,9 @@
 //! - a `doubleSided` material gives two surfaces back to back (radiosity
 //!   surfaces are single-sided), sharing the input face index;
 //! - the first perspective camera met in the scene is the default view;
-//!   `KHR_lights_punctual` lights are not area lights and are ignored with
-//!   a warning naming them.
+//! - `KHR_lights_punctual` lights become point, spot and sun lights
+//!   (candela; lux for directional lights), each at its node's origin and
+//!   shining along the node's -z axis.
 //!
 //! glTF stores floats in single precision. Each is widened to the shortest
 //! decimal that rounds to it (what the author or exporter most likely
@@ -65,7 +66,7 @@ use std::rc::Rc;
 use glam::DVec3;
 use gltf_json as json;
 
-use super::{Camera, LoadOptions, Location, MeshHint, Scene, SceneError, Surface};
+use super::{Camera, Light, LoadOptions, Location, MeshHint, Scene, SceneError, Surface};
 
 pub use accessor::MAX_VIEWLESS_ELEMENTS;
 pub use container::ImageData;
@@ -202,7 +203,7 @@ struct Loader<'a> {
     triangles: usize,
     degenerate: usize,
     camera: Option<Camera>,
-    lights: Vec<String>,
+    lights: Vec<Light>,
     capped: Vec<String>,
 }
 
@@ -284,29 +285,14 @@ impl Loader<'_> {
                 self.faces
             )));
         }
-        let lights = if self.lights.is_empty() {
-            String::new()
-        } else {
-            format!(
-                "; its KHR_lights_punctual lights ({}) are not area lights and are ignored",
-                self.lights.join(", ")
-            )
-        };
-        if !self.surfaces.iter().any(Surface::is_emitter) {
-            return Err(self.error(format!(
-                "the scene has no emitter: no material has an emissiveFactor > 0{lights}; give \
-                 the lamps a mesh with an emissive material"
-            )));
-        }
-        let mut warnings = std::mem::take(&mut self.warnings);
-        if !self.lights.is_empty() {
-            warnings.push(format!(
-                "{file}: ignored {} KHR_lights_punctual light(s): {} (radiosity lights only \
-                 come from emissive surfaces)",
-                self.lights.len(),
-                self.lights.join(", ")
+        if self.lights.is_empty() && !self.surfaces.iter().any(Surface::is_emitter) {
+            return Err(self.error(
+                "the scene has no emitter: no material has an emissiveFactor > 0 and no node \
+                 has a KHR_lights_punctual light; give the lamps an emissive material or a light"
+                    .into(),
             ));
         }
+        let mut warnings = std::mem::take(&mut self.warnings);
         if !self.capped.is_empty() {
             warnings.push(format!(
                 "{file}: reflectance above {} clamped (--reflectance-cap) for {}",
@@ -325,6 +311,7 @@ impl Loader<'_> {
         Ok(Scene {
             name: name.to_string(),
             surfaces,
+            lights: std::mem::take(&mut self.lights),
             camera: self.camera,
             mesh_hint,
             warnings,

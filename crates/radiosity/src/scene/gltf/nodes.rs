@@ -4,14 +4,16 @@
 //! translation x rotation x scale) composed with its parent's; a mesh is
 //! loaded once per node that instances it, under that node's world
 //! transform. The hierarchy must be a tree. The first perspective camera
-//! met is the default view; `KHR_lights_punctual` lights are listed for a
-//! warning (they are not area lights); skins are read in their bind pose
-//! and morph targets ignored, each with a warning.
+//! met is the default view; each node's `KHR_lights_punctual` light
+//! becomes a point, spot or sun light ([`crate::scene::light`]) at the
+//! node's origin, shining along its -z axis; skins are read in their bind
+//! pose and morph targets ignored, each with a warning.
 
 use glam::{DMat4, DQuat, DVec3};
 use gltf_json as json;
 
 use super::{Camera, ImageData, Loader, SceneError, label, radiosity_extras, widen, widen3};
+use crate::scene::light::{self, Light, LightKind};
 
 impl Loader<'_> {
     /// Walks the default scene's node tree.
@@ -76,14 +78,8 @@ impl Loader<'_> {
                 .as_ref()
                 .and_then(|e| e.khr_lights_punctual.as_ref())
             {
-                let l = light.light.value();
-                let name = root
-                    .extensions
-                    .as_ref()
-                    .and_then(|e| e.khr_lights_punctual.as_ref())
-                    .and_then(|k| k.lights.get(l))
-                    .and_then(|light| light.name.clone());
-                self.lights.push(label("light", l, name.as_ref()));
+                let light = self.take_light(light.light.value(), world, &what)?;
+                self.lights.push(light);
             }
             if let Some(mesh) = node.mesh {
                 skinned |= node.skin.is_some();
@@ -106,6 +102,68 @@ impl Loader<'_> {
             ));
         }
         Ok(())
+    }
+
+    /// The light `index` of the file's `KHR_lights_punctual` list, placed by
+    /// the world transform of the node `what` that instances it: at the
+    /// node's origin, pointing along its -z axis (the extension's
+    /// convention). Intensity is candela for point and spot lights, lux for
+    /// directional ones; `range` is ignored (light falls off with the square
+    /// of distance, as the extension recommends for physical rendering).
+    fn take_light(&mut self, index: usize, world: DMat4, what: &str) -> Result<Light, SceneError> {
+        use json::extensions::scene::khr_lights_punctual::Type;
+        let Some(light) = self
+            .root
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+            .and_then(|k| k.lights.get(index))
+        else {
+            return Err(self.error(format!(
+                "{what} uses KHR_lights_punctual light {index}, which the file does not have"
+            )));
+        };
+        let name = label("light", index, light.name.as_ref());
+        let fail =
+            |loader: &Self, message: String| loader.error(format!("{name} (on {what}): {message}"));
+        let position = world.transform_point3(DVec3::ZERO);
+        let axis = world.transform_vector3(-DVec3::Z);
+        let direction = light::unit_direction(axis)
+            .map_err(|e| fail(self, format!("{e} (its node's -z axis)")))?;
+        let kind = match light.type_ {
+            json::validation::Checked::Valid(Type::Point) => LightKind::Point { position },
+            json::validation::Checked::Valid(Type::Directional) => LightKind::Sun { direction },
+            json::validation::Checked::Valid(Type::Spot) => {
+                let (inner, outer) = light
+                    .spot
+                    .as_ref()
+                    .map_or((0.0, std::f64::consts::FRAC_PI_4), |s| {
+                        (widen(s.inner_cone_angle), widen(s.outer_cone_angle))
+                    });
+                let (inner, outer) = light::cone(inner.to_degrees(), outer.to_degrees())
+                    .map_err(|e| fail(self, e.to_string()))?;
+                LightKind::Spot {
+                    position,
+                    direction,
+                    inner,
+                    outer,
+                }
+            }
+            json::validation::Checked::Invalid => {
+                return Err(fail(
+                    self,
+                    "its type is not one of directional, point, spot".into(),
+                ));
+            }
+        };
+        let light = Light {
+            name: name.clone(),
+            kind,
+            colour: widen3(light.color),
+            intensity: widen(light.intensity),
+        };
+        light.validate().map_err(|e| fail(self, e.to_string()))?;
+        Ok(light)
     }
 
     fn local_transform(&self, node: &json::Node, what: &str) -> Result<DMat4, SceneError> {

@@ -1,0 +1,297 @@
+//! Point, spot and sun lights against their closed forms at sensor points:
+//! the inverse-square cosine law, the spot's cones, the sun's sharp
+//! shadow; the energy ledger with lights; a scene lit by lights alone; the
+//! `#@light` directive as the OBJ reader takes it.
+
+mod common;
+
+use std::path::Path;
+
+use approx::assert_relative_eq;
+use glam::DVec3;
+use radiosity::mesh::Mesh;
+use radiosity::scene::light::cone;
+use radiosity::scene::{Light, LightKind, Scene, obj};
+use radiosity::sensors::{self, SensorPoint, lux};
+use radiosity::solver::{Preset, Settings, Solver};
+
+use common::{floor, furnace, quad, scene_of};
+
+/// Solves `scene` with `settings` and returns the lux at each of `points`
+/// (on surfaces, with their normals), and the solver's ledger check.
+fn lux_at(scene: &Scene, settings: Settings, points: &[(DVec3, DVec3)]) -> Vec<f64> {
+    let sensor_points: Vec<SensorPoint> = points
+        .iter()
+        .enumerate()
+        .map(|(i, &(position, normal))| SensorPoint {
+            position,
+            normal,
+            line: i + 1,
+        })
+        .collect();
+    let receivers = sensors::receivers(scene, &sensor_points, Path::new("points")).unwrap();
+    let mesh = Mesh::build(scene, &settings.mesh.sized_for(scene)).unwrap();
+    let mut solver = Solver::with_sensors(scene, &mesh, settings, receivers);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    assert_eq!(solver.lights_pending(), 0);
+    assert_ledger_balances(&solver);
+    solver.sensor_irradiance().iter().map(|&e| lux(e)).collect()
+}
+
+/// `emitted = unshot + absorbed + escaped`, per channel, to 1e-9.
+fn assert_ledger_balances(solver: &Solver<'_>) {
+    let e = solver.energy();
+    let unshot = solver.unshot_power();
+    for c in 0..3 {
+        let rhs = unshot[c] + e.absorbed[c] + e.escaped[c];
+        assert!(
+            (e.emitted[c] - rhs).abs() <= 1e-9 * e.emitted[c].abs().max(1e-300),
+            "channel {c}: emitted {} != unshot {} + absorbed {} + escaped {}",
+            e.emitted[c],
+            unshot[c],
+            e.absorbed[c],
+            e.escaped[c]
+        );
+    }
+}
+
+fn with_lights(surfaces: Vec<radiosity::scene::Surface>, lights: Vec<Light>) -> Scene {
+    let mut scene = scene_of(surfaces);
+    scene.lights = lights;
+    scene
+}
+
+fn point_light(position: DVec3, candela: f64) -> Light {
+    Light {
+        name: "test point".into(),
+        kind: LightKind::Point { position },
+        colour: DVec3::ONE,
+        intensity: candela,
+    }
+}
+
+/// Points of the 4 x 4 m floor (y = 0), facing up.
+fn floor_points() -> Vec<(DVec3, DVec3)> {
+    let mut points = Vec::new();
+    for i in 0..7 {
+        for j in 0..7 {
+            let x = -1.8 + 0.6 * f64::from(i);
+            let z = -1.8 + 0.6 * f64::from(j);
+            points.push((DVec3::new(x, 0.0, z), DVec3::Y));
+        }
+    }
+    points
+}
+
+#[test]
+fn a_point_light_gives_candela_times_cosine_over_distance_squared_in_lux() {
+    let light_at = DVec3::new(0.3, 2.0, -0.2);
+    let candela = 150.0;
+    // One floor: nothing it reflects comes back, so the sensors see the
+    // light alone.
+    let scene = with_lights(vec![floor(0.5)], vec![point_light(light_at, candela)]);
+    let points = floor_points();
+    for preset in [Preset::Adaptive, Preset::WongTsang93, Preset::Wallace89] {
+        let got = lux_at(&scene, preset.settings(), &points);
+        for (&(p, _), lux) in points.iter().zip(got) {
+            let d = light_at - p;
+            let expected = candela * d.y / d.length().powi(3);
+            assert_relative_eq!(lux, expected, max_relative = 1e-5);
+        }
+    }
+}
+
+#[test]
+fn a_coloured_light_scales_by_its_colours_luminance() {
+    let mut light = point_light(DVec3::new(0.0, 2.0, 0.0), 100.0);
+    light.colour = DVec3::new(1.0, 0.5, 0.0);
+    let scene = with_lights(vec![floor(0.5)], vec![light]);
+    let got = lux_at(&scene, Settings::adaptive(), &[(DVec3::ZERO, DVec3::Y)]);
+    let luminance = 0.265 + 0.670 * 0.5;
+    assert_relative_eq!(got[0], 100.0 / 4.0 * luminance, max_relative = 1e-5);
+}
+
+#[test]
+fn a_spot_is_full_inside_its_inner_cone_and_dark_outside_its_outer() {
+    let (inner, outer) = cone(20.0, 35.0).unwrap();
+    let height = 2.0;
+    let spot = Light {
+        name: "test spot".into(),
+        kind: LightKind::Spot {
+            position: DVec3::new(0.0, height, 0.0),
+            direction: -DVec3::Y,
+            inner,
+            outer,
+        },
+        colour: DVec3::ONE,
+        intensity: 400.0,
+    };
+    let scene = with_lights(vec![floor(0.5)], vec![spot]);
+    let at_angle = |degrees: f64| DVec3::new(height * degrees.to_radians().tan(), 0.0, 0.0);
+    let angles = [0.0, 10.0, 19.0, 25.0, 30.0, 36.0, 45.0];
+    let points: Vec<_> = angles.iter().map(|&a| (at_angle(a), DVec3::Y)).collect();
+    let got = lux_at(&scene, Settings::adaptive(), &points);
+    let (ci, co) = (inner.cos(), outer.cos());
+    for (&a, lux) in angles.iter().zip(got) {
+        let c = a.to_radians().cos();
+        let d = height / c;
+        let falloff = if a <= 20.0 {
+            1.0
+        } else if a >= 35.0 {
+            0.0
+        } else {
+            ((c - co) / (ci - co)).powi(2)
+        };
+        let expected = 400.0 * falloff * c / (d * d);
+        if falloff == 0.0 {
+            assert_eq!(lux, 0.0, "{a} degrees, outside the outer cone");
+        } else {
+            assert_relative_eq!(lux, expected, max_relative = 1e-5);
+        }
+    }
+}
+
+#[test]
+fn the_sun_casts_a_sharp_shadow() {
+    // A 1 m square 1 m above the floor, facing up (its light goes up and
+    // never reaches the floor); the sun from above, slanted.
+    let blocker = quad(DVec3::new(-0.5, 1.0, -0.5), DVec3::Z, DVec3::X, 0.5, 0.0, 1);
+    assert_eq!(blocker.normal, DVec3::Y);
+    let direction = DVec3::new(0.37, -1.0, 0.13).normalize();
+    let illuminance = 50_000.0;
+    let sun = Light {
+        name: "test sun".into(),
+        kind: LightKind::Sun { direction },
+        colour: DVec3::ONE,
+        intensity: illuminance,
+    };
+    let scene = with_lights(vec![floor(0.5), blocker], vec![sun]);
+    // The shadow is the square moved 1 m along the light's direction, per
+    // metre of height dropped.
+    let shift = DVec3::new(direction.x, 0.0, direction.z) / -direction.y;
+    let in_shadow = |p: DVec3| {
+        let q = p - shift;
+        q.x.abs() < 0.5 && q.z.abs() < 0.5
+    };
+    // Distance to the shadow's outline.
+    let margin = |p: DVec3| {
+        let q = p - shift;
+        let (dx, dz) = (q.x.abs() - 0.5, q.z.abs() - 0.5);
+        if dx < 0.0 && dz < 0.0 {
+            (-dx).min(-dz)
+        } else {
+            DVec3::new(dx.max(0.0), 0.0, dz.max(0.0)).length()
+        }
+    };
+    let mut points = floor_points();
+    points.push((shift, DVec3::Y));
+    points.push((shift + DVec3::new(0.45, 0.0, 0.0), DVec3::Y));
+    points.push((shift + DVec3::new(0.55, 0.0, 0.0), DVec3::Y));
+    let got = lux_at(&scene, Settings::adaptive(), &points);
+    let (mut shadowed, mut lit) = (0, 0);
+    for (&(p, _), lux) in points.iter().zip(got) {
+        assert!(margin(p) > 0.02, "{p} is too near the shadow's edge");
+        if in_shadow(p) {
+            shadowed += 1;
+            assert_eq!(lux, 0.0, "{p} is in the shadow");
+        } else {
+            lit += 1;
+            assert_relative_eq!(lux, illuminance * -direction.y, max_relative = 1e-9);
+        }
+    }
+    assert!(shadowed >= 3 && lit >= 40, "{shadowed} shadowed, {lit} lit");
+}
+
+#[test]
+fn a_point_light_in_a_closed_box_sends_all_its_flux_to_the_walls() {
+    let side = 2.0;
+    let rho = 0.5;
+    let mut scene = furnace(side, rho, 0.0);
+    scene.lights = vec![point_light(DVec3::new(0.9, 1.2, 1.0), 300.0)];
+    let flux = scene.lights[0].flux().unwrap();
+    let settings = Settings {
+        converge: 1e-3,
+        ..Settings::adaptive()
+    };
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+    let mut solver = Solver::new(&scene, &mesh, settings);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    assert_ledger_balances(&solver);
+    let energy = solver.energy();
+    assert_relative_eq!(energy.emitted.x, flux.x, max_relative = 1e-12);
+    // Closed: what escapes is only the vertices' estimate of the incident
+    // power missing the exact flux.
+    assert!(
+        energy.escaped.x.abs() < 0.01 * flux.x,
+        "escaped {} of {}",
+        energy.escaped.x,
+        flux.x
+    );
+    // Every watt is absorbed in the end: (1 - rho) of the walls' total
+    // incident power, so the power reflected is rho / (1 - rho) times the
+    // flux (the closed form of an enclosure of one reflectance).
+    let absorbed = energy.absorbed.x + solver.unshot_power().x;
+    assert_relative_eq!(absorbed, flux.x, max_relative = 0.01);
+}
+
+#[test]
+fn a_scene_lit_only_by_the_sun_is_solved() {
+    let sun = Light {
+        name: "sun".into(),
+        kind: LightKind::Sun {
+            direction: -DVec3::Y,
+        },
+        colour: DVec3::ONE,
+        intensity: 1000.0,
+    };
+    // An open box (no ceiling): the sun lights the floor, which lights the
+    // walls.
+    let mut scene = furnace(1.0, 0.6, 0.0);
+    scene.surfaces.remove(1);
+    scene.lights = vec![sun];
+    let settings = Settings::adaptive();
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+    let mut solver = Solver::new(&scene, &mesh, settings);
+    assert_eq!(solver.energy().emitted, DVec3::ZERO);
+    assert!(solver.stop_reason().is_none(), "the sun is still to shoot");
+    let reason = solver.run(|_| radiosity::solver::Flow::Continue);
+    assert_eq!(reason, radiosity::solver::StopReason::Converged);
+    assert_ledger_balances(&solver);
+    // The floor's 1 m^2 receives 1000 lux straight down: 1000 / 179 W.
+    assert_relative_eq!(
+        solver.energy().emitted.x,
+        1000.0 / 179.0,
+        max_relative = 1e-9
+    );
+    assert!(solver.radiosity().iter().all(|b| b.x >= 0.0));
+}
+
+#[test]
+fn the_obj_reader_takes_light_directives_and_names_bad_ones() {
+    let resolve = &mut |_: &str| -> Result<(std::path::PathBuf, String), _> {
+        Ok(("m.mtl".into(), "newmtl grey\nKd 0.5 0.5 0.5\n".to_string()))
+    };
+    let body = "mtllib m.mtl\nusemtl grey\nv 0 0 0\nv 0 0 1\nv 1 0 1\nv 1 0 0\nf 1 2 3 4\n";
+    let text = format!(
+        "#@light point 0 2 0 100\n#@light spot 0 3 0 0 -1 0 50 10 20 1 0.8 0.6\n\
+         #@light sun 0 -1 0 20000\n{body}"
+    );
+    let scene = obj::parse("t", Path::new("t.obj"), &text, resolve).unwrap();
+    assert_eq!(scene.lights.len(), 3);
+    assert_eq!(scene.lights[0].name, "#@light at line 1");
+    assert_eq!(scene.lights[1].colour, DVec3::new(1.0, 0.8, 0.6));
+    // Lit by lights alone: no emitter needed.
+    assert!(!scene.surfaces.iter().any(|s| s.is_emitter()));
+    let bad = format!("{body}#@light spot 0 3 0 0 -1 0 50 30 20\n");
+    let error = obj::parse("t", Path::new("t.obj"), &bad, resolve)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("t.obj:8: bad #@light directive:") && error.contains("inner 30"),
+        "{error}"
+    );
+    let error = obj::parse("t", Path::new("t.obj"), body, resolve)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("no #@light directive"), "{error}");
+}
