@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the loader fuzzers (fuzz/, libFuzzer through cargo-fuzz).
 #
-#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf, sensors)
+#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf, sensors, ies)
 #   tools/fuzz.sh all SECONDS        every target in fuzz/Cargo.toml in turn
 #   tools/fuzz.sh list               the targets
 #

@@ -46,6 +46,12 @@ pub fn load_obj(data: &[u8]) -> Result<Scene, SceneError> {
 /// materials in range, and messages that are short enough to read.
 pub fn check_scene(scene: &Scene) {
     assert!(!scene.surfaces.is_empty());
+    for light in &scene.lights {
+        assert_eq!(light.validate(), Ok(()), "{}", light.name);
+        if let Some(flux) = light.flux() {
+            assert!(flux.is_finite() && flux.min_element() >= 0.0, "{}", light.name);
+        }
+    }
     for s in &scene.surfaces {
         assert!(s.polygon.len() >= 3);
         assert!(s.polygon.iter().all(|p| p.is_finite()));
@@ -204,6 +210,29 @@ pub fn check_sensors(data: &[u8]) {
         Err(error) => {
             check_error(&error);
             assert!(error.to_string().starts_with("fuzz.pts:"));
+        }
+    }
+}
+
+/// The IES LM-63 reader (`ies::parse`): any bytes give a profile whose
+/// candela values and flux are finite and not negative in every
+/// direction, or an error naming a line of the input.
+pub fn check_ies(data: &[u8]) {
+    let lines = data.split(|&b| b == b'\n').count();
+    match radiosity::scene::ies::parse(data) {
+        Ok(profile) => {
+            assert!(profile.flux().is_finite() && profile.flux() >= 0.0);
+            for gamma in [-1.0, 0.0, 12.5, 45.0, 90.0, 133.0, 180.0, 181.0] {
+                for c in [-90.0, 0.0, 30.0, 90.0, 180.0, 270.0, 359.9, 725.0] {
+                    let candela = profile.candela(gamma, c);
+                    assert!(candela.is_finite() && candela >= 0.0, "{gamma} {c}: {candela}");
+                    assert!(candela <= profile.peak());
+                }
+            }
+        }
+        Err(error) => {
+            assert!(error.line >= 1 && error.line <= lines, "{error}");
+            assert!(!error.message.is_empty());
         }
     }
 }

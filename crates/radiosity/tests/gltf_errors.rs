@@ -105,12 +105,14 @@ fn lights_take_their_nodes_transforms_and_light_a_scene_alone() {
         {"name": "spot", "type": "spot", "color": [1, 0.5, 0.25], "intensity": 40,
          "spot": {"innerConeAngle": 0.25, "outerConeAngle": 0.5}},
         {"name": "sun", "type": "directional", "intensity": 80000},
-        {"name": "bulb", "type": "point"}
+        {"name": "bulb", "type": "point"},
+        {"name": "downlight", "type": "point", "intensity": 5,
+         "extras": {"ies": "lamp.ies", "ies_multiplier": 3}}
     ]}});
     // A quarter turn about x takes -z to -y: the spot and the sun point
     // down; the spot's node sits 2 m up inside a parent moved 1 m along x.
     let quarter = [-(0.5f64.sqrt()), 0.0, 0.0, 0.5f64.sqrt()];
-    doc["scenes"][0]["nodes"] = json!([0, 1, 3]);
+    doc["scenes"][0]["nodes"] = json!([0, 1, 3, 4]);
     doc["nodes"] = json!([
         {"name": "tri", "mesh": 0},
         {"name": "rig", "translation": [1, 0, 0], "children": [2]},
@@ -118,22 +120,46 @@ fn lights_take_their_nodes_transforms_and_light_a_scene_alone() {
          "extensions": {"KHR_lights_punctual": {"light": 0}}},
         {"name": "sun node", "rotation": quarter,
          "extensions": {"KHR_lights_punctual": {"light": 1}}},
+        {"name": "downlight node", "translation": [0, 3, 0], "rotation": quarter,
+         "extensions": {"KHR_lights_punctual": {"light": 3}}},
     ]);
+    let ies = "TILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n100 0\n";
     let bytes = serde_json::to_vec(&doc).unwrap();
     let (scene, _) = gltf::load_slice(
         "lit",
         Path::new("lit.gltf"),
         &bytes,
-        &mut |_: &str| Ok(bin.clone()),
+        &mut |uri: &str| {
+            Ok(if uri == "lamp.ies" {
+                ies.as_bytes().to_vec()
+            } else {
+                bin.clone()
+            })
+        },
         &LoadOptions::default(),
     )
     .unwrap();
     assert_eq!(
         scene.lights.len(),
-        2,
+        3,
         "the unused point light is not placed"
     );
     let near = |a: DVec3, b: DVec3| (a - b).length() < 1e-6;
+    // The profiled light: its nadir the node's -z, C0 its +x, the
+    // multiplier from the extras (the glTF intensity is not used).
+    let LightKind::Luminaire {
+        position,
+        nadir,
+        c0,
+        ref profile,
+    } = scene.lights[2].kind
+    else {
+        panic!("{:?}", scene.lights[2].kind)
+    };
+    assert!(near(position, DVec3::new(0.0, 3.0, 0.0)) && near(nadir, -DVec3::Y));
+    assert!(near(c0, DVec3::X), "{c0}");
+    assert_eq!(profile.candela(0.0, 0.0), 100.0);
+    assert_eq!(scene.lights[2].intensity, 3.0);
     let spot = &scene.lights[0];
     assert_eq!(spot.name, "light 0 ('spot')");
     assert_eq!(spot.intensity, 40.0);
@@ -306,6 +332,25 @@ fn every_bad_input_gets_its_error() {
             }),
             bin.clone(),
             "node 0 ('tri') uses KHR_lights_punctual light 2, which the file does not have",
+        ),
+        (
+            with(&|d| {
+                d["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+                    {"type": "point", "extras": {"ies": "tri.bin"}}]}});
+                d["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 0}});
+            }),
+            bin.clone(),
+            "light 0 (on node 0 ('tri')): tri.bin:1: no TILT= line: this is not an IES LM-63 \
+             photometric file",
+        ),
+        (
+            with(&|d| {
+                d["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+                    {"type": "point", "extras": {"ies": 7}}]}});
+                d["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 0}});
+            }),
+            bin.clone(),
+            "light 0 (on node 0 ('tri')): its extras' \"ies\" is 7, not a file name",
         ),
         (
             with(&|d| {

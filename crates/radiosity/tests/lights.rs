@@ -295,3 +295,103 @@ fn the_obj_reader_takes_light_directives_and_names_bad_ones() {
         .to_string();
     assert!(error.contains("no #@light directive"), "{error}");
 }
+
+/// A quadrant-symmetric downlight: 0-90 degrees from the nadir, C0 and
+/// C90 differing, multiplier 2.
+const DOWNLIGHT: &str = "IESNA:LM-63-2002\n[TEST] test downlight\nTILT=NONE\n\
+    1 -1 2 3 2 1 2 0.1 0.1 0\n1 1 20\n0 45 90\n0 90\n\
+    100 60 0\n200 80 0\n";
+
+/// Loads OBJ `text` whose library `m.mtl` is grey and whose other files
+/// come from `files`.
+fn load_with_files(text: &str, files: &[(&str, &str)]) -> Result<Scene, String> {
+    let files: Vec<(String, String)> = files
+        .iter()
+        .map(|(n, t)| (n.to_string(), t.to_string()))
+        .collect();
+    obj::parse_bytes(
+        "t",
+        Path::new("t.obj"),
+        text.as_bytes(),
+        &radiosity::scene::Limits::default(),
+        &mut |name: &str| {
+            if name == "m.mtl" {
+                return Ok(("m.mtl".into(), b"newmtl grey\nKd 0.5 0.5 0.5\n".to_vec()));
+            }
+            files
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(n, t)| (n.into(), t.as_bytes().to_vec()))
+                .ok_or_else(|| radiosity::scene::SceneError::Io {
+                    location: radiosity::scene::Location::file(Path::new(name)),
+                    source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+                })
+        },
+    )
+    .map_err(|e| e.to_string())
+}
+
+const FLOOR_OBJ: &str = "mtllib m.mtl\nusemtl grey\nv -2 0 -2\nv -2 0 2\nv 2 0 2\nv 2 0 -2\n\
+    f 1 2 3 4\n";
+
+#[test]
+fn an_ies_luminaire_gives_its_tabulated_candela_at_the_sensors() {
+    let text = format!("#@light ies lamp.ies 0 2 0\n{FLOOR_OBJ}");
+    let scene = load_with_files(&text, &[("lamp.ies", DOWNLIGHT)]).unwrap();
+    assert_eq!(scene.lights.len(), 1);
+    // Straight below: 200 cd (100 x 2) at 2 m: 50 lux. At 45 degrees
+    // along +x (C0): 120 cd; along -z (C90): 160 cd; d^2 = 8, cos = 1/sqrt 2.
+    let points = [
+        (DVec3::ZERO, DVec3::Y),
+        (DVec3::new(2.0, 0.0, 0.0) * 0.999_999, DVec3::Y),
+        (DVec3::new(0.0, 0.0, -2.0) * 0.999_999, DVec3::Y),
+        (DVec3::new(1.0, 0.0, 0.0), DVec3::Y),
+    ];
+    let got = lux_at(&scene, Settings::adaptive(), &points);
+    let c45 = std::f64::consts::FRAC_1_SQRT_2;
+    assert_relative_eq!(got[0], 50.0, max_relative = 1e-5);
+    assert_relative_eq!(got[1], 120.0 * c45 / 8.0, max_relative = 1e-4);
+    assert_relative_eq!(got[2], 160.0 * c45 / 8.0, max_relative = 1e-4);
+    // Between the tabulated angles: bilinear in the vertical angle.
+    let gamma = 0.5f64.atan().to_degrees();
+    let candela = 200.0 + (120.0 - 200.0) * gamma / 45.0;
+    let cos = 2.0 / 5f64.sqrt();
+    assert_relative_eq!(got[3], candela * cos / 5.0, max_relative = 1e-4);
+    // The flux the ledger counts is the profile's integral.
+    let flux = scene.lights[0].flux().unwrap().x * 179.0;
+    assert!(
+        flux > 0.0 && flux < 2.0 * std::f64::consts::PI * 200.0,
+        "{flux}"
+    );
+}
+
+#[test]
+fn ies_directives_name_the_file_and_its_problem() {
+    let cases = [
+        (
+            "#@light ies missing.ies 0 2 0\n",
+            "t.obj:1: bad #@light directive: cannot read 'missing.ies'",
+        ),
+        ("#@light ies\n", "'ies' needs a file name"),
+        (
+            "#@light ies lamp.ies 0 2\n",
+            "2 numbers after the file name",
+        ),
+        (
+            "#@light ies lamp.ies 0 2 0 0 0 0\n",
+            "direction has no length",
+        ),
+        ("#@light ies lamp.ies 0 2 0 -1\n", "intensity -1"),
+        (
+            "#@light ies bad.ies 0 2 0\n",
+            "t.obj:1: bad #@light directive: bad.ies:2: photometric type 2",
+        ),
+    ];
+    let bad = "TILT=NONE\n1 -1 1 2 1 2 2 0 0 0\n1 1 0\n0 90\n0\n1 1\n";
+    for (directive, says) in cases {
+        let text = format!("{directive}{FLOOR_OBJ}");
+        let error =
+            load_with_files(&text, &[("lamp.ies", DOWNLIGHT), ("bad.ies", bad)]).unwrap_err();
+        assert!(error.contains(says), "{directive}: {error}");
+    }
+}

@@ -30,8 +30,11 @@
 //! with `s = (cos(a) - cos(outer)) / (cos(inner) - cos(outer))` clamped to
 //! `[0, 1]` at angle `a` from the axis, the intensity is `I s^2`.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
+use super::ies::Profile;
 use crate::sensors::LUMINOUS_EFFICACY;
 
 /// Where a light is and how its intensity is spread.
@@ -59,6 +62,18 @@ pub enum LightKind {
         /// The direction the light travels, unit length.
         direction: DVec3,
     },
+    /// A point whose intensity is a luminaire's measured distribution
+    /// ([`super::ies`]); the light's intensity multiplies its candela.
+    Luminaire {
+        /// Where.
+        position: DVec3,
+        /// Its nadir (vertical angle 0), unit length.
+        nadir: DVec3,
+        /// Its C0 direction (horizontal angle 0), unit, across the nadir.
+        c0: DVec3,
+        /// The distribution, in candela.
+        profile: Arc<Profile>,
+    },
 }
 
 /// A light: its kind, colour and intensity.
@@ -72,7 +87,8 @@ pub struct Light {
     /// intensity.
     pub colour: DVec3,
     /// Candela for point and spot lights (on the axis, for a spot), lux
-    /// for the sun; finite and at least 0.
+    /// for the sun, a multiplier of a luminaire's candela; finite and at
+    /// least 0.
     pub intensity: f64,
 }
 
@@ -170,6 +186,19 @@ impl Light {
                     return Err(LightError::Direction);
                 }
             }
+            LightKind::Luminaire {
+                position,
+                nadir,
+                c0,
+                ..
+            } => {
+                if !position.is_finite() {
+                    return Err(LightError::Position);
+                }
+                if !unit(*nadir) || !unit(*c0) || nadir.dot(*c0).abs() > 1e-9 {
+                    return Err(LightError::Direction);
+                }
+            }
         }
         Ok(())
     }
@@ -182,22 +211,32 @@ impl Light {
         self.colour * (self.intensity / LUMINOUS_EFFICACY)
     }
 
-    /// The position of a point or spot light; `None` for the sun.
+    /// The position of a point, spot or luminaire; `None` for the sun.
     #[must_use]
     pub fn position(&self) -> Option<DVec3> {
         match &self.kind {
-            LightKind::Point { position } | LightKind::Spot { position, .. } => Some(*position),
+            LightKind::Point { position }
+            | LightKind::Spot { position, .. }
+            | LightKind::Luminaire { position, .. } => Some(*position),
             LightKind::Sun { .. } => None,
         }
     }
 
-    /// The fraction of the axis intensity sent along the unit direction
-    /// `towards` (1 for a point light; the cone's falloff for a spot; 1
-    /// for the sun, which has no position).
+    /// What multiplies [`Light::radiometric`] along the unit direction
+    /// `towards`: 1 for a point light and the sun, the cone's falloff for a
+    /// spot, the candela a luminaire's profile gives there.
     #[must_use]
     pub fn falloff(&self, towards: DVec3) -> f64 {
         match &self.kind {
             LightKind::Point { .. } | LightKind::Sun { .. } => 1.0,
+            LightKind::Luminaire {
+                nadir, c0, profile, ..
+            } => {
+                let c90 = c0.cross(-*nadir);
+                let gamma = towards.dot(*nadir).clamp(-1.0, 1.0).acos().to_degrees();
+                let c = towards.dot(c90).atan2(towards.dot(*c0)).to_degrees();
+                profile.candela(gamma, c)
+            }
             LightKind::Spot {
                 direction,
                 inner,
@@ -222,7 +261,9 @@ impl Light {
                 }
                 (self.radiometric() * cos, far)
             }
-            LightKind::Point { position } | LightKind::Spot { position, .. } => {
+            LightKind::Point { position }
+            | LightKind::Spot { position, .. }
+            | LightKind::Luminaire { position, .. } => {
                 let to_light = *position - point;
                 let d2 = to_light.length_squared();
                 // At the light itself (or NaN): no defined direction.
@@ -240,7 +281,7 @@ impl Light {
         }
     }
 
-    /// Radiant flux (W per channel) of a point or spot light: the
+    /// Radiant flux (W per channel) of a point, spot or luminaire: the
     /// intensity integrated over the sphere; `None` for the sun, whose
     /// power depends on what it falls on.
     #[must_use]
@@ -248,6 +289,7 @@ impl Light {
         let per_axis = match &self.kind {
             LightKind::Point { .. } => 4.0 * std::f64::consts::PI,
             LightKind::Spot { inner, outer, .. } => spot_solid_angle(inner.cos(), outer.cos()),
+            LightKind::Luminaire { profile, .. } => profile.flux(),
             LightKind::Sun { .. } => return None,
         };
         Some(self.radiometric() * per_axis)
@@ -276,16 +318,74 @@ pub fn spot_solid_angle(cos_inner: f64, cos_outer: f64) -> f64 {
     2.0 * std::f64::consts::PI * ((1.0 - cos_inner) + (cos_inner - cos_outer) / 3.0)
 }
 
+/// A luminaire at `position` with its nadir along `nadir` (not
+/// necessarily unit) and the profile's candela times `multiplier`. Its C0
+/// direction is the world's +x axis made perpendicular to the nadir (the
+/// -z axis when the nadir is within 25 degrees of x), so C90 is the
+/// nadir's upward axis crossed with it: for a luminaire hanging straight
+/// down, C0 along +x and C90 along -z.
+pub fn luminaire(
+    name: String,
+    position: DVec3,
+    nadir: DVec3,
+    multiplier: f64,
+    profile: Arc<Profile>,
+) -> Result<Light, LightError> {
+    let nadir = unit_direction(nadir)?;
+    let reference = if nadir.x.abs() > 0.9 {
+        -DVec3::Z
+    } else {
+        DVec3::X
+    };
+    let c0 = (reference - nadir * nadir.dot(reference)).normalize();
+    let light = Light {
+        name,
+        kind: LightKind::Luminaire {
+            position,
+            nadir,
+            c0,
+            profile,
+        },
+        colour: DVec3::ONE,
+        intensity: multiplier,
+    };
+    light.validate()?;
+    Ok(light)
+}
+
 /// The forms of the `#@light` directive, for messages.
 pub const DIRECTIVE_FORMS: &str = "#@light point X Y Z CANDELA [R G B], \
      #@light spot X Y Z DX DY DZ CANDELA INNER_DEG OUTER_DEG [R G B], \
-     #@light sun DX DY DZ LUX [R G B]";
+     #@light sun DX DY DZ LUX [R G B], \
+     #@light ies FILE.ies X Y Z [DX DY DZ] [MULTIPLIER]";
+
+/// The numbers of an `#@light ies` directive after its file name: the
+/// position, the nadir (default straight down) and the multiplier
+/// (default 1).
+pub fn luminaire_numbers(numbers: &[f64]) -> Result<(DVec3, DVec3, f64), String> {
+    if let Some(bad) = numbers.iter().find(|v| !v.is_finite()) {
+        return Err(format!("{bad} is not a finite number"));
+    }
+    let v = |i: usize| DVec3::new(numbers[i], numbers[i + 1], numbers[i + 2]);
+    match numbers.len() {
+        3 => Ok((v(0), -DVec3::Y, 1.0)),
+        4 => Ok((v(0), -DVec3::Y, numbers[3])),
+        6 => Ok((v(0), v(3), 1.0)),
+        7 => Ok((v(0), v(3), numbers[6])),
+        n => Err(format!(
+            "{n} numbers after the file name; the form is #@light ies FILE.ies X Y Z [DX DY DZ] \
+             [MULTIPLIER]"
+        )),
+    }
+}
 
 /// Parses what follows `#@light` in an OBJ file (see [`DIRECTIVE_FORMS`]):
 /// a light named `name`, checked; the message says what is wrong.
 pub fn parse_directive(text: &str, name: String) -> Result<Light, String> {
     let mut words = text.split_whitespace();
-    let kind = words.next().ok_or("no light type (point, spot or sun)")?;
+    let kind = words
+        .next()
+        .ok_or("no light type (point, spot, sun or ies)")?;
     let numbers: Vec<f64> = words
         .map(|w| {
             w.parse::<f64>()
@@ -299,7 +399,7 @@ pub fn parse_directive(text: &str, name: String) -> Result<Light, String> {
         "sun" => (4, "sun DX DY DZ LUX [R G B]"),
         other => {
             return Err(format!(
-                "unknown light type '{other}' (known: point, spot, sun)"
+                "unknown light type '{other}' (known: point, spot, sun, ies)"
             ));
         }
     };
@@ -377,7 +477,10 @@ mod tests {
         assert!(matches!(l.kind, LightKind::Sun { .. }));
         for (text, says) in [
             ("", "no light type"),
-            ("lamp 1 2 3 4", "unknown light type 'lamp'"),
+            (
+                "lamp 1 2 3 4",
+                "unknown light type 'lamp' (known: point, spot, sun, ies)",
+            ),
             ("point 1 2 3", "3 numbers after 'point'"),
             ("point 1 2 3 4 5", "5 numbers after 'point'"),
             ("point 1 2 x 4", "'x' is not a number"),

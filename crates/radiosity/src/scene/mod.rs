@@ -16,6 +16,7 @@
 
 pub mod builtin;
 pub mod gltf;
+pub mod ies;
 pub mod light;
 pub mod merge;
 pub mod mtl;

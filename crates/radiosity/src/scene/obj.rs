@@ -9,8 +9,10 @@
 //! turns each into planar convex pieces. The comment directive
 //! `#@camera ex ey ez tx ty tz ux uy uz fov` gives the scene's camera,
 //! `#@mesh PATCH ELEMENT` its suggested mesh sizes in metres and `#@light`
-//! a point, spot or sun light ([`super::light::parse_directive`]); other
-//! programs read them as comments.
+//! a point, spot or sun light ([`super::light::parse_directive`]) or a
+//! luminaire from an IES photometric file named relative to the OBJ
+//! (`#@light ies FILE.ies X Y Z [DX DY DZ] [MULTIPLIER]`, [`super::ies`]);
+//! other programs read them as comments.
 //!
 //! Text is read as [`super::text`] says: it may start with a UTF-8
 //! byte-order mark and end its lines with LF, CR LF or CR alone (old Mac
@@ -34,6 +36,10 @@ pub use super::polygon::PLANARITY_TOLERANCE;
 /// lost all precision in its small features (and squared lengths approach
 /// the range of `f64`).
 pub const MAX_COORDINATE: f64 = 1e12;
+
+/// Most `#@light` directives a file may hold: each light costs a shadow
+/// segment per receiver.
+pub const MAX_LIGHTS: usize = 65_536;
 
 /// Reads a material library named by `mtllib`, returning its path (for
 /// messages) and its text.
@@ -105,6 +111,7 @@ pub fn parse_bytes(
         warped: Vec::new(),
         camera: None,
         lights: Vec::new(),
+        profiles: HashMap::new(),
         mesh_hint: None,
         ignored: Vec::new(),
         warnings: Vec::new(),
@@ -168,6 +175,8 @@ struct ObjParser<'a> {
     warped: Vec<(usize, Warp)>,
     camera: Option<Camera>,
     lights: Vec<Light>,
+    /// Photometric profiles read so far, by the name `#@light ies` gave.
+    profiles: HashMap<String, std::sync::Arc<super::ies::Profile>>,
     mesh_hint: Option<MeshHint>,
     ignored: Vec<String>,
     warnings: Vec<String>,
@@ -208,9 +217,19 @@ impl ObjParser<'_> {
             return Ok(());
         }
         if let Some(rest) = trimmed.strip_prefix("#@light") {
+            if self.lights.len() >= MAX_LIGHTS {
+                return Err(self.error(
+                    line_no,
+                    format!("more than {MAX_LIGHTS} #@light directives"),
+                ));
+            }
             let name = format!("#@light at line {line_no}");
-            let light = super::light::parse_directive(rest, name)
-                .map_err(|m| self.error(line_no, format!("bad #@light directive: {m}")))?;
+            let light = if rest.split_whitespace().next() == Some("ies") {
+                self.luminaire(line_no, rest, name, resolve)?
+            } else {
+                super::light::parse_directive(rest, name)
+                    .map_err(|m| self.error(line_no, format!("bad #@light directive: {m}")))?
+            };
             self.lights.push(light);
             return Ok(());
         }
@@ -496,6 +515,53 @@ impl ObjParser<'_> {
             }
             Err(problem) => Err(self.error(line_no, face_message(&problem))),
         }
+    }
+
+    /// `#@light ies FILE.ies X Y Z [DX DY DZ] [MULTIPLIER]`: the profile
+    /// read relative to the OBJ file (once per file name).
+    fn luminaire(
+        &mut self,
+        line_no: usize,
+        rest: &str,
+        name: String,
+        resolve: &mut BytesResolver<'_>,
+    ) -> Result<Light, SceneError> {
+        let bad =
+            |parser: &Self, m: String| parser.error(line_no, format!("bad #@light directive: {m}"));
+        let mut words = rest.split_whitespace().skip(1);
+        let Some(file) = words.next() else {
+            return Err(bad(
+                self,
+                "'ies' needs a file name: #@light ies FILE.ies X Y Z".into(),
+            ));
+        };
+        let numbers: Vec<f64> = words
+            .map(|w| number(w).map_err(|m| bad(self, m)))
+            .collect::<Result<_, _>>()?;
+        let (position, nadir, multiplier) =
+            super::light::luminaire_numbers(&numbers).map_err(|m| bad(self, m))?;
+        let profile = match self.profiles.get(file) {
+            Some(p) => p.clone(),
+            None => {
+                let (path, bytes) = resolve(file).map_err(|e| {
+                    bad(
+                        self,
+                        format!("cannot read {}: {}", quoted(file), inner_message(&e)),
+                    )
+                })?;
+                let profile = super::ies::parse(&bytes).map_err(|e| {
+                    bad(
+                        self,
+                        format!("{}:{}: {}", path.display(), e.line, e.message),
+                    )
+                })?;
+                let profile = std::sync::Arc::new(profile);
+                self.profiles.insert(file.to_string(), profile.clone());
+                profile
+            }
+        };
+        super::light::luminaire(name, position, nadir, multiplier, profile)
+            .map_err(|e| bad(self, e.to_string()))
     }
 
     fn finish(self, name: &str) -> Result<Scene, SceneError> {

@@ -145,7 +145,7 @@ impl Loader<'_> {
 
     /// Bytes of a URI: a `data:` URI decoded here, anything else read by
     /// the resolver.
-    fn read_uri(
+    pub(super) fn read_uri(
         &self,
         uri: &str,
         what: &str,

@@ -31,7 +31,11 @@
 //! - the first perspective camera met in the scene is the default view;
 //! - `KHR_lights_punctual` lights become point, spot and sun lights
 //!   (candela; lux for directional lights), each at its node's origin and
-//!   shining along the node's -z axis.
+//!   shining along the node's -z axis; a light whose `extras` hold
+//!   `"ies": "FILE.ies"` (a URI, relative to the glTF) is a luminaire with
+//!   that photometric profile, its nadir the node's -z axis and its C0 the
+//!   node's +x axis, times `"ies_multiplier"` (default 1); its glTF
+//!   intensity, colour and cone are then not used.
 //!
 //! glTF stores floats in single precision. Each is widened to the shortest
 //! decimal that rounds to it (what the author or exporter most likely
@@ -167,7 +171,7 @@ pub fn load_slice(
     loader.check_header()?;
     loader.load_buffers(gltf.blob.as_deref(), resolve)?;
     let images = loader.load_images(resolve)?;
-    loader.load_scene(&images)?;
+    loader.load_scene(&images, resolve)?;
     let mesh_hint = loader.mesh_hint();
     let scene = loader.finish(name, mesh_hint)?;
     let appearance = Appearance {

@@ -12,12 +12,18 @@
 use glam::{DMat4, DQuat, DVec3};
 use gltf_json as json;
 
-use super::{Camera, ImageData, Loader, SceneError, label, radiosity_extras, widen, widen3};
+use super::{
+    Camera, ImageData, Loader, Resolver, SceneError, label, radiosity_extras, widen, widen3,
+};
 use crate::scene::light::{self, Light, LightKind};
 
 impl Loader<'_> {
     /// Walks the default scene's node tree.
-    pub(super) fn load_scene(&mut self, images: &[ImageData]) -> Result<(), SceneError> {
+    pub(super) fn load_scene(
+        &mut self,
+        images: &[ImageData],
+        resolve: &mut Resolver<'_>,
+    ) -> Result<(), SceneError> {
         let root = self.root;
         let roots: Vec<usize> = match root.scene.map(|s| s.value()).or(if root.scenes.is_empty() {
             None
@@ -78,7 +84,7 @@ impl Loader<'_> {
                 .as_ref()
                 .and_then(|e| e.khr_lights_punctual.as_ref())
             {
-                let light = self.take_light(light.light.value(), world, &what)?;
+                let light = self.take_light(light.light.value(), world, &what, resolve)?;
                 self.lights.push(light);
             }
             if let Some(mesh) = node.mesh {
@@ -110,7 +116,13 @@ impl Loader<'_> {
     /// convention). Intensity is candela for point and spot lights, lux for
     /// directional ones; `range` is ignored (light falls off with the square
     /// of distance, as the extension recommends for physical rendering).
-    fn take_light(&mut self, index: usize, world: DMat4, what: &str) -> Result<Light, SceneError> {
+    fn take_light(
+        &mut self,
+        index: usize,
+        world: DMat4,
+        what: &str,
+        resolve: &mut Resolver<'_>,
+    ) -> Result<Light, SceneError> {
         use json::extensions::scene::khr_lights_punctual::Type;
         let Some(light) = self
             .root
@@ -130,6 +142,30 @@ impl Loader<'_> {
         let axis = world.transform_vector3(-DVec3::Z);
         let direction = light::unit_direction(axis)
             .map_err(|e| fail(self, format!("{e} (its node's -z axis)")))?;
+        if let Some(profile) = ies_extras(&light.extras).map_err(|m| fail(self, m))? {
+            let (uri, multiplier) = profile;
+            let bytes = self.read_uri(&uri, &name, resolve)?;
+            let profile = crate::scene::ies::parse(&bytes)
+                .map_err(|e| fail(self, format!("{uri}:{}: {}", e.line, e.message)))?;
+            // C0 along the node's +x axis, made square to the nadir.
+            let x = world.transform_vector3(DVec3::X);
+            let x = x - direction * direction.dot(x);
+            let c0 = light::unit_direction(x)
+                .map_err(|e| fail(self, format!("{e} (its node's +x axis)")))?;
+            let light = Light {
+                name: name.clone(),
+                kind: LightKind::Luminaire {
+                    position,
+                    nadir: direction,
+                    c0,
+                    profile: std::sync::Arc::new(profile),
+                },
+                colour: DVec3::ONE,
+                intensity: multiplier,
+            };
+            light.validate().map_err(|e| fail(self, e.to_string()))?;
+            return Ok(light);
+        }
         let kind = match light.type_ {
             json::validation::Checked::Valid(Type::Point) => LightKind::Point { position },
             json::validation::Checked::Valid(Type::Directional) => LightKind::Sun { direction },
@@ -239,4 +275,28 @@ impl Loader<'_> {
         }
         Ok(())
     }
+}
+
+/// A light's photometric profile from its extras: `"ies"` (a URI) and
+/// `"ies_multiplier"` (a number, default 1); `None` without `"ies"`.
+fn ies_extras(extras: &json::Extras) -> Result<Option<(String, f64)>, String> {
+    let Some(raw) = extras.as_ref() else {
+        return Ok(None);
+    };
+    let Ok(value) = serde_json::from_str::<serde_json::Value>(raw.get()) else {
+        return Ok(None);
+    };
+    let Some(ies) = value.get("ies") else {
+        return Ok(None);
+    };
+    let uri = ies
+        .as_str()
+        .ok_or_else(|| format!("its extras' \"ies\" is {ies}, not a file name"))?;
+    let multiplier = match value.get("ies_multiplier") {
+        None => 1.0,
+        Some(m) => m
+            .as_f64()
+            .ok_or_else(|| format!("its extras' \"ies_multiplier\" is {m}, not a number"))?,
+    };
+    Ok(Some((uri.to_string(), multiplier)))
 }
