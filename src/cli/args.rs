@@ -109,14 +109,54 @@ pub struct LoadArgs {
     /// its strength to P / (pi A), or scale all emitters with this flag.
     #[arg(long, value_name = "SCALE", default_value_t = 1.0)]
     pub emission_scale: f64,
+
+    /// Add the sun: ALTITUDE degrees above the horizon, AZIMUTH degrees
+    /// from north (-z) towards east (+x), LUX on a plane facing it. Its
+    /// light reaches every surface facing it that nothing shades.
+    #[arg(long, num_args = 3, value_names = ["ALTITUDE", "AZIMUTH", "LUX"], allow_negative_numbers = true)]
+    pub sun: Option<Vec<f64>>,
+
+    /// Add a sky: uniform, overcast (CIE standard overcast, zenith three
+    /// times the horizon) or clear (CIE clear sky around the --sun
+    /// position). Its light arrives from above the horizon wherever
+    /// nothing blocks it: through windows, skylights, open courtyards.
+    #[arg(long, value_name = "MODEL", value_parser = ["uniform", "overcast", "clear"], requires = "sky_illuminance")]
+    pub sky: Option<String>,
+
+    /// The sky's unobstructed horizontal illuminance (the sky alone,
+    /// without the sun), lux: about 10,000 on an overcast day, 20,000 on a
+    /// clear one.
+    #[arg(long, value_name = "LUX", requires = "sky")]
+    pub sky_illuminance: Option<f64>,
+
+    /// Sky patches: Tregenza's 145 divided N x N each (Reinhart's scheme):
+    /// 1 gives 145 directions per receiver, 2 gives 580, 4 gives 2320.
+    /// One direction is drawn in each patch per receiver: more patches,
+    /// less noise under small openings, more shadow rays.
+    #[arg(long, value_name = "N", default_value_t = radiosity::scene::sky::DEFAULT_SUBDIVISION)]
+    pub sky_subdivision: usize,
 }
 
 impl LoadArgs {
     pub fn options(&self, limits: Limits) -> LoadOptions {
+        use radiosity::scene::sky::{Daylight, SkyModel, SkySpec, SunSpec};
         LoadOptions {
             limits,
             reflectance_cap: self.reflectance_cap,
             emission_scale: self.emission_scale,
+            daylight: Daylight {
+                sun: self.sun.as_ref().map(|v| SunSpec {
+                    altitude: v[0],
+                    azimuth: v[1],
+                    illuminance: v[2],
+                }),
+                // clap accepts only the three names.
+                sky: self.sky.as_ref().map(|model| SkySpec {
+                    model: model.parse().unwrap_or(SkyModel::Uniform),
+                    illuminance: self.sky_illuminance.unwrap_or(f64::NAN),
+                    subdivision: self.sky_subdivision,
+                }),
+            },
         }
     }
 }

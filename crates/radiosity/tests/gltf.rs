@@ -195,6 +195,7 @@ fn emission_scale_and_reflectance_cap_apply() {
         limits: Default::default(),
         reflectance_cap: 0.5,
         emission_scale: 0.25,
+        daylight: Default::default(),
     };
     let scene = scene::load_with(path.to_str().unwrap(), &options)
         .unwrap()

@@ -11,6 +11,7 @@ use approx::assert_relative_eq;
 use glam::DVec3;
 use radiosity::mesh::Mesh;
 use radiosity::scene::light::cone;
+use radiosity::scene::sky::{Daylight, SkyModel, SkySpec, SunSpec};
 use radiosity::scene::{Light, LightKind, Scene, obj};
 use radiosity::sensors::{self, SensorPoint, lux};
 use radiosity::solver::{Preset, Settings, Solver};
@@ -290,10 +291,42 @@ fn the_obj_reader_takes_light_directives_and_names_bad_ones() {
         error.starts_with("t.obj:8: bad #@light directive:") && error.contains("inner 30"),
         "{error}"
     );
-    let error = obj::parse("t", Path::new("t.obj"), body, resolve)
+    // A scene with neither emitters nor lights is refused when loaded.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.mtl"), "newmtl grey\nKd 0.5 0.5 0.5\n").unwrap();
+    std::fs::write(dir.path().join("dark.obj"), body).unwrap();
+    let dark = dir.path().join("dark.obj");
+    let error = radiosity::scene::load(dark.to_str().unwrap())
         .unwrap_err()
         .to_string();
-    assert!(error.contains("no #@light directive"), "{error}");
+    assert!(
+        error.contains("dark.obj: the scene has no emitter")
+            && error.contains("no #@light directive")
+            && error.contains("--sun, --sky"),
+        "{error}"
+    );
+    // Daylight from the options lights it.
+    let options = radiosity::scene::LoadOptions {
+        daylight: Daylight {
+            sun: Some(SunSpec {
+                altitude: 40.0,
+                azimuth: 180.0,
+                illuminance: 50_000.0,
+            }),
+            sky: None,
+        },
+        ..Default::default()
+    };
+    let scene = radiosity::scene::load_with(dark.to_str().unwrap(), &options)
+        .unwrap()
+        .scene;
+    assert_eq!(scene.lights.len(), 1);
+    // Due south, 40 degrees up: the light travels north (-z) and down.
+    let LightKind::Sun { direction } = scene.lights[0].kind else {
+        panic!("{:?}", scene.lights[0].kind)
+    };
+    let expected = -DVec3::new(0.0, 40f64.to_radians().sin(), 40f64.to_radians().cos());
+    assert!((direction - expected).length() < 1e-12, "{direction}");
 }
 
 /// A quadrant-symmetric downlight: 0-90 degrees from the nadir, C0 and
@@ -394,4 +427,121 @@ fn ies_directives_name_the_file_and_its_problem() {
             load_with_files(&text, &[("lamp.ies", DOWNLIGHT), ("bad.ies", bad)]).unwrap_err();
         assert!(error.contains(says), "{directive}: {error}");
     }
+}
+
+/// The sky lights of a spec.
+fn sky_lights(
+    model: SkyModel,
+    illuminance: f64,
+    subdivision: usize,
+    sun: Option<SunSpec>,
+) -> Vec<Light> {
+    Daylight {
+        sun,
+        sky: Some(SkySpec {
+            model,
+            illuminance,
+            subdivision,
+        }),
+    }
+    .lights()
+    .unwrap()
+}
+
+#[test]
+fn an_open_floor_under_a_sky_receives_its_horizontal_illuminance() {
+    let sun = Some(SunSpec {
+        altitude: 30.0,
+        azimuth: 120.0,
+        illuminance: 0.0,
+    });
+    // The clear sky's bright circumsolar region needs finer patches for
+    // the same noise.
+    for (model, sun, subdivision) in [
+        (SkyModel::Uniform, None, 2),
+        (SkyModel::Overcast, None, 2),
+        (SkyModel::Clear, sun, 6),
+    ] {
+        let mut lights = sky_lights(model, 10_000.0, subdivision, sun);
+        // The sun of no illuminance only places the clear sky's peak.
+        lights.retain(|l| matches!(l.kind, LightKind::Sky { .. }));
+        let scene = with_lights(vec![floor(0.5)], lights);
+        let points = floor_points();
+        let got = lux_at(&scene, Settings::adaptive(), &points);
+        for lux in got {
+            assert!((lux / 10_000.0 - 1.0).abs() < 0.01, "{model:?}: {lux} lux");
+        }
+    }
+}
+
+#[test]
+fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_opening() {
+    // A closed 4 x 3 x 4 m room of black walls whose ceiling has a 1 x 1 m
+    // opening over the floor's centre: the floor there receives the sky
+    // seen through the opening, and nothing else.
+    let (w, h) = (4.0, 3.0);
+    let black = |origin: DVec3, u: DVec3, v: DVec3, id: u32| quad(origin, u, v, 0.0, 0.0, id);
+    let mut surfaces = vec![
+        black(DVec3::ZERO, DVec3::Z * w, DVec3::X * w, 0),
+        black(DVec3::ZERO, DVec3::Y * h, DVec3::Z * w, 1),
+        black(DVec3::X * w, DVec3::Z * w, DVec3::Y * h, 2),
+        black(DVec3::ZERO, DVec3::X * w, DVec3::Y * h, 3),
+        black(DVec3::Z * w, DVec3::Y * h, DVec3::X * w, 4),
+    ];
+    // The ceiling (facing down) around the opening [1.5, 2.5]^2.
+    let ceiling = |x0: f64, z0: f64, x1: f64, z1: f64, id: u32| {
+        black(
+            DVec3::new(x0, h, z0),
+            DVec3::X * (x1 - x0),
+            DVec3::Z * (z1 - z0),
+            id,
+        )
+    };
+    surfaces.push(ceiling(0.0, 0.0, w, 1.5, 5));
+    surfaces.push(ceiling(0.0, 2.5, w, w, 6));
+    surfaces.push(ceiling(0.0, 1.5, 1.5, 2.5, 7));
+    surfaces.push(ceiling(2.5, 1.5, w, 2.5, 8));
+    for s in &surfaces[5..] {
+        assert_eq!(s.normal, -DVec3::Y);
+    }
+    let illuminance = 10_000.0;
+    let lights = sky_lights(SkyModel::Overcast, illuminance, 16, None);
+    let mut scene = with_lights(surfaces, lights);
+    scene.mesh_hint = Some(radiosity::scene::MeshHint {
+        patch_size: 2.0,
+        element_size: 1.0,
+        directive: None,
+    });
+    let centre = DVec3::new(2.0, 0.0, 2.0);
+    let off_centre = DVec3::new(2.6, 0.0, 1.7);
+    let got = lux_at(
+        &scene,
+        Settings::adaptive(),
+        &[(centre, DVec3::Y), (off_centre, DVec3::Y)],
+    );
+    // The closed form, by a fine midpoint rule over the opening: the
+    // overcast luminance L_z (1 + 2 cos theta) / 3 (lux per sr) times
+    // cos^2 theta / r^2 dA (both cosines equal: the opening is parallel to
+    // the floor).
+    let lz = 9.0 * illuminance / (7.0 * std::f64::consts::PI);
+    let through = |p: DVec3| {
+        let n = 400;
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let q = DVec3::new(
+                    1.5 + (f64::from(i) + 0.5) / f64::from(n),
+                    h,
+                    1.5 + (f64::from(j) + 0.5) / f64::from(n),
+                );
+                let d = q - p;
+                let r2 = d.length_squared();
+                let cos = d.y / r2.sqrt();
+                sum += lz * (1.0 + 2.0 * cos) / 3.0 * cos * cos / r2;
+            }
+        }
+        sum / f64::from(n * n)
+    };
+    assert_relative_eq!(got[0], through(centre), max_relative = 0.01);
+    assert_relative_eq!(got[1], through(off_centre), max_relative = 0.01);
 }

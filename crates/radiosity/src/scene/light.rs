@@ -35,6 +35,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use super::ies::Profile;
+use super::sky::Sky;
 use crate::sensors::LUMINOUS_EFFICACY;
 
 /// Where a light is and how its intensity is spread.
@@ -61,6 +62,15 @@ pub enum LightKind {
     Sun {
         /// The direction the light travels, unit length.
         direction: DVec3,
+    },
+    /// Daylight from the sky above the horizon ([`super::sky`]): the
+    /// light's intensity is the sky's unobstructed horizontal illuminance
+    /// in lux.
+    Sky {
+        /// Its luminance distribution.
+        sky: Arc<Sky>,
+        /// Patch subdivision (see [`super::sky::patches`]), at least 1.
+        subdivision: usize,
     },
     /// A point whose intensity is a luminaire's measured distribution
     /// ([`super::ies`]); the light's intensity multiplies its candela.
@@ -186,6 +196,7 @@ impl Light {
                     return Err(LightError::Direction);
                 }
             }
+            LightKind::Sky { .. } => {}
             LightKind::Luminaire {
                 position,
                 nadir,
@@ -218,7 +229,7 @@ impl Light {
             LightKind::Point { position }
             | LightKind::Spot { position, .. }
             | LightKind::Luminaire { position, .. } => Some(*position),
-            LightKind::Sun { .. } => None,
+            LightKind::Sun { .. } | LightKind::Sky { .. } => None,
         }
     }
 
@@ -229,6 +240,7 @@ impl Light {
     pub fn falloff(&self, towards: DVec3) -> f64 {
         match &self.kind {
             LightKind::Point { .. } | LightKind::Sun { .. } => 1.0,
+            LightKind::Sky { sky, .. } => sky.relative_luminance(-towards),
             LightKind::Luminaire {
                 nadir, c0, profile, ..
             } => {
@@ -253,6 +265,8 @@ impl Light {
     #[must_use]
     pub fn irradiance(&self, point: DVec3, normal: DVec3, reach: f64) -> (DVec3, DVec3) {
         match &self.kind {
+            // A sky comes from many directions: see [`Light::sky_sample`].
+            LightKind::Sky { .. } => (DVec3::ZERO, point),
             LightKind::Sun { direction } => {
                 let cos = -normal.dot(*direction);
                 let far = point - *direction * reach;
@@ -281,6 +295,33 @@ impl Light {
         }
     }
 
+    /// One stratified sample of a sky's irradiance at a point with unit
+    /// normal `normal`: the direction drawn at `(u, v)` in `patch`, the
+    /// irradiance it stands for if unblocked (the patch's solid angle times
+    /// the luminance and cosine there) and the far end of its shadow
+    /// segment, `reach` metres towards the sky. Zero for any other light.
+    #[must_use]
+    pub fn sky_sample(
+        &self,
+        patch: &super::sky::Patch,
+        (u, v): (f64, f64),
+        point: DVec3,
+        normal: DVec3,
+        reach: f64,
+    ) -> (DVec3, DVec3) {
+        let LightKind::Sky { sky, .. } = &self.kind else {
+            return (DVec3::ZERO, point);
+        };
+        let towards = patch.direction(u, v);
+        let far = point + towards * reach;
+        let cos = normal.dot(towards);
+        if cos <= 0.0 {
+            return (DVec3::ZERO, far);
+        }
+        let weight = sky.relative_luminance(towards) * cos * patch.solid_angle();
+        (self.radiometric() * weight, far)
+    }
+
     /// Radiant flux (W per channel) of a point, spot or luminaire: the
     /// intensity integrated over the sphere; `None` for the sun, whose
     /// power depends on what it falls on.
@@ -290,7 +331,7 @@ impl Light {
             LightKind::Point { .. } => 4.0 * std::f64::consts::PI,
             LightKind::Spot { inner, outer, .. } => spot_solid_angle(inner.cos(), outer.cos()),
             LightKind::Luminaire { profile, .. } => profile.flux(),
-            LightKind::Sun { .. } => return None,
+            LightKind::Sun { .. } | LightKind::Sky { .. } => return None,
         };
         Some(self.radiometric() * per_axis)
     }

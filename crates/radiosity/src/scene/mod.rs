@@ -22,6 +22,7 @@ pub mod merge;
 pub mod mtl;
 pub mod obj;
 pub mod polygon;
+pub mod sky;
 pub mod text;
 
 use std::fmt;
@@ -374,6 +375,8 @@ pub struct LoadOptions {
     /// Exitance in W/m^2 is `pi x emission_scale x emissive x strength`
     /// (`--emission-scale`).
     pub emission_scale: f64,
+    /// A sun and sky to add to any scene (`--sun`, `--sky`).
+    pub daylight: sky::Daylight,
 }
 
 impl Default for LoadOptions {
@@ -382,6 +385,7 @@ impl Default for LoadOptions {
             limits: Limits::default(),
             reflectance_cap: DEFAULT_REFLECTANCE_CAP,
             emission_scale: 1.0,
+            daylight: sky::Daylight::default(),
         }
     }
 }
@@ -441,6 +445,7 @@ impl LoadOptions {
         if !(self.emission_scale.is_finite() && self.emission_scale > 0.0) {
             return Err(LoadOptionsError::EmissionScale(self.emission_scale));
         }
+        self.daylight.lights().map_err(LoadOptionsError::Daylight)?;
         Ok(())
     }
 }
@@ -454,6 +459,9 @@ pub enum LoadOptionsError {
     /// An emission scale that is not a positive number.
     #[error("--emission-scale must be a positive number, not {0}")]
     EmissionScale(f64),
+    /// A sun or sky out of range (the message names the flag).
+    #[error("{0}")]
+    Daylight(String),
 }
 
 /// A loaded scene and, for glTF input, what the irradiance bake needs to
@@ -480,8 +488,40 @@ pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
     load_with(name_or_path, &LoadOptions::default()).map(|l| l.scene)
 }
 
-/// [`load`] with options, keeping a glTF input's appearance.
+/// [`load`] with options, keeping a glTF input's appearance: the scene
+/// with the options' daylight added, refused if nothing lights it (no
+/// emitting surface, no light, no daylight).
 pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
+    let mut loaded = load_file_or_builtin(name_or_path, options)?;
+    let scene = &mut loaded.scene;
+    let path = Path::new(name_or_path);
+    let daylight = options
+        .daylight
+        .lights()
+        .map_err(|message| SceneError::Invalid {
+            location: Location::file(path),
+            message,
+        })?;
+    scene.lights.extend(daylight);
+    if scene.lights.is_empty() && !scene.surfaces.iter().any(Surface::is_emitter) {
+        let emitters = if is_gltf(path) {
+            "no material has an emissiveFactor > 0 and no node has a KHR_lights_punctual light"
+        } else {
+            "no face uses a material with Ke > 0 and there is no #@light directive"
+        };
+        return Err(SceneError::Invalid {
+            location: Location::file(path),
+            message: format!(
+                "the scene has no emitter: {emitters}; give it an emitting surface, a light, or \
+                 daylight (--sun, --sky)"
+            ),
+        });
+    }
+    Ok(loaded)
+}
+
+/// The scene as its file or the built-in scenes give it.
+fn load_file_or_builtin(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
     let path = Path::new(name_or_path);
     let looks_like_path = path.extension().is_some() || path.components().count() > 1;
     if !looks_like_path && let Some(scene) = builtin::load(name_or_path) {

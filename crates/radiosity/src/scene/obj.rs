@@ -581,13 +581,6 @@ impl ObjParser<'_> {
                 self.faces
             )));
         }
-        if self.lights.is_empty() && !self.surfaces.iter().any(Surface::is_emitter) {
-            return Err(file_error(
-                "the scene has no emitter: no face uses a material with Ke > 0 and there is no \
-                 #@light directive"
-                    .into(),
-            ));
-        }
         let mut warnings = self.warnings;
         if let Some(first) = self.degenerate.first() {
             warnings.push(format!(

@@ -8,8 +8,12 @@
 //! exactly at each receiver: a point light has no area to subdivide, so
 //! the only error left is the receiving mesh's.
 //!
-//! Receivers are independent, so the result does not depend on the number
-//! of threads.
+//! A sky ([`crate::scene::sky`]) shoots the same way from one direction
+//! drawn in each of its patches per receiver: one shadow segment each.
+//!
+//! Receivers are independent (a sky's directions come from a generator
+//! seeded by the receiver's index), so the result does not depend on the
+//! number of threads.
 
 use std::time::Instant;
 
@@ -19,7 +23,7 @@ use rayon::prelude::*;
 use super::Stats;
 use super::method::ShotInputs;
 use crate::accel;
-use crate::scene::{Light, Scene};
+use crate::scene::{Light, LightKind, Scene, sky};
 
 /// Receivers gathered between two checks of the shot's abort.
 const CHUNK: usize = 4096;
@@ -58,6 +62,11 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
     let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
     let mut pairs = 0u64;
     let mut rays = 0u64;
+    let mut chunk_start = 0;
+    let patches = match &light.kind {
+        LightKind::Sky { subdivision, .. } => sky::patches(*subdivision),
+        _ => Vec::new(),
+    };
     for (chunk, out) in inputs
         .receivers
         .chunks(CHUNK)
@@ -66,24 +75,48 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
         if inputs.abort.fired() {
             return None;
         }
+        let first = chunk_start;
         let counts = chunk
             .par_iter()
             .zip(out.par_iter_mut())
-            .map(|(r, e)| {
-                let (unblocked, from) = light.irradiance(r.point, r.normal, reach);
-                if unblocked == DVec3::ZERO {
-                    return (0, 0);
-                }
-                let (a, b) = accel::shorten(from, r.point);
-                // A point light skips no surface; the sun's far end none
-                // either (it lies outside the scene).
+            .enumerate()
+            .map(|(k, (r, e))| {
+                // A point light skips no surface; the sun's or the sky's
+                // far end none either (it lies outside the scene).
                 let skip = [NO_SURFACE, r.group];
-                if !inputs.occluder.occluded(a, b, skip) {
-                    *e = unblocked;
+                let unblocked = |(unblocked, from): (DVec3, DVec3)| {
+                    if unblocked == DVec3::ZERO {
+                        return None;
+                    }
+                    let (a, b) = accel::shorten(from, r.point);
+                    Some((!inputs.occluder.occluded(a, b, skip)).then_some(unblocked))
+                };
+                if patches.is_empty() {
+                    return match unblocked(light.irradiance(r.point, r.normal, reach)) {
+                        None => (0, 0),
+                        Some(seen) => {
+                            *e = seen.unwrap_or(DVec3::ZERO);
+                            (1, 1)
+                        }
+                    };
                 }
-                (1, 1)
+                let mut random = Stream::new((first + k) as u64);
+                let mut rays = 0;
+                let mut sum = DVec3::ZERO;
+                for patch in &patches {
+                    let uv = (random.next(), random.next());
+                    if let Some(seen) =
+                        unblocked(light.sky_sample(patch, uv, r.point, r.normal, reach))
+                    {
+                        rays += 1;
+                        sum += seen.unwrap_or(DVec3::ZERO);
+                    }
+                }
+                *e = sum;
+                (u64::from(rays > 0), rays)
             })
             .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+        chunk_start += chunk.len();
         pairs += counts.0;
         rays += counts.1;
     }
@@ -91,4 +124,25 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
     stats.rays_cast += rays;
     stats.gather_time += start.elapsed();
     Some(irradiance)
+}
+
+/// A stream of numbers in `[0, 1)` seeded by a receiver's index
+/// (SplitMix64, Steele et al. 2014): each receiver draws its own, so the
+/// sky's samples do not depend on the number of threads.
+struct Stream(u64);
+
+impl Stream {
+    fn new(seed: u64) -> Stream {
+        Stream(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03)
+    }
+
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        // The top 53 bits, as a fraction.
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
 }

@@ -289,13 +289,6 @@ impl Loader<'_> {
                 self.faces
             )));
         }
-        if self.lights.is_empty() && !self.surfaces.iter().any(Surface::is_emitter) {
-            return Err(self.error(
-                "the scene has no emitter: no material has an emissiveFactor > 0 and no node \
-                 has a KHR_lights_punctual light; give the lamps an emissive material or a light"
-                    .into(),
-            ));
-        }
         let mut warnings = std::mem::take(&mut self.warnings);
         if !self.capped.is_empty() {
             warnings.push(format!(
