@@ -358,6 +358,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "form_factor_thread_seconds",
             "gather_seconds",
             "hemicube_seconds",
+            "lights",
             "linked_receivers",
             "links",
             "load_seconds",

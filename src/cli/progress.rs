@@ -127,6 +127,19 @@ pub fn print_summary(o: &Outcome) {
         "{}: {} surfaces ({} surface ids), {} shooters, {} elements, {} vertices",
         o.scene, c.surfaces, c.surface_ids, c.patches, c.elements, c.vertices
     );
+    if !o.lights.is_empty() {
+        let lumens: f64 = o.lights.iter().map(|l| l.lumens).sum();
+        println!(
+            "lights: {} ({}), {:.0} lm sent",
+            o.lights.len(),
+            o.lights
+                .iter()
+                .map(|l| l.kind)
+                .collect::<Vec<_>>()
+                .join(", "),
+            lumens
+        );
+    }
     println!(
         "solved: {} shots, {} subsources, {} rays, unshot {:.2}% ({}) in {:.2} s on {} thread(s)",
         o.stats.shots,

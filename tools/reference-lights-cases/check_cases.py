@@ -3,7 +3,7 @@
 by make_cases.py, compared with an OUT.txt of reference_lights.py.
 
 usage: check_cases.py CASE OUT.txt [sky options as given to reference_lights.py]
-  CASE: floor_point | floor_spot | floor_sun | floor_open | skylight_room
+  CASE: floor_point | floor_spot | floor_sun | floor_open | skylight_room | big_floor
 """
 import math
 import os
@@ -39,6 +39,44 @@ def sky_norm(kind, sun):
     return 1.0 / ((f * wt[:, None]).sum() * 2 * math.pi / 2400)
 
 
+def polygon_view_factor(x, n, poly):
+    """Exact view factor from a differential area (x, normal n) to a planar
+    polygon (Lambert's contour formula), the polygon first clipped to the
+    receiver's front half-space."""
+    P = [np.asarray(p, float) - x for p in poly]
+    out = []
+    for i in range(len(P)):
+        a, b = P[i], P[(i + 1) % len(P)]
+        da, db = a @ n, b @ n
+        if da > 0:
+            out.append(a)
+        if (da > 0) != (db > 0):
+            out.append(a + (b - a) * (da / (da - db)))
+    f = 0.0
+    for i in range(len(out)):
+        a, b = out[i], out[(i + 1) % len(out)]
+        c = np.cross(a, b)
+        ang = math.atan2(np.linalg.norm(c), a @ b)
+        f += ang * (c @ n) / np.linalg.norm(c)
+    return abs(f) / (2 * math.pi)
+
+
+def sky_on_plane(kind, n, sun):
+    """int over y > 0 of shape(d) max(0, d.n) dw (Gauss-Legendre x midpoint)."""
+    x, w = np.polynomial.legendre.leggauss(1500)
+    th = (x + 1) * math.pi / 4
+    wt = w * math.pi / 4
+    nph = 6000
+    ph = (np.arange(nph) + 0.5) / nph * 2 * math.pi
+    tot = 0.0
+    for k in range(0, len(th), 100):
+        T, P = np.meshgrid(th[k:k + 100], ph, indexing="ij")
+        d = np.stack([np.sin(T) * np.sin(P), np.cos(T), -np.sin(T) * np.cos(P)], -1)
+        f = sky_shape(kind, d, sun) * np.clip(d @ n, 0, None) * np.sin(T)
+        tot += (f * wt[k:k + 100, None]).sum() * 2 * math.pi / nph
+    return tot
+
+
 def main():
     case, out = sys.argv[1], sys.argv[2]
     opts = sys.argv[3:]
@@ -61,7 +99,7 @@ def main():
         s = x + (1 / -dv[1]) * -dv          # where the ray to the sun is at y = 1
         lit = ~((np.abs(s[:, 0]) < 0.2) & (np.abs(s[:, 2]) < 0.2))
         exp = (60000 / 179 * -dv[1] * lit)[:, None] * np.ones(3)
-    elif case in ("floor_open", "skylight_room"):
+    elif case in ("floor_open", "skylight_room", "big_floor"):
         kind = opts[opts.index("--sky") + 1]
         eh = float(opts[opts.index("--sky-illuminance") + 1]) / 179
         sun = None
@@ -75,6 +113,16 @@ def main():
         scale = eh * sky_norm(kind, sun)
         if case == "floor_open":
             e = np.full(len(x), eh + esun)
+        elif case == "big_floor":
+            # floor (Kd 0.5) irradiance E_h + E_sun everywhere (nothing blocks);
+            # receiver: sky directly + 0.5 (E_h + E_sun) x view factor to the floor
+            if esun:
+                sys.exit("big_floor with a sun: not handled here")
+            floor = [(-100, 0, -100), (-100, 0, 100), (100, 0, 100), (100, 0, -100)]
+            nn = pts[:, 3:] / np.linalg.norm(pts[:, 3:], axis=1)[:, None]
+            e = np.array([scale * sky_on_plane(kind, m, sun)
+                          + 0.5 * eh * polygon_view_factor(p, m, floor)
+                          for p, m in zip(x, nn)])
         else:
             if esun:
                 sys.exit("sun through the skylight: not handled here")

@@ -57,6 +57,13 @@ write("floor_sun", "#@light sun 0.37 -1 0.13 60000\n" + FLOOR.replace("usemtl fl
 # 4a. open floor under a sky
 write("floor_open", FLOOR, MTL_FLOOR, floor_pts([(0, 0), (1.2, -0.8), (-1.9, 1.9)]))
 
+# 4d. a 200 x 200 m floor under the sky, points 1 m above it, off any face
+#     (B = nan): everything the floor sends there comes through the paths'
+#     deeper vertices (floor hit, then escape to the sky)
+write("big_floor", "v -100 0 -100\nv -100 0 100\nv 100 0 100\nv 100 0 -100\nusemtl floor\nf 1 2 3 4\n",
+      MTL_FLOOR, [(0, 1, 0, 1, 0, 0), (0, 1, 0, 0, -1, 0), (0, 1, 0, 0.5, -0.5, 0.7),
+                  (3, 1, 2, -0.3, 0.2, 0.9)])
+
 # 4b. closed 4x3x4 room, black, 1x1 skylight hole in the ceiling (y = 3)
 V = []
 

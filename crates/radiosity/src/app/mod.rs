@@ -199,6 +199,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         warnings: scene.warnings.clone(),
         peak_memory_bytes: None,
         memory_estimate,
+        lights: outcome::LightPower::of(&scene, solver.light_power()),
     };
     outcome.peak_memory_bytes = memory::peak_resident_bytes();
     outcome.write_time = write_start.elapsed();

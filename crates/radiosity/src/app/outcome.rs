@@ -51,6 +51,49 @@ pub struct Outcome {
     pub peak_memory_bytes: Option<u64>,
     /// The estimate the run was checked against before its solve.
     pub memory_estimate: memory::Estimate,
+    /// The scene's lights and the power each sent.
+    pub lights: Vec<LightPower>,
+}
+
+/// A light of the run and the power it sent (the `--stats` file's
+/// `lights`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LightPower {
+    /// How messages name it.
+    pub name: String,
+    /// `point`, `spot`, `sun`, `sky` or `ies`.
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    /// W per channel: a point, spot or luminaire's flux; what a sun or sky
+    /// delivered to the surfaces; zero for a light not shot.
+    pub power_watts: [f64; 3],
+    /// The same in lumens (Radiance's 179 lm/W and RGB weights).
+    pub lumens: f64,
+}
+
+impl LightPower {
+    /// The lights of `scene` with the power `power` gives each.
+    #[must_use]
+    pub fn of(scene: &crate::scene::Scene, power: &[glam::DVec3]) -> Vec<LightPower> {
+        use crate::scene::LightKind;
+        scene
+            .lights
+            .iter()
+            .zip(power)
+            .map(|(light, p)| LightPower {
+                name: light.name.clone(),
+                kind: match light.kind {
+                    LightKind::Point { .. } => "point",
+                    LightKind::Spot { .. } => "spot",
+                    LightKind::Sun { .. } => "sun",
+                    LightKind::Sky { .. } => "sky",
+                    LightKind::Luminaire { .. } => "ies",
+                },
+                power_watts: p.to_array(),
+                lumens: crate::sensors::lux(*p),
+            })
+            .collect()
+    }
 }
 
 /// Sizes of a meshed scene.
@@ -134,6 +177,9 @@ pub struct StatsFile {
     pub accel_build: std::collections::BTreeMap<&'static str, usize>,
     /// The settings in force, the mesh sizes being those the run used.
     pub settings: Settings,
+    /// The scene's lights that are not surfaces (point, spot, sun, sky,
+    /// IES) and the power each sent.
+    pub lights: Vec<LightPower>,
 }
 
 /// A run's method counters with every other method's at zero, as a map.
@@ -178,6 +224,7 @@ impl StatsFile {
             threads: outcome.threads,
             accel_build: outcome.accel_statistics.iter().copied().collect(),
             settings: settings.clone(),
+            lights: outcome.lights.clone(),
         }
     }
 

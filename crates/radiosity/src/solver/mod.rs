@@ -172,6 +172,10 @@ pub struct Solver<'a> {
     interrupt: Option<Arc<AtomicBool>>,
     /// The scene's lights not shot yet, next first.
     lights_pending: Vec<usize>,
+    /// Power each of the scene's lights has sent (W per channel): a point,
+    /// spot or luminaire's flux, what a sun or sky delivered to the
+    /// elements; zero until it shoots.
+    light_power: Vec<DVec3>,
 }
 
 impl<'a> Solver<'a> {
@@ -241,6 +245,7 @@ impl<'a> Solver<'a> {
             stats: Stats::default(),
             interrupt: None,
             lights_pending: lights::shooting_order(&scene.lights),
+            light_power: vec![DVec3::ZERO; scene.lights.len()],
         };
         solver.energy.emitted = solver.unshot_power();
         solver
@@ -348,6 +353,14 @@ impl<'a> Solver<'a> {
     #[must_use]
     pub fn lights_pending(&self) -> usize {
         self.lights_pending.len()
+    }
+
+    /// Power each of the scene's lights has sent so far, W per channel (a
+    /// point, spot or luminaire: its flux once shot; a sun or sky: what it
+    /// delivered to the mesh's elements).
+    #[must_use]
+    pub fn light_power(&self) -> &[DVec3] {
+        &self.light_power
     }
 
     /// Unshot power left over emitted power (luminance-weighted).
@@ -484,9 +497,10 @@ impl<'a> Solver<'a> {
     }
 
     /// The book-keeping of design.md step 5 after a shot that gave the
-    /// receivers `irradiance` and sent `power` (`None` for a sun: the power
-    /// that arrived at the elements, which then also counts as emitted).
-    fn book(&mut self, irradiance: &[DVec3], power: Option<DVec3>) {
+    /// receivers `irradiance` and sent `power` (`None` for a sun or sky:
+    /// the power that arrived at the elements, which then also counts as
+    /// emitted); returns the power sent.
+    fn book(&mut self, irradiance: &[DVec3], power: Option<DVec3>) -> DVec3 {
         let vertices = self.mesh.vertices.len();
         for (i, e) in irradiance.iter().enumerate() {
             self.irradiance[i] += *e;
@@ -507,6 +521,7 @@ impl<'a> Solver<'a> {
         self.energy.absorbed += received.absorbed;
         self.energy.escaped += power - received.incident;
         self.stats.shots += 1;
+        power
     }
 }
 
@@ -530,7 +545,7 @@ impl Solver<'_> {
         };
         let book_start = Instant::now();
         self.lights_pending.remove(0);
-        self.book(&irradiance, light.flux());
+        self.light_power[index] = self.book(&irradiance, light.flux());
         self.stats.bookkeeping_time += Instant::now() - book_start;
         true
     }
