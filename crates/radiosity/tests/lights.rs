@@ -514,10 +514,17 @@ fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_op
     });
     let centre = DVec3::new(2.0, 0.0, 2.0);
     let off_centre = DVec3::new(2.6, 0.0, 1.7);
+    // A floor corner, where three black walls meet: light must not leak
+    // in along the edges.
+    let corner = DVec3::ZERO;
     let got = lux_at(
         &scene,
         Settings::adaptive(),
-        &[(centre, DVec3::Y), (off_centre, DVec3::Y)],
+        &[
+            (centre, DVec3::Y),
+            (off_centre, DVec3::Y),
+            (corner, DVec3::Y),
+        ],
     );
     // The closed form, by a fine midpoint rule over the opening: the
     // overcast luminance L_z (1 + 2 cos theta) / 3 (lux per sr) times
@@ -544,4 +551,5 @@ fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_op
     };
     assert_relative_eq!(got[0], through(centre), max_relative = 0.01);
     assert_relative_eq!(got[1], through(off_centre), max_relative = 0.01);
+    assert_relative_eq!(got[2], through(corner), max_relative = 0.05);
 }
