@@ -6,10 +6,14 @@ it beside their outputs and run it with the reference harness's Python
 
   reference_score.py score HARNESS SCENE.obj VERTICES.csv OUT.json
                      [--n N] [--accuracy A]
+                     [--lights-script reference_lights.py --lights-args=FLAGS]
       Runs the harness's own score.py on a vertices CSV inside this process
       (its code unchanged, so the sample, the cached reference and every
       number are score.py's) and writes the points it sampled, their
-      reference radiosity and score.py's numbers.
+      reference radiosity and score.py's numbers. With --lights-script, the
+      reference is computed by that script (lights that are not surfaces:
+      #@light, and FLAGS such as --sun and --sky) instead of reference.py,
+      cached in a folder of its own.
 
   reference_score.py radiance HARNESS SCENE.obj POINTS.txt OUT.json
                      --procs P RUN [RUN ...]
@@ -32,6 +36,25 @@ import time
 def score(a):
     path = os.path.join(a.harness, "score.py")
     argv = [path, a.scene, a.csv, "1e9", "--n", str(a.n), "--accuracy", a.accuracy]
+    if a.lights_script:
+        # Scenes with lights that are not surfaces (#@light, --sun, --sky):
+        # score.py runs reference_lights.py instead of reference.py, with
+        # the daylight options, and caches in a folder of their own.
+        import hashlib
+        import shlex
+        import subprocess
+        extra = shlex.split(a.lights_args or "") + ["--harness", a.harness]
+        key = hashlib.sha1((open(a.lights_script).read() + repr(extra)).encode()).hexdigest()
+        base = os.environ.get("REFCACHE", "/tmp/reference-cache")
+        os.environ["REFCACHE"] = os.path.join(base, "lights-" + key[:12])
+        real_run = subprocess.run
+
+        def run(cmd, *args, **kwargs):
+            if len(cmd) > 1 and str(cmd[1]).endswith("reference.py"):
+                cmd = [cmd[0], a.lights_script] + list(cmd[2:]) + extra
+            return real_run(cmd, *args, **kwargs)
+
+        subprocess.run = run
     g = {"__name__": "__main__", "__file__": path}
     saved = sys.argv
     sys.argv = argv
@@ -114,6 +137,8 @@ def main():
         s.add_argument(name)
     s.add_argument("--n", type=int, default=600)
     s.add_argument("--accuracy", default="high")
+    s.add_argument("--lights-script", help="reference_lights.py, for scenes with lights")
+    s.add_argument("--lights-args", help="its daylight options, one string")
     r = sub.add_parser("radiance")
     for name in ("harness", "scene", "points", "out"):
         r.add_argument(name)

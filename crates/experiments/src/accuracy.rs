@@ -38,11 +38,13 @@ pub const SCENES: [SceneCase; 2] = [
         name: "cornell",
         source: "cornell",
         shared: false,
+        lights: None,
     },
     SceneCase {
         name: "cornell_box",
         source: "cornell_box/cornell_box.obj",
         shared: true,
+        lights: None,
     },
 ];
 
@@ -218,7 +220,7 @@ pub fn accuracy_compute(context: &Context, harness: &Harness) -> Result<Accuracy
         let stem = format!("accuracy-{}", case.name);
         let base_csv = context.path(&format!("{stem}-vertices.csv"));
         validate::write_vertices(&base_csv, &base)?;
-        let sampled = harness.score(
+        let sampled = harness.score_lit(
             &path,
             &base_csv,
             accuracy,
@@ -447,7 +449,7 @@ fn score_rows(
 ) -> Result<reference::Score, Error> {
     let csv = context.path(&format!("{stem}.csv"));
     write_rows(&csv, rows)?;
-    let scored = harness.score(
+    let scored = harness.score_lit(
         scene,
         &csv,
         accuracy,

@@ -22,6 +22,10 @@ use super::{Context, Error, write_file};
 /// The helper script, written next to the outputs when it is run.
 const HELPER: &str = include_str!("../../../tools/reference_score.py");
 
+/// The harness's extension to lights that are not surfaces (point, spot
+/// and sun lights, skies), written beside the helper when a scene needs it.
+const LIGHTS: &str = include_str!("../../../tools/reference_lights.py");
+
 /// The harness folder looked for when none is given, relative to the
 /// working directory and to the source tree (beside a clone, or two levels
 /// up from a worktree under `wt/`).
@@ -301,27 +305,51 @@ impl Harness {
             .map_err(|e| Error::Experiment(format!("{}: not JSON: {e}", json.display())))
     }
 
-    /// Scores a vertices CSV of `scene` with `score.py` (computing and
-    /// caching the reference at its sample when it is new: minutes).
-    pub fn score(
+    /// [`Harness::score`] of a scene lit by its surfaces alone.
+    pub fn score_lit(
         &self,
         scene: &Path,
         csv: &Path,
         accuracy: &str,
         json: &Path,
     ) -> Result<Scored, Error> {
-        let value = self.helper(
-            &[
-                "score".as_ref(),
-                self.dir.as_os_str(),
-                scene.as_os_str(),
-                csv.as_os_str(),
-                json.as_os_str(),
-                "--accuracy".as_ref(),
-                accuracy.as_ref(),
-            ],
-            json,
-        )?;
+        self.score(scene, csv, accuracy, json, None)
+    }
+
+    /// Scores a vertices CSV of `scene` with `score.py` (computing and
+    /// caching the reference at its sample when it is new: minutes). A
+    /// scene with lights that are not surfaces gives `lights`, the daylight
+    /// flags of its solve (possibly empty): its reference is then computed
+    /// by `tools/reference_lights.py` with them.
+    pub fn score(
+        &self,
+        scene: &Path,
+        csv: &Path,
+        accuracy: &str,
+        json: &Path,
+        lights: Option<&str>,
+    ) -> Result<Scored, Error> {
+        let script = self.helper.with_file_name("reference_lights.py");
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "score".as_ref(),
+            self.dir.as_os_str(),
+            scene.as_os_str(),
+            csv.as_os_str(),
+            json.as_os_str(),
+            "--accuracy".as_ref(),
+            accuracy.as_ref(),
+        ];
+        // One word, `=` joined: the flags start with dashes.
+        let flags = lights.map(|f| format!("--lights-args={f}"));
+        if let Some(flags) = &flags {
+            write_file(&script, LIGHTS.as_bytes())?;
+            args.extend([
+                "--lights-script".as_ref(),
+                script.as_os_str(),
+                flags.as_ref(),
+            ]);
+        }
+        let value = self.helper(&args, json)?;
         let bad = || Error::Experiment(format!("{}: unexpected answer", json.display()));
         let number = |key: &str| value[key].as_f64().ok_or_else(bad);
         let rows = value["idx"]

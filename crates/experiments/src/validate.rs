@@ -28,6 +28,7 @@ use radiosity::app;
 use radiosity::export;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::render::{self, Exposure, RenderSettings};
+use radiosity::scene::sky::{DEFAULT_SUBDIVISION, Daylight, SkySpec, SunSpec};
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
 use radiosity::sensors::{self, SensorPoint};
 use radiosity::solver::{Flow, Preset, Settings, Solver};
@@ -42,31 +43,119 @@ pub struct SceneCase {
     pub source: &'static str,
     /// Whether `source` is in the shared scenes' folder.
     pub shared: bool,
+    /// A scene lit by lights that are not surfaces (`#@light` in its file,
+    /// daylight): the daylight flags its solve and its reference take
+    /// (`--sun ALTITUDE AZIMUTH LUX --sky MODEL --sky-illuminance LUX`, or
+    /// empty), scored with `tools/reference_lights.py`; `None` for a scene
+    /// lit by its surfaces alone.
+    pub lights: Option<&'static str>,
 }
 
 /// The scenes `validate` scores.
-pub const SCENES: [SceneCase; 4] = [
+pub const SCENES: [SceneCase; 6] = [
     SceneCase {
         name: "room",
         source: "room",
         shared: false,
+        lights: None,
     },
     SceneCase {
         name: "cornell",
         source: "cornell",
         shared: false,
+        lights: None,
     },
     SceneCase {
         name: "tworooms",
         source: "tworooms",
         shared: false,
+        lights: None,
     },
     SceneCase {
         name: "cornell_box",
         source: "cornell_box/cornell_box.obj",
         shared: true,
+        lights: None,
+    },
+    SceneCase {
+        name: "lamp_room",
+        source: "lamp_room",
+        shared: false,
+        lights: Some(""),
+    },
+    SceneCase {
+        name: "window_room",
+        source: "window_room",
+        shared: false,
+        lights: Some("--sun 35 200 60000 --sky clear --sky-illuminance 12000"),
     },
 ];
+
+/// The rooms lit by lights that are not surfaces, shipped with the
+/// experiments (written by `scenes/make_light_scenes.py`): name, OBJ, MTL.
+const LIGHT_SCENES: [(&str, &str, &str); 2] = [
+    (
+        "lamp_room",
+        include_str!("../scenes/lamp_room.obj"),
+        include_str!("../scenes/lamp_room.mtl"),
+    ),
+    (
+        "window_room",
+        include_str!("../scenes/window_room.obj"),
+        include_str!("../scenes/window_room.mtl"),
+    ),
+];
+
+/// Daylight from the flags of [`SceneCase::lights`].
+///
+/// # Errors
+///
+/// If a flag or its values are not understood.
+pub fn daylight(flags: &str) -> Result<Daylight, Error> {
+    let bad = || Error::Experiment(format!("daylight flags '{flags}' not understood"));
+    let words: Vec<&str> = flags.split_whitespace().collect();
+    let number = |i: usize| -> Result<f64, Error> {
+        words.get(i).and_then(|w| w.parse().ok()).ok_or_else(bad)
+    };
+    let mut daylight = Daylight::default();
+    let (mut model, mut illuminance) = (None, None);
+    let mut i = 0;
+    while i < words.len() {
+        match words[i] {
+            "--sun" => {
+                daylight.sun = Some(SunSpec {
+                    altitude: number(i + 1)?,
+                    azimuth: number(i + 2)?,
+                    illuminance: number(i + 3)?,
+                });
+                i += 4;
+            }
+            "--sky" => {
+                model = Some(
+                    words
+                        .get(i + 1)
+                        .ok_or_else(bad)?
+                        .parse()
+                        .map_err(|_| bad())?,
+                );
+                i += 2;
+            }
+            "--sky-illuminance" => {
+                illuminance = Some(number(i + 1)?);
+                i += 2;
+            }
+            _ => return Err(bad()),
+        }
+    }
+    if let (Some(model), Some(illuminance)) = (model, illuminance) {
+        daylight.sky = Some(SkySpec {
+            model,
+            illuminance,
+            subdivision: DEFAULT_SUBDIVISION,
+        });
+    }
+    Ok(daylight)
+}
 
 /// The presets compared: the default and the paper's.
 #[must_use]
@@ -80,8 +169,16 @@ pub fn scene_file(context: &Context, case: &SceneCase) -> Result<PathBuf, Error>
     if case.shared {
         return reference::shared_scene(context, case.source);
     }
-    let (obj, mtl_name, mtl) = builtin::files(case.source)
-        .ok_or_else(|| Error::Experiment(format!("no built-in scene {}", case.source)))?;
+    let embedded = LIGHT_SCENES
+        .iter()
+        .find(|(name, _, _)| *name == case.source)
+        .map(|(name, obj, mtl)| (*obj, format!("{name}.mtl"), *mtl));
+    let (obj, mtl_name, mtl) = match embedded {
+        Some(files) => files,
+        None => builtin::files(case.source)
+            .map(|(obj, mtl_name, mtl)| (obj, mtl_name.to_string(), mtl))
+            .ok_or_else(|| Error::Experiment(format!("no built-in scene {}", case.source)))?,
+    };
     let folder = context.path("scenes");
     std::fs::create_dir_all(&folder).map_err(|source| Error::Output {
         path: folder.clone(),
@@ -89,7 +186,7 @@ pub fn scene_file(context: &Context, case: &SceneCase) -> Result<PathBuf, Error>
     })?;
     let path = folder.join(format!("{}.obj", case.source));
     write_file(&path, obj.as_bytes())?;
-    write_file(&folder.join(mtl_name), mtl.as_bytes())?;
+    write_file(&folder.join(&mtl_name), mtl.as_bytes())?;
     Ok(path)
 }
 
@@ -136,8 +233,23 @@ pub fn solve(
     patch_size: Option<f64>,
     points: &[SensorPoint],
 ) -> Result<Solved, Error> {
+    solve_lit(path, Daylight::default(), settings, patch_size, points)
+}
+
+/// [`solve`] with `daylight` added to the scene.
+pub fn solve_lit(
+    path: &Path,
+    daylight: Daylight,
+    settings: &Settings,
+    patch_size: Option<f64>,
+    points: &[SensorPoint],
+) -> Result<Solved, Error> {
     let name = path.to_string_lossy();
-    let mut scene = scene::load_with(&name, &LoadOptions::default())
+    let options = LoadOptions {
+        daylight,
+        ..LoadOptions::default()
+    };
+    let mut scene = scene::load_with(&name, &options)
         .map_err(app::Error::from)?
         .scene;
     if settings.merge_coplanar {
@@ -400,8 +512,9 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
     let mut results = Vec::new();
     for case in cases {
         let path = scene_file(context, case)?;
+        let daylight = daylight(case.lights.unwrap_or(""))?;
         for (preset, settings) in presets() {
-            let solved = solve(&path, &settings, None, &[])?;
+            let solved = solve_lit(&path, daylight, &settings, None, &[])?;
             let stem = format!("validate-{}-{preset}", case.name);
             let csv = context.path(&format!("{stem}.csv"));
             write_vertices(&csv, &solved)?;
@@ -410,6 +523,7 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
                 &csv,
                 accuracy(context),
                 &context.path(&format!("{stem}.json")),
+                case.lights,
             )?;
             let b: Vec<DVec3> = scored.rows.iter().map(|&r| solved.radiosity[r]).collect();
             let ours = reference::score(&b, &scored.reference);

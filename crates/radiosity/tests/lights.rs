@@ -553,3 +553,46 @@ fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_op
     assert_relative_eq!(got[1], through(off_centre), max_relative = 0.01);
     assert_relative_eq!(got[2], through(corner), max_relative = 0.05);
 }
+
+#[test]
+fn a_light_shut_inside_a_solid_is_found_and_one_in_a_room_is_not() {
+    // A closed 1 m box facing out (a solid) resting on the floor, a light
+    // inside it and one above the floor; and the furnace (a closed room
+    // facing in) with a light inside.
+    let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+    let o = DVec3::new(0.5, 0.0, 0.5);
+    let faces = [
+        (o, x, z),     // bottom, -y
+        (o + y, z, x), // top, +y
+        (o, z, y),     // x = 3, -x
+        (o + x, y, z), // x = 4, +x
+        (o, y, x),     // z = 3, -z
+        (o + z, x, y), // z = 4, +z
+    ];
+    let mut surfaces: Vec<_> = faces
+        .iter()
+        .enumerate()
+        .map(|(i, &(origin, u, v))| quad(origin, u, v, 0.5, 0.0, i as u32 + 1))
+        .collect();
+    let centre = o + DVec3::splat(0.5);
+    for s in &surfaces {
+        assert!(s.normal.dot(s.polygon[0] - centre) > 0.0, "faces point out");
+    }
+    surfaces.insert(0, floor(0.5));
+    let scene = with_lights(
+        surfaces,
+        vec![
+            point_light(centre, 10.0),
+            point_light(DVec3::new(0.0, 2.0, 0.0), 10.0),
+        ],
+    );
+    let settings = Settings::adaptive();
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+    let solver = Solver::new(&scene, &mesh, settings.clone());
+    assert_eq!(solver.enclosed_lights(), [0]);
+    let mut room = furnace(2.0, 0.5, 0.0);
+    room.lights = vec![point_light(DVec3::splat(1.0), 10.0)];
+    let mesh = Mesh::build(&room, &settings.mesh.sized_for(&room)).unwrap();
+    let solver = Solver::new(&room, &mesh, settings);
+    assert!(solver.enclosed_lights().is_empty());
+}

@@ -76,6 +76,17 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     if let Some(flag) = observer.interrupt() {
         solver.interrupt_on(flag);
     }
+    let enclosed: Vec<String> = solver
+        .enclosed_lights()
+        .into_iter()
+        .map(|i| {
+            format!(
+                "{}: {} is inside closed geometry (its sight lines meet surfaces from behind): \
+                 its light cannot get out",
+                job.scene, scene.lights[i].name
+            )
+        })
+        .collect();
     counts.patches = solver.shooters();
     let stop = solver.run(|s| observer.shot(s));
     let solve_time = solve_start.elapsed();
@@ -196,7 +207,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         threads,
         accel_statistics: solver.accel_statistics(),
         written: Vec::new(),
-        warnings: scene.warnings.clone(),
+        warnings: scene.warnings.iter().cloned().chain(enclosed).collect(),
         peak_memory_bytes: None,
         memory_estimate,
         lights: outcome::LightPower::of(&scene, solver.light_power()),

@@ -140,6 +140,41 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
     Some(irradiance)
 }
 
+/// Sight lines cast from a point or spot light to tell whether it is shut
+/// inside something.
+const ENCLOSURE_RAYS: usize = 64;
+
+/// Whether the point-like `light` is shut inside closed geometry: every
+/// sight line from it meets a surface, and three in four meet one from
+/// behind (inside a closed solid, whose faces point out; the rest may meet
+/// a surface the solid rests on, coincident with its base). A light in a
+/// closed room sees the room's faces from the front and is not enclosed.
+#[must_use]
+pub fn enclosed(
+    light: &Light,
+    scene: &Scene,
+    occluder: &dyn crate::accel::Occluder,
+    reach: f64,
+) -> bool {
+    let Some(origin) = light.position() else {
+        return false;
+    };
+    let mut behind = 0;
+    for k in 0..ENCLOSURE_RAYS {
+        // Fibonacci directions: even over the sphere.
+        let z = 1.0 - (2.0 * k as f64 + 1.0) / ENCLOSURE_RAYS as f64;
+        let phi = k as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let r = (1.0 - z * z).sqrt();
+        let direction = DVec3::new(r * phi.cos(), z, r * phi.sin());
+        let Some(hit) = occluder.closest_hit(origin, direction, reach, [NO_SURFACE; 2]) else {
+            return false;
+        };
+        let normal = scene.surfaces[hit.surface as usize].normal;
+        behind += usize::from(normal.dot(direction) > 0.0);
+    }
+    4 * behind >= 3 * ENCLOSURE_RAYS
+}
+
 /// A stream of numbers in `[0, 1)` seeded by a receiver's index
 /// (SplitMix64, Steele et al. 2014): each receiver draws its own, so the
 /// sky's samples do not depend on the number of threads.

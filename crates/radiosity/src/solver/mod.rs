@@ -355,6 +355,23 @@ impl<'a> Solver<'a> {
         self.lights_pending.len()
     }
 
+    /// The scene's point, spot and IES lights shut inside closed geometry
+    /// ([`lights::enclosed`]), whose light cannot get out.
+    #[must_use]
+    pub fn enclosed_lights(&self) -> Vec<usize> {
+        let reach = lights::sun_reach(self.scene);
+        (0..self.scene.lights.len())
+            .filter(|&i| {
+                lights::enclosed(
+                    &self.scene.lights[i],
+                    self.scene,
+                    self.occluder.as_ref(),
+                    reach,
+                )
+            })
+            .collect()
+    }
+
     /// Power each of the scene's lights has sent so far, W per channel (a
     /// point, spot or luminaire: its flux once shot; a sun or sky: what it
     /// delivered to the mesh's elements).

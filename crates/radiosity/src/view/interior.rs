@@ -149,7 +149,7 @@ impl Analysis {
 /// horizontal or vertical extent.
 #[must_use]
 pub fn analyse(scene: &Scene) -> Option<Analysis> {
-    if !scene.surfaces.iter().any(Surface::is_emitter) {
+    if scene.lights.is_empty() && !scene.surfaces.iter().any(Surface::is_emitter) {
         return None;
     }
     let (lo, hi) = scene.bounds();
