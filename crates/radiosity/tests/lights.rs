@@ -596,3 +596,52 @@ fn a_light_shut_inside_a_solid_is_found_and_one_in_a_room_is_not() {
     let solver = Solver::new(&room, &mesh, settings);
     assert!(solver.enclosed_lights().is_empty());
 }
+
+#[test]
+fn export_scene_writes_lights_that_read_back_as_they_were() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        "#@light point 0.5 2 -0.25 120 1 0.5 0.25\n\
+         #@light spot 1 2.5 0 0.3 -1 0.2 400 15 30\n\
+         #@light sun 0.2 -1 0.4 50000\n{FLOOR_OBJ}"
+    );
+    std::fs::write(dir.path().join("lit.obj"), text).unwrap();
+    std::fs::write(dir.path().join("m.mtl"), "newmtl grey\nKd 0.5 0.5 0.5\n").unwrap();
+    let obj = dir.path().join("lit.obj");
+    let glb = dir.path().join("lit.glb");
+    radiosity::app::export_scene(obj.to_str().unwrap(), &glb, &Default::default()).unwrap();
+    let before = radiosity::scene::load(obj.to_str().unwrap()).unwrap();
+    let after = radiosity::scene::load(glb.to_str().unwrap()).unwrap();
+    assert_eq!(after.lights.len(), 3);
+    let close = |a: DVec3, b: DVec3| (a - b).length() < 1e-6 * (1.0 + b.length());
+    for (a, b) in after.lights.iter().zip(&before.lights) {
+        // The colour scaled to a largest channel of 1, the intensity up.
+        assert!(close(a.colour * a.intensity, b.colour * b.intensity), "{}", b.name);
+        match (&a.kind, &b.kind) {
+            (LightKind::Point { position: p }, LightKind::Point { position: q }) => {
+                assert!(close(*p, *q));
+            }
+            (
+                LightKind::Spot {
+                    position: p,
+                    direction: d,
+                    inner: i,
+                    outer: o,
+                },
+                LightKind::Spot {
+                    position: q,
+                    direction: e,
+                    inner: j,
+                    outer: u,
+                },
+            ) => {
+                assert!(close(*p, *q) && close(*d, *e), "{d} {e}");
+                assert!((i - j).abs() < 1e-6 && (o - u).abs() < 1e-6);
+            }
+            (LightKind::Sun { direction: d }, LightKind::Sun { direction: e }) => {
+                assert!(close(*d, *e), "{d} {e}");
+            }
+            (a, b) => panic!("{a:?} read back as {b:?}"),
+        }
+    }
+}

@@ -384,6 +384,90 @@ fn materials_from_surfaces(scene: &Scene) -> (Vec<json::Material>, Vec<usize>) {
     (materials, of_surface)
 }
 
+/// The scene's lights as `KHR_lights_punctual` lights, each on a node of its
+/// own at its position, its -z axis along its direction (the inverse of the
+/// reader's mapping). The colour is scaled to a largest channel of 1, the
+/// intensity (candela; lux for a sun) up by as much. A luminaire becomes a
+/// point light of the same flux (glTF has no intensity tables) and a sky is
+/// left out (glTF has no skies). Returns the nodes.
+fn lights(root: &mut json::Root, lights: &[crate::scene::Light]) -> Vec<json::Index<json::Node>> {
+    use crate::scene::LightKind;
+    use json::extensions::scene::khr_lights_punctual::{Light, Spot, Type};
+    let mut out = Vec::new();
+    for light in lights {
+        let (type_, position, direction, spot, intensity) = match &light.kind {
+            LightKind::Point { position } => (Type::Point, *position, None, None, light.intensity),
+            LightKind::Spot {
+                position,
+                direction,
+                inner,
+                outer,
+            } => (
+                Type::Spot,
+                *position,
+                Some(*direction),
+                Some(Spot {
+                    inner_cone_angle: *inner as f32,
+                    outer_cone_angle: *outer as f32,
+                }),
+                light.intensity,
+            ),
+            LightKind::Sun { direction } => {
+                (Type::Directional, DVec3::ZERO, Some(*direction), None, light.intensity)
+            }
+            LightKind::Luminaire {
+                position, profile, ..
+            } => (
+                Type::Point,
+                *position,
+                None,
+                None,
+                light.intensity * profile.flux() / (4.0 * std::f64::consts::PI),
+            ),
+            LightKind::Sky { .. } => continue,
+        };
+        let peak = light.colour.max_element();
+        let (colour, intensity) = if peak > 0.0 {
+            (light.colour / peak, intensity * peak)
+        } else {
+            (DVec3::ONE, 0.0)
+        };
+        let extensions = root
+            .extensions
+            .get_or_insert_with(Default::default)
+            .khr_lights_punctual
+            .get_or_insert_with(|| json::extensions::root::KhrLightsPunctual { lights: Vec::new() });
+        let index = json::Index::new(extensions.lights.len() as u32);
+        extensions.lights.push(Light {
+            color: colour.as_vec3().to_array(),
+            extensions: None,
+            extras: Default::default(),
+            intensity: intensity as f32,
+            name: Some(light.name.clone()),
+            range: None,
+            spot,
+            type_: Checked::Valid(type_),
+        });
+        let rotation = direction.map(|d| {
+            let q = glam::DQuat::from_rotation_arc(-DVec3::Z, d).as_quat();
+            json::scene::UnitQuaternion([q.x, q.y, q.z, q.w])
+        });
+        out.push(root.push(json::Node {
+            name: Some(light.name.clone()),
+            translation: (position != DVec3::ZERO).then(|| position.as_vec3().to_array()),
+            rotation,
+            extensions: Some(json::extensions::scene::Node {
+                khr_lights_punctual: Some(
+                    json::extensions::scene::khr_lights_punctual::KhrLightsPunctual { light: index },
+                ),
+                ..Default::default()
+            }),
+            ..Default::default()
+        }));
+    }
+    out
+}
+
 fn extension_name_list(root: &json::Root) -> Vec<String> {
     let value = serde_json::to_value(root).unwrap_or_default();
     let mut used = BTreeSet::new();
@@ -628,6 +712,7 @@ pub fn export_scene(scene: &Scene, path: &Path) -> io::Result<Vec<(PathBuf, Vec<
     if let Some(camera) = &scene.camera {
         nodes.push(b.camera(camera, 4.0 / 3.0, 1e-3 * (hi - lo).length()));
     }
+    nodes.extend(lights(&mut b.root, &scene.lights));
     let extras = scene.mesh_hint.as_ref().map(|h| {
         serde_json::json!({ "radiosity": {
             "patch_size": h.patch_size,
