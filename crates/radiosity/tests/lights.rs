@@ -616,7 +616,11 @@ fn export_scene_writes_lights_that_read_back_as_they_were() {
     let close = |a: DVec3, b: DVec3| (a - b).length() < 1e-6 * (1.0 + b.length());
     for (a, b) in after.lights.iter().zip(&before.lights) {
         // The colour scaled to a largest channel of 1, the intensity up.
-        assert!(close(a.colour * a.intensity, b.colour * b.intensity), "{}", b.name);
+        assert!(
+            close(a.colour * a.intensity, b.colour * b.intensity),
+            "{}",
+            b.name
+        );
         match (&a.kind, &b.kind) {
             (LightKind::Point { position: p }, LightKind::Point { position: q }) => {
                 assert!(close(*p, *q));
@@ -643,5 +647,99 @@ fn export_scene_writes_lights_that_read_back_as_they_were() {
             }
             (a, b) => panic!("{a:?} read back as {b:?}"),
         }
+    }
+}
+
+#[test]
+fn a_blender_scene_renders_with_its_point_spot_and_sun_lights() {
+    // tests/data/blender-lights.glb, written by tools/blender_lights.py
+    // with Blender 5.0's glTF exporter: a 60 W point lamp, a 200 W spot
+    // (50 degrees, blend 0.3) and a sun of strength 5 in a room with a
+    // window; no emitting surface.
+    let path = common::test_data("blender-lights.glb");
+    let mut scene = radiosity::scene::load(path.to_str().unwrap()).unwrap();
+    assert!(!scene.surfaces.iter().any(|s| s.is_emitter()));
+    let kinds: Vec<&str> = scene
+        .lights
+        .iter()
+        .map(|l| match l.kind {
+            LightKind::Point { .. } => "point",
+            LightKind::Spot { .. } => "spot",
+            LightKind::Sun { .. } => "sun",
+            _ => "other",
+        })
+        .collect();
+    assert_eq!(kinds, ["point", "spot", "sun"]);
+    // The exporter's physical units: W x 683 / (4 pi) candela for point
+    // and spot lights, W/m^2 x 683 lux for the sun.
+    let candela = |watts: f64| watts * 683.0 / (4.0 * std::f64::consts::PI);
+    assert_relative_eq!(
+        scene.lights[0].intensity,
+        candela(60.0),
+        max_relative = 1e-6
+    );
+    assert_relative_eq!(
+        scene.lights[1].intensity,
+        candela(200.0),
+        max_relative = 1e-6
+    );
+    assert_relative_eq!(scene.lights[2].intensity, 5.0 * 683.0, max_relative = 1e-6);
+    scene.mesh_hint = Some(radiosity::scene::MeshHint {
+        patch_size: 1.5,
+        element_size: 0.5,
+        directive: None,
+    });
+    // Each light's direct light where it falls: under the lamp (2.7 m up),
+    // on the table under the spot, and on the floor where the sun comes in
+    // through the middle of the window (x 1.5..3.5, y 0.9..2.1, z = 0).
+    let LightKind::Point { position: lamp } = scene.lights[0].kind else {
+        unreachable!()
+    };
+    let LightKind::Spot {
+        position: spot,
+        direction: spot_axis,
+        ..
+    } = scene.lights[1].kind
+    else {
+        unreachable!()
+    };
+    let LightKind::Sun { direction: sun } = scene.lights[2].kind else {
+        unreachable!()
+    };
+    assert!(
+        (spot_axis + DVec3::Y).length() < 1e-6,
+        "the spot points down"
+    );
+    let under_lamp = DVec3::new(lamp.x, 0.0, lamp.z);
+    let on_table = DVec3::new(spot.x, 0.75, spot.z);
+    let window = DVec3::new(2.5, 1.5, 0.0);
+    let sunlit = window + sun * (-window.y / sun.y);
+    assert!(
+        sunlit.z < -0.5 && sunlit.z > -3.5 && sunlit.x > 0.5 && sunlit.x < 4.5,
+        "{sunlit}"
+    );
+    let points = [
+        (under_lamp, DVec3::Y),
+        (on_table, DVec3::Y),
+        (sunlit, DVec3::Y),
+    ];
+    let got = lux_at(&scene, Settings::adaptive(), &points);
+    let direct = [
+        scene.lights[0].intensity / lamp.y.powi(2),
+        scene.lights[1].intensity / (spot.y - 0.75).powi(2),
+        scene.lights[2].intensity * -sun.y,
+    ];
+    // Each light gives at least its own direct light where it falls: the
+    // solution with it less the solution without it.
+    for (k, what) in ["lamp", "spot", "sun"].iter().enumerate() {
+        let mut without = scene.clone();
+        without.lights.remove(k);
+        let rest = lux_at(&without, Settings::adaptive(), &points);
+        let own = got[k] - rest[k];
+        assert!(
+            own > 0.999 * direct[k],
+            "{what}: {own} lux of its own at its point, direct {}",
+            direct[k]
+        );
     }
 }
