@@ -474,23 +474,21 @@ fn an_open_floor_under_a_sky_receives_its_horizontal_illuminance() {
     }
 }
 
-#[test]
-fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_opening() {
-    // A closed 4 x 3 x 4 m room of black walls whose ceiling has a 1 x 1 m
-    // opening over the floor's centre: the floor there receives the sky
-    // seen through the opening, and nothing else.
+/// A closed 4 x 3 x 4 m room whose ceiling has a 1 x 1 m opening over
+/// [1.5, 2.5]^2, every surface of reflectance `rho`.
+fn skylight_room(rho: f64) -> Vec<radiosity::scene::Surface> {
     let (w, h) = (4.0, 3.0);
-    let black = |origin: DVec3, u: DVec3, v: DVec3, id: u32| quad(origin, u, v, 0.0, 0.0, id);
+    let wall = |origin: DVec3, u: DVec3, v: DVec3, id: u32| quad(origin, u, v, rho, 0.0, id);
     let mut surfaces = vec![
-        black(DVec3::ZERO, DVec3::Z * w, DVec3::X * w, 0),
-        black(DVec3::ZERO, DVec3::Y * h, DVec3::Z * w, 1),
-        black(DVec3::X * w, DVec3::Z * w, DVec3::Y * h, 2),
-        black(DVec3::ZERO, DVec3::X * w, DVec3::Y * h, 3),
-        black(DVec3::Z * w, DVec3::Y * h, DVec3::X * w, 4),
+        wall(DVec3::ZERO, DVec3::Z * w, DVec3::X * w, 0),
+        wall(DVec3::ZERO, DVec3::Y * h, DVec3::Z * w, 1),
+        wall(DVec3::X * w, DVec3::Z * w, DVec3::Y * h, 2),
+        wall(DVec3::ZERO, DVec3::X * w, DVec3::Y * h, 3),
+        wall(DVec3::Z * w, DVec3::Y * h, DVec3::X * w, 4),
     ];
     // The ceiling (facing down) around the opening [1.5, 2.5]^2.
     let ceiling = |x0: f64, z0: f64, x1: f64, z1: f64, id: u32| {
-        black(
+        wall(
             DVec3::new(x0, h, z0),
             DVec3::X * (x1 - x0),
             DVec3::Z * (z1 - z0),
@@ -504,6 +502,43 @@ fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_op
     for s in &surfaces[5..] {
         assert_eq!(s.normal, -DVec3::Y);
     }
+    surfaces
+}
+
+#[test]
+fn a_sun_patch_sends_the_power_its_opening_lets_in() {
+    // The sun through the skylight: the floor's patch must reflect the
+    // power that comes in, E sin(altitude) x 1 m^2, however the element
+    // edges cut the patch's outline.
+    for altitude in [50.0f64, 65.0, 80.0] {
+        let lights = Daylight {
+            sun: Some(SunSpec {
+                altitude,
+                azimuth: 30.0,
+                illuminance: 50_000.0,
+            }),
+            sky: None,
+        }
+        .lights()
+        .unwrap();
+        let scene = with_lights(skylight_room(0.5), lights);
+        let settings = Settings::adaptive();
+        let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+        let mut solver = Solver::new(&scene, &mesh, settings);
+        solver.run(|_| radiosity::solver::Flow::Continue);
+        let power = solver.light_power()[0].x;
+        let exact = 50_000.0 / 179.0 * altitude.to_radians().sin();
+        assert_relative_eq!(power, exact, max_relative = 0.01);
+    }
+}
+
+#[test]
+fn an_overcast_sky_through_a_skylight_gives_its_luminance_integrated_over_the_opening() {
+    // A closed 4 x 3 x 4 m room of black walls whose ceiling has a 1 x 1 m
+    // opening over the floor's centre: the floor there receives the sky
+    // seen through the opening, and nothing else.
+    let h = 3.0;
+    let surfaces = skylight_room(0.0);
     let illuminance = 10_000.0;
     let lights = sky_lights(SkyModel::Overcast, illuminance, 16, None);
     let mut scene = with_lights(surfaces, lights);

@@ -412,9 +412,13 @@ fn lights(root: &mut json::Root, lights: &[crate::scene::Light]) -> Vec<json::In
                 }),
                 light.intensity,
             ),
-            LightKind::Sun { direction } => {
-                (Type::Directional, DVec3::ZERO, Some(*direction), None, light.intensity)
-            }
+            LightKind::Sun { direction } => (
+                Type::Directional,
+                DVec3::ZERO,
+                Some(*direction),
+                None,
+                light.intensity,
+            ),
             LightKind::Luminaire {
                 position, profile, ..
             } => (
@@ -436,7 +440,9 @@ fn lights(root: &mut json::Root, lights: &[crate::scene::Light]) -> Vec<json::In
             .extensions
             .get_or_insert_with(Default::default)
             .khr_lights_punctual
-            .get_or_insert_with(|| json::extensions::root::KhrLightsPunctual { lights: Vec::new() });
+            .get_or_insert_with(|| json::extensions::root::KhrLightsPunctual {
+                lights: Vec::new(),
+            });
         let index = json::Index::new(extensions.lights.len() as u32);
         extensions.lights.push(Light {
             color: colour.as_vec3().to_array(),
@@ -458,7 +464,9 @@ fn lights(root: &mut json::Root, lights: &[crate::scene::Light]) -> Vec<json::In
             rotation,
             extensions: Some(json::extensions::scene::Node {
                 khr_lights_punctual: Some(
-                    json::extensions::scene::khr_lights_punctual::KhrLightsPunctual { light: index },
+                    json::extensions::scene::khr_lights_punctual::KhrLightsPunctual {
+                        light: index,
+                    },
                 ),
                 ..Default::default()
             }),

@@ -92,18 +92,8 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
                     if unblocked == DVec3::ZERO {
                         return None;
                     }
-                    let (a, b) = if distant {
-                        // The far end lies outside the scene; the
-                        // receiver's end moves towards it by a fixed hair
-                        // (far less than a vertex's nudge off a corner),
-                        // not by a share of the long segment, which would
-                        // step through the walls meeting at a corner.
-                        let towards = (from - r.point).normalize();
-                        (from, r.point + towards * hair)
-                    } else {
-                        accel::shorten(from, r.point)
-                    };
-                    Some((!inputs.occluder.occluded(a, b, skip)).then_some(unblocked))
+                    let seen = sees(inputs.occluder, from, r.point, skip, distant, hair);
+                    Some(seen.then_some(unblocked))
                 };
                 if patches.is_empty() {
                     return match unblocked(light.irradiance(r.point, r.normal, reach)) {
@@ -138,6 +128,136 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
     stats.rays_cast += rays;
     stats.gather_time += start.elapsed();
     Some(irradiance)
+}
+
+/// Whether the shadow segment from `from` (a light, or for a distant light
+/// a point beyond the scene) to `point` is clear of every surface but those
+/// of `skip`.
+fn sees(
+    occluder: &dyn crate::accel::Occluder,
+    from: DVec3,
+    point: DVec3,
+    skip: [u32; 2],
+    distant: bool,
+    hair: f64,
+) -> bool {
+    let (a, b) = if distant {
+        // The far end lies outside the scene; the receiver's end moves
+        // towards it by a fixed hair (far less than a vertex's nudge off a
+        // corner), not by a share of the long segment, which would step
+        // through the walls meeting at a corner.
+        let towards = (from - point).normalize();
+        (from, point + towards * hair)
+    } else {
+        accel::shorten(from, point)
+    };
+    !occluder.occluded(a, b, skip)
+}
+
+/// Points per side of an element integrated across a light's edge.
+const SIDE: usize = 8;
+
+/// Each element's mean irradiance from `light` where its corners disagree
+/// (the darkest below half the brightest: a shadow's or a cone's edge
+/// crosses it, or the light is close), by an 8 x 8 grid of points over it
+/// each with its shadow segment; `None` where the corners' mean is kept.
+/// The mean of an element's corners is what the element reflects in the
+/// end: across a sun patch's edge it errs by the share of the element lit,
+/// which over a whole patch edge does not cancel (a window's sun patch
+/// lost 6% of its power at the default mesh). `Some(None)` for a sky, whose
+/// shadows are soft; `None` if the shot's abort fired.
+pub fn element_means(
+    light: &Light,
+    inputs: &ShotInputs<'_>,
+    vertex_irradiance: &[DVec3],
+    stats: &mut Stats,
+) -> Option<Option<Vec<DVec3>>> {
+    if matches!(light.kind, LightKind::Sky { .. }) {
+        return Some(None);
+    }
+    if inputs.abort.fired() {
+        return None;
+    }
+    let start = Instant::now();
+    let (scene, mesh) = (inputs.scene, inputs.mesh);
+    let reach = sun_reach(scene);
+    let distant = light.position().is_none();
+    let hair = 1e-7 * (reach - 1.0) / 2.0;
+    let corner_mean = |e: &crate::mesh::Element| {
+        let corners = e.vertices();
+        corners
+            .iter()
+            .map(|&c| vertex_irradiance[c as usize])
+            .sum::<DVec3>()
+            / corners.len() as f64
+    };
+    let integrated: Vec<(DVec3, u64)> = mesh
+        .elements
+        .par_iter()
+        .map(|e| {
+            let corners = e.vertices();
+            let values = corners
+                .iter()
+                .map(|&c| crate::luminance(vertex_irradiance[c as usize]));
+            let (min, max) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+            if !(max > 0.0 && min < 0.5 * max) {
+                return (corner_mean(e), 0);
+            }
+            let surface = &scene.surfaces[e.surface as usize];
+            let skip = [NO_SURFACE, surface.group];
+            let p: Vec<DVec3> = corners
+                .iter()
+                .map(|&c| mesh.vertices[c as usize].position)
+                .collect();
+            let (mut sum, mut weights, mut rays) = (DVec3::ZERO, 0.0, 0);
+            for i in 0..SIDE {
+                for j in 0..SIDE {
+                    let u = (i as f64 + 0.5) / SIDE as f64;
+                    let v = (j as f64 + 0.5) / SIDE as f64;
+                    // A triangle folds the square onto itself (uniform in
+                    // area); a quad is mapped bilinearly, each point
+                    // weighted by the map's area there.
+                    let (point, weight) = if p.len() == 3 {
+                        let (u, v) = if u + v > 1.0 {
+                            (1.0 - u, 1.0 - v)
+                        } else {
+                            (u, v)
+                        };
+                        (p[0] + (p[1] - p[0]) * u + (p[2] - p[0]) * v, 1.0)
+                    } else {
+                        let at = |u: f64, v: f64| {
+                            p[0] * ((1.0 - u) * (1.0 - v))
+                                + p[1] * (u * (1.0 - v))
+                                + p[2] * (u * v)
+                                + p[3] * ((1.0 - u) * v)
+                        };
+                        let du = (p[1] - p[0]) * (1.0 - v) + (p[2] - p[3]) * v;
+                        let dv = (p[3] - p[0]) * (1.0 - u) + (p[2] - p[1]) * u;
+                        (at(u, v), du.cross(dv).length())
+                    };
+                    weights += weight;
+                    let (unblocked, from) = light.irradiance(point, surface.normal, reach);
+                    if unblocked == DVec3::ZERO {
+                        continue;
+                    }
+                    rays += 1;
+                    if sees(inputs.occluder, from, point, skip, distant, hair) {
+                        sum += unblocked * weight;
+                    }
+                }
+            }
+            if weights > 0.0 {
+                (sum / weights, rays)
+            } else {
+                (corner_mean(e), rays)
+            }
+        })
+        .collect();
+    stats.rays_cast += integrated.iter().map(|r| r.1).sum::<u64>();
+    stats.gather_time += start.elapsed();
+    Some(Some(integrated.into_iter().map(|r| r.0).collect()))
 }
 
 /// Sight lines cast from a point or spot light to tell whether it is shut

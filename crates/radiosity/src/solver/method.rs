@@ -85,8 +85,16 @@ pub trait Shooter: Send {
 
     /// Takes the reflected part of what the mesh's vertices gathered in a
     /// shot (`irradiance`, one per vertex) as unshot radiosity; returns the
-    /// power received and absorbed.
-    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received;
+    /// power received and absorbed. `element_means`, when a shot knows
+    /// them better than its elements' corners do (a light's shot across a
+    /// shadow edge), is each element's mean irradiance.
+    fn receive(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        irradiance: &[DVec3],
+        element_means: Option<&[DVec3]>,
+    ) -> Received;
 
     /// Its own counters so far (the names of [`Method::zero_counters`]).
     fn counters(&self) -> Vec<(&'static str, Counter)>;
@@ -287,25 +295,32 @@ pub struct Received {
 }
 
 /// Incident power on each element from its corners' irradiance (their
-/// mean, times its area), added as reflected unshot radiosity through
-/// `reflect(element, rho * mean)`; returns the power received and absorbed.
-/// The book-keeping of design.md section 2, step 5, for any method that
-/// keeps unshot radiosity on elements or their patches.
+/// mean, times its area; or the element's own mean from `element_means`),
+/// added as reflected unshot radiosity through `reflect(element, rho *
+/// mean)`; returns the power received and absorbed. The book-keeping of
+/// design.md section 2, step 5, for any method that keeps unshot radiosity
+/// on elements or their patches.
 pub fn receive_at_elements(
     scene: &Scene,
     mesh: &Mesh,
     irradiance: &[DVec3],
+    element_means: Option<&[DVec3]>,
     mut reflect: impl FnMut(usize, DVec3),
 ) -> Received {
     let mut incident = DVec3::ZERO;
     let mut absorbed = DVec3::ZERO;
     for (i, e) in mesh.elements.iter().enumerate() {
         let corners = e.vertices();
-        let mean = corners
-            .iter()
-            .map(|&c| irradiance[c as usize])
-            .sum::<DVec3>()
-            / corners.len() as f64;
+        let mean = element_means.map_or_else(
+            || {
+                corners
+                    .iter()
+                    .map(|&c| irradiance[c as usize])
+                    .sum::<DVec3>()
+                    / corners.len() as f64
+            },
+            |means| means[i],
+        );
         let rho = scene.surfaces[e.surface as usize].rho;
         incident += mean * e.area;
         absorbed += (DVec3::ONE - rho) * mean * e.area;

@@ -508,7 +508,7 @@ impl<'a> Solver<'a> {
             return false;
         };
         let book_start = Instant::now();
-        self.book(&shot.irradiance, Some(shot.power));
+        self.book(&shot.irradiance, None, Some(shot.power));
         self.stats.bookkeeping_time += (Instant::now() - book_start) + shot.selection_time;
         true
     }
@@ -517,7 +517,12 @@ impl<'a> Solver<'a> {
     /// receivers `irradiance` and sent `power` (`None` for a sun or sky:
     /// the power that arrived at the elements, which then also counts as
     /// emitted); returns the power sent.
-    fn book(&mut self, irradiance: &[DVec3], power: Option<DVec3>) -> DVec3 {
+    fn book(
+        &mut self,
+        irradiance: &[DVec3],
+        element_means: Option<&[DVec3]>,
+        power: Option<DVec3>,
+    ) -> DVec3 {
         let vertices = self.mesh.vertices.len();
         for (i, e) in irradiance.iter().enumerate() {
             self.irradiance[i] += *e;
@@ -526,9 +531,12 @@ impl<'a> Solver<'a> {
                 self.radiosity[i] += rho * *e;
             }
         }
-        let received = self
-            .shooter
-            .receive(self.scene, self.mesh, &irradiance[..vertices]);
+        let received = self.shooter.receive(
+            self.scene,
+            self.mesh,
+            &irradiance[..vertices],
+            element_means,
+        );
         let power = power.unwrap_or_else(|| {
             self.energy.emitted += received.incident;
             received.incident
@@ -560,9 +568,13 @@ impl Solver<'_> {
         let Some(irradiance) = lights::gather(light, &context, &mut self.stats) else {
             return false;
         };
+        let Some(means) = lights::element_means(light, &context, &irradiance, &mut self.stats)
+        else {
+            return false;
+        };
         let book_start = Instant::now();
         self.lights_pending.remove(0);
-        self.light_power[index] = self.book(&irradiance, light.flux());
+        self.light_power[index] = self.book(&irradiance, means.as_deref(), light.flux());
         self.stats.bookkeeping_time += Instant::now() - book_start;
         true
     }

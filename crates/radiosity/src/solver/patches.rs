@@ -366,13 +366,24 @@ impl Shooter for PatchShooting {
 
     /// Adds the reflected part of what the elements received to their
     /// patches' unshot radiosity (the area-weighted mean over the patch).
-    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received {
+    fn receive(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        irradiance: &[DVec3],
+        element_means: Option<&[DVec3]>,
+    ) -> Received {
         let mut reflected = vec![DVec3::ZERO; mesh.patches.len()];
-        let received =
-            super::method::receive_at_elements(scene, mesh, irradiance, |e, radiosity| {
+        let received = super::method::receive_at_elements(
+            scene,
+            mesh,
+            irradiance,
+            element_means,
+            |e, radiosity| {
                 let element = &mesh.elements[e];
                 reflected[element.patch as usize] += radiosity * element.area;
-            });
+            },
+        );
         for ((u, r), p) in self.unshot.iter_mut().zip(reflected).zip(&mesh.patches) {
             *u += r / p.area;
         }

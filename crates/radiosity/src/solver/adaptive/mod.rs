@@ -400,11 +400,18 @@ impl Shooter for AdaptiveShooting {
 
     /// Adds the reflected part of what the elements received to their
     /// unshot radiosity.
-    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received {
+    fn receive(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        irradiance: &[DVec3],
+        element_means: Option<&[DVec3]>,
+    ) -> Received {
         let unshot = &mut self.unshot;
-        let received = method::receive_at_elements(scene, mesh, irradiance, |e, radiosity| {
-            unshot[e] += radiosity;
-        });
+        let received =
+            method::receive_at_elements(scene, mesh, irradiance, element_means, |e, radiosity| {
+                unshot[e] += radiosity;
+            });
         self.total_shooter_power(mesh);
         received
     }

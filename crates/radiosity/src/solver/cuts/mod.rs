@@ -297,9 +297,15 @@ impl Shooter for CutShooting {
         })
     }
 
-    fn receive(&mut self, scene: &Scene, mesh: &Mesh, irradiance: &[DVec3]) -> Received {
+    fn receive(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        irradiance: &[DVec3],
+        element_means: Option<&[DVec3]>,
+    ) -> Received {
         let unshot = &mut self.unshot;
-        method::receive_at_elements(scene, mesh, irradiance, |e, radiosity| {
+        method::receive_at_elements(scene, mesh, irradiance, element_means, |e, radiosity| {
             unshot[e] += radiosity;
         })
     }
