@@ -778,3 +778,39 @@ fn a_blender_scene_renders_with_its_point_spot_and_sun_lights() {
         );
     }
 }
+
+#[test]
+fn lights_and_daylight_give_the_same_solution_on_any_number_of_threads() {
+    let mut lights = Daylight {
+        sun: Some(SunSpec {
+            altitude: 60.0,
+            azimuth: 20.0,
+            illuminance: 40_000.0,
+        }),
+        sky: Some(SkySpec {
+            model: SkyModel::Clear,
+            illuminance: 10_000.0,
+            subdivision: 1,
+        }),
+    }
+    .lights()
+    .unwrap();
+    lights.push(point_light(DVec3::new(1.0, 2.5, 1.0), 200.0));
+    let scene = with_lights(skylight_room(0.5), lights);
+    let settings = Settings::adaptive();
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+    let solve = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let mut solver = Solver::new(&scene, &mesh, settings.clone());
+                solver.run(|_| radiosity::solver::Flow::Continue);
+                solver.radiosity().to_vec()
+            })
+    };
+    let one = solve(1);
+    assert!(one.iter().any(|b| b.x > 0.0));
+    assert_eq!(one, solve(2));
+}
