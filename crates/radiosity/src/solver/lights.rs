@@ -6,7 +6,11 @@
 //! scene towards it) reaches the receiver unblocked. This is the
 //! point-source transfer of Wallace, Elmquist & Haines (1989) evaluated
 //! exactly at each receiver: a point light has no area to subdivide, so
-//! the only error left is the receiving mesh's.
+//! the only error left is the receiving mesh's. That error is in what the
+//! elements reflect, which the book-keeping takes from their corners: an
+//! element that a shadow's or a cone's edge crosses is integrated over a
+//! grid of points instead ([`element_means`]), so a sun patch sends on the
+//! power its opening lets in.
 //!
 //! A sky ([`crate::scene::sky`]) shoots the same way from one direction
 //! drawn in each of its patches per receiver: one shadow segment each.
