@@ -64,9 +64,6 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
     let start = Instant::now();
     let reach = sun_reach(inputs.scene);
     let distant = light.position().is_none();
-    // 1e-7 of the scene's size: a tenth of the gathering nudge of a vertex
-    // at that distance from its surface's centre, and far above round-off.
-    let hair = 1e-7 * (reach - 1.0) / 2.0;
     let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
     let mut pairs = 0u64;
     let mut rays = 0u64;
@@ -96,7 +93,7 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
                     if unblocked == DVec3::ZERO {
                         return None;
                     }
-                    let seen = sees(inputs.occluder, from, r.point, skip, distant, hair);
+                    let seen = sees(inputs.occluder, from, r.point, skip, distant);
                     Some(seen.then_some(unblocked))
                 };
                 if patches.is_empty() {
@@ -143,15 +140,16 @@ fn sees(
     point: DVec3,
     skip: [u32; 2],
     distant: bool,
-    hair: f64,
 ) -> bool {
     let (a, b) = if distant {
-        // The far end lies outside the scene; the receiver's end moves
-        // towards it by a fixed hair (far less than a vertex's nudge off a
-        // corner), not by a share of the long segment, which would step
-        // through the walls meeting at a corner.
-        let towards = (from - point).normalize();
-        (from, point + towards * hair)
+        // The far end lies outside the scene. The receiver's end stays
+        // where it is: moved towards the sky it could step through a
+        // surface meeting the receiver's at an edge (a ceiling over a wall's
+        // top vertices, which lie only the gathering nudge below it). It
+        // lies off every other surface already: the nudge moves it well
+        // inside its own, away from any neighbour's edge tolerance, and its
+        // own surface id is skipped.
+        (from, point)
     } else {
         accel::shorten(from, point)
     };
@@ -186,7 +184,6 @@ pub fn element_means(
     let (scene, mesh) = (inputs.scene, inputs.mesh);
     let reach = sun_reach(scene);
     let distant = light.position().is_none();
-    let hair = 1e-7 * (reach - 1.0) / 2.0;
     let corner_mean = |e: &crate::mesh::Element| {
         let corners = e.vertices();
         corners
@@ -247,7 +244,7 @@ pub fn element_means(
                         continue;
                     }
                     rays += 1;
-                    if sees(inputs.occluder, from, point, skip, distant, hair) {
+                    if sees(inputs.occluder, from, point, skip, distant) {
                         sum += unblocked * weight;
                     }
                 }
