@@ -114,10 +114,9 @@ pub fn parse(bytes: &[u8]) -> Result<Profile, IesError> {
     // Files come in ASCII, Latin-1 (degree signs in keywords) or UTF-8:
     // keywords are only skipped, so each byte is taken as a character.
     let text: String = bytes.iter().map(|&b| char::from(b)).collect();
-    let mut lines = text
-        .split('\n')
-        .map(|l| l.trim_end_matches('\r'))
-        .enumerate();
+    // Lines end in LF, CR LF or CR alone (old Mac files).
+    let text = text.replace("\r\n", "\n").replace('\r', "\n");
+    let mut lines = text.split('\n').enumerate();
     let mut tilt_line = None;
     for (i, line) in lines.by_ref() {
         let trimmed = line.trim();
@@ -403,6 +402,17 @@ mod tests {
             assert_relative_eq!(p.candela(g, c), 100.0);
         }
         assert_relative_eq!(p.flux(), 400.0 * PI, max_relative = 1e-6);
+    }
+
+    #[test]
+    fn line_ends_may_be_lf_crlf_or_cr() {
+        for end in ["\n", "\r\n", "\r"] {
+            let file = ISOTROPIC.replace('\n', end);
+            let p = parse(file.as_bytes()).unwrap();
+            assert_relative_eq!(p.candela(10.0, 0.0), 100.0);
+        }
+        let e = parse(b"TILT=NONE\r1 -1 1 x").unwrap_err();
+        assert_eq!(e.line, 2, "{e}");
     }
 
     #[test]
