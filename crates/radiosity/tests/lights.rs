@@ -638,7 +638,7 @@ fn export_scene_writes_lights_that_read_back_as_they_were() {
     let text = format!(
         "#@light point 0.5 2 -0.25 120 1 0.5 0.25\n\
          #@light spot 1 2.5 0 0.3 -1 0.2 400 15 30\n\
-         #@light sun 0.2 -1 0.4 50000\n{FLOOR_OBJ}"
+         #@light sun 0.2 -1 0.4 50000\n#@light spot 0 2.5 1 0 -1 0 100 10 90\n{FLOOR_OBJ}"
     );
     std::fs::write(dir.path().join("lit.obj"), text).unwrap();
     std::fs::write(dir.path().join("m.mtl"), "newmtl grey\nKd 0.5 0.5 0.5\n").unwrap();
@@ -647,7 +647,8 @@ fn export_scene_writes_lights_that_read_back_as_they_were() {
     radiosity::app::export_scene(obj.to_str().unwrap(), &glb, &Default::default()).unwrap();
     let before = radiosity::scene::load(obj.to_str().unwrap()).unwrap();
     let after = radiosity::scene::load(glb.to_str().unwrap()).unwrap();
-    assert_eq!(after.lights.len(), 3);
+    // (The widest cone, 90 degrees, is a hair more in f32 radians.)
+    assert_eq!(after.lights.len(), 4);
     let close = |a: DVec3, b: DVec3| (a - b).length() < 1e-6 * (1.0 + b.length());
     for (a, b) in after.lights.iter().zip(&before.lights) {
         // The colour scaled to a largest channel of 1, the intensity up.
@@ -813,4 +814,49 @@ fn lights_and_daylight_give_the_same_solution_on_any_number_of_threads() {
     let one = solve(1);
     assert!(one.iter().any(|b| b.x > 0.0));
     assert_eq!(one, solve(2));
+}
+
+#[test]
+fn an_asymmetric_luminaire_sends_c90_counter_clockwise_from_c0_seen_from_above() {
+    // 0-360 degrees: 100 cd towards C90 only (straight out sideways).
+    let profile = "TILT=NONE\n1 -1 1 3 5 1 2 0 0 0\n1 1 0\n0 45 90\n0 90 180 270 360\n\
+                   0 0 0\n0 0 100\n0 0 0\n0 0 0\n0 0 0\n";
+    let text = format!("#@light ies lamp.ies 0 2 0\n{FLOOR_OBJ}");
+    let scene = load_with_files(&text, &[("lamp.ies", profile)]).unwrap();
+    // Hanging straight down, C0 along +x: seen from above (looking down
+    // -y, +x to the right and -z up the page), counter-clockwise from +x
+    // is -z.
+    let LightKind::Luminaire { .. } = scene.lights[0].kind else {
+        panic!()
+    };
+    let towards_minus_z = scene.lights[0].falloff(-DVec3::Z);
+    let towards_plus_z = scene.lights[0].falloff(DVec3::Z);
+    assert_relative_eq!(towards_minus_z, 100.0);
+    assert_eq!(towards_plus_z, 0.0);
+}
+
+#[test]
+fn a_scene_lit_by_lights_alone_takes_the_tolerance_as_one_with_emitters_does() {
+    // The adaptive method's tolerance scales with the power brought in:
+    // a light's counts once it has shot, so a looser tolerance casts fewer
+    // rays here as it does with emitting surfaces.
+    let mut scene = furnace(4.0, 0.5, 0.0);
+    scene.lights = vec![point_light(DVec3::new(2.0, 3.0, 2.0), 200.0)];
+    let rays = |tolerance: f64| {
+        let mut settings = Settings::adaptive();
+        settings
+            .method
+            .method_mut()
+            .set(
+                "tolerance",
+                &radiosity::solver::method::Value::Number(tolerance),
+            )
+            .unwrap();
+        let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+        let mut solver = Solver::new(&scene, &mesh, settings);
+        solver.run(|_| radiosity::solver::Flow::Continue);
+        solver.stats().rays_cast
+    };
+    let (tight, loose) = (rays(1e-3), rays(1e-1));
+    assert!(loose * 2 < tight, "{loose} rays at 0.1, {tight} at 0.001");
 }

@@ -144,6 +144,15 @@ pub fn unit_direction(v: DVec3) -> Result<DVec3, LightError> {
 
 /// The spot cone from half-angles in degrees, checked.
 pub fn cone(inner_degrees: f64, outer_degrees: f64) -> Result<(f64, f64), LightError> {
+    // A right angle that came through radians and back.
+    let snap = |a: f64| {
+        if a > 90.0 && a <= 90.0 + 1e-9 {
+            90.0
+        } else {
+            a
+        }
+    };
+    let (inner_degrees, outer_degrees) = (snap(inner_degrees), snap(outer_degrees));
     let ok = inner_degrees.is_finite()
         && outer_degrees.is_finite()
         && inner_degrees >= 0.0
@@ -244,7 +253,8 @@ impl Light {
             LightKind::Luminaire {
                 nadir, c0, profile, ..
             } => {
-                let c90 = c0.cross(-*nadir);
+                // Counter-clockwise seen from above: C90 = up x C0.
+                let c90 = (-*nadir).cross(*c0);
                 let gamma = towards.dot(*nadir).clamp(-1.0, 1.0).acos().to_degrees();
                 let c = towards.dot(c90).atan2(towards.dot(*c0)).to_degrees();
                 profile.candela(gamma, c)

@@ -177,9 +177,6 @@ pub fn element_means(
     if matches!(light.kind, LightKind::Sky { .. }) {
         return Some(None);
     }
-    if inputs.abort.fired() {
-        return None;
-    }
     let start = Instant::now();
     let (scene, mesh) = (inputs.scene, inputs.mesh);
     let reach = sun_reach(scene);
@@ -192,70 +189,73 @@ pub fn element_means(
             .sum::<DVec3>()
             / corners.len() as f64
     };
-    let integrated: Vec<(DVec3, u64)> = mesh
-        .elements
-        .par_iter()
-        .map(|e| {
-            let corners = e.vertices();
-            let values = corners
-                .iter()
-                .map(|&c| crate::luminance(vertex_irradiance[c as usize]));
-            let (min, max) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
-            if !(max > 0.0 && min < 0.5 * max) {
-                return (corner_mean(e), 0);
-            }
-            let surface = &scene.surfaces[e.surface as usize];
-            let skip = [NO_SURFACE, surface.group];
-            let p: Vec<DVec3> = corners
-                .iter()
-                .map(|&c| mesh.vertices[c as usize].position)
-                .collect();
-            let (mut sum, mut weights, mut rays) = (DVec3::ZERO, 0.0, 0);
-            for i in 0..SIDE {
-                for j in 0..SIDE {
-                    let u = (i as f64 + 0.5) / SIDE as f64;
-                    let v = (j as f64 + 0.5) / SIDE as f64;
-                    // A triangle folds the square onto itself (uniform in
-                    // area); a quad is mapped bilinearly, each point
-                    // weighted by the map's area there.
-                    let (point, weight) = if p.len() == 3 {
-                        let (u, v) = if u + v > 1.0 {
-                            (1.0 - u, 1.0 - v)
-                        } else {
-                            (u, v)
-                        };
-                        (p[0] + (p[1] - p[0]) * u + (p[2] - p[0]) * v, 1.0)
-                    } else {
-                        let at = |u: f64, v: f64| {
-                            p[0] * ((1.0 - u) * (1.0 - v))
-                                + p[1] * (u * (1.0 - v))
-                                + p[2] * (u * v)
-                                + p[3] * ((1.0 - u) * v)
-                        };
-                        let du = (p[1] - p[0]) * (1.0 - v) + (p[2] - p[3]) * v;
-                        let dv = (p[3] - p[0]) * (1.0 - u) + (p[2] - p[1]) * u;
-                        (at(u, v), du.cross(dv).length())
+    let integrate = |e: &crate::mesh::Element| {
+        let corners = e.vertices();
+        let values = corners
+            .iter()
+            .map(|&c| crate::luminance(vertex_irradiance[c as usize]));
+        let (min, max) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+        if !(max > 0.0 && min < 0.5 * max) {
+            return (corner_mean(e), 0);
+        }
+        let surface = &scene.surfaces[e.surface as usize];
+        let skip = [NO_SURFACE, surface.group];
+        let p: Vec<DVec3> = corners
+            .iter()
+            .map(|&c| mesh.vertices[c as usize].position)
+            .collect();
+        let (mut sum, mut weights, mut rays) = (DVec3::ZERO, 0.0, 0);
+        for i in 0..SIDE {
+            for j in 0..SIDE {
+                let u = (i as f64 + 0.5) / SIDE as f64;
+                let v = (j as f64 + 0.5) / SIDE as f64;
+                // A triangle takes the square by the square-root map
+                // (uniform in area, no point on an edge); a quad is
+                // mapped bilinearly, each point weighted by the map's
+                // area there.
+                let (point, weight) = if p.len() == 3 {
+                    let r = u.sqrt();
+                    (
+                        p[0] * (1.0 - r) + p[1] * (r * (1.0 - v)) + p[2] * (r * v),
+                        1.0,
+                    )
+                } else {
+                    let at = |u: f64, v: f64| {
+                        p[0] * ((1.0 - u) * (1.0 - v))
+                            + p[1] * (u * (1.0 - v))
+                            + p[2] * (u * v)
+                            + p[3] * ((1.0 - u) * v)
                     };
-                    weights += weight;
-                    let (unblocked, from) = light.irradiance(point, surface.normal, reach);
-                    if unblocked == DVec3::ZERO {
-                        continue;
-                    }
-                    rays += 1;
-                    if sees(inputs.occluder, from, point, skip, distant) {
-                        sum += unblocked * weight;
-                    }
+                    let du = (p[1] - p[0]) * (1.0 - v) + (p[2] - p[3]) * v;
+                    let dv = (p[3] - p[0]) * (1.0 - u) + (p[2] - p[1]) * u;
+                    (at(u, v), du.cross(dv).length())
+                };
+                weights += weight;
+                let (unblocked, from) = light.irradiance(point, surface.normal, reach);
+                if unblocked == DVec3::ZERO {
+                    continue;
+                }
+                rays += 1;
+                if sees(inputs.occluder, from, point, skip, distant) {
+                    sum += unblocked * weight;
                 }
             }
-            if weights > 0.0 {
-                (sum / weights, rays)
-            } else {
-                (corner_mean(e), rays)
-            }
-        })
-        .collect();
+        }
+        if weights > 0.0 {
+            (sum / weights, rays)
+        } else {
+            (corner_mean(e), rays)
+        }
+    };
+    let mut integrated: Vec<(DVec3, u64)> = Vec::with_capacity(mesh.elements.len());
+    for chunk in mesh.elements.chunks(CHUNK) {
+        if inputs.abort.fired() {
+            return None;
+        }
+        integrated.par_extend(chunk.par_iter().map(integrate));
+    }
     stats.rays_cast += integrated.iter().map(|r| r.1).sum::<u64>();
     stats.gather_time += start.elapsed();
     Some(Some(integrated.into_iter().map(|r| r.0).collect()))

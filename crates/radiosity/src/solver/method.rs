@@ -98,6 +98,12 @@ pub trait Shooter: Send {
 
     /// Its own counters so far (the names of [`Method::zero_counters`]).
     fn counters(&self) -> Vec<(&'static str, Counter)>;
+
+    /// Told, after a light that is not a surface has shot (before any of
+    /// its own shots), the power that light brought to the elements: a
+    /// method whose tolerances scale with the scene's emitted power counts
+    /// it in. Nothing by default.
+    fn light_received(&mut self, _power: DVec3) {}
 }
 
 /// A parameter a method takes, as a front end offers it.

@@ -574,7 +574,10 @@ impl Solver<'_> {
         };
         let book_start = Instant::now();
         self.lights_pending.remove(0);
+        let received_before = self.energy.received;
         self.light_power[index] = self.book(&irradiance, means.as_deref(), light.flux());
+        self.shooter
+            .light_received(self.energy.received - received_before);
         self.stats.bookkeeping_time += Instant::now() - book_start;
         true
     }

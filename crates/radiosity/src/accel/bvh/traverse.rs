@@ -263,10 +263,11 @@ fn earlier(x: Vec4, y: Vec4) -> Vec4 {
     }
 }
 
-/// Walks the wide tree: every child box the segment meets is entered,
-/// nearer first; a leaf child is offered to `blocks` whole, as its first
-/// primitive's position in the leaf order and its count. Returns the answer
-/// and the number of child boxes tested.
+/// Walks the wide tree: every child box the segment meets is entered; the
+/// leaf children a node's segment meets are offered to `blocks` first, in
+/// slot order, each whole (its first primitive's position in the leaf
+/// order and its count), then the interior children nearer first. Returns
+/// the answer and the number of child boxes tested.
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
     query: &SegmentQuery,

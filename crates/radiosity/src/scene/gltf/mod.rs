@@ -166,6 +166,7 @@ pub fn load_slice(
         degenerate: 0,
         camera: None,
         lights: Vec::new(),
+        profiles: HashMap::new(),
         capped: Vec::new(),
     };
     loader.check_header()?;
@@ -208,6 +209,8 @@ struct Loader<'a> {
     degenerate: usize,
     camera: Option<Camera>,
     lights: Vec<Light>,
+    /// Photometric profiles read so far, by URI.
+    profiles: HashMap<String, std::sync::Arc<super::ies::Profile>>,
     capped: Vec<String>,
 }
 

@@ -15,7 +15,10 @@ use gltf_json as json;
 use super::{
     Camera, ImageData, Loader, Resolver, SceneError, label, radiosity_extras, widen, widen3,
 };
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+
 use crate::scene::light::{self, Light, LightKind};
+use crate::scene::obj::MAX_LIGHTS;
 
 impl Loader<'_> {
     /// Walks the default scene's node tree.
@@ -84,6 +87,11 @@ impl Loader<'_> {
                 .as_ref()
                 .and_then(|e| e.khr_lights_punctual.as_ref())
             {
+                if self.lights.len() >= MAX_LIGHTS {
+                    return Err(self.error(format!(
+                        "{what}: more than {MAX_LIGHTS} KHR_lights_punctual lights placed"
+                    )));
+                }
                 let light = self.take_light(light.light.value(), world, &what, resolve)?;
                 self.lights.push(light);
             }
@@ -139,14 +147,25 @@ impl Loader<'_> {
         let fail =
             |loader: &Self, message: String| loader.error(format!("{name} (on {what}): {message}"));
         let position = world.transform_point3(DVec3::ZERO);
-        let axis = world.transform_vector3(-DVec3::Z);
-        let direction = light::unit_direction(axis)
-            .map_err(|e| fail(self, format!("{e} (its node's -z axis)")))?;
+        // Only a light with a direction needs the node's -z axis.
+        let direction = || {
+            light::unit_direction(world.transform_vector3(-DVec3::Z))
+                .map_err(|e| fail(self, format!("{e} (its node's -z axis)")))
+        };
         if let Some(profile) = ies_extras(&light.extras).map_err(|m| fail(self, m))? {
             let (uri, multiplier) = profile;
-            let bytes = self.read_uri(&uri, &name, resolve)?;
-            let profile = crate::scene::ies::parse(&bytes)
-                .map_err(|e| fail(self, format!("{uri}:{}: {}", e.line, e.message)))?;
+            let direction = direction()?;
+            let profile = match self.profiles.get(&uri) {
+                Some(profile) => profile.clone(),
+                None => {
+                    let bytes = self.read_uri(&uri, &name, resolve)?;
+                    let profile = crate::scene::ies::parse(&bytes)
+                        .map_err(|e| fail(self, format!("{uri}:{}: {}", e.line, e.message)))?;
+                    let profile = std::sync::Arc::new(profile);
+                    self.profiles.insert(uri.clone(), profile.clone());
+                    profile
+                }
+            };
             // C0 along the node's +x axis, made square to the nadir.
             let x = world.transform_vector3(DVec3::X);
             let x = x - direction * direction.dot(x);
@@ -158,7 +177,7 @@ impl Loader<'_> {
                     position,
                     nadir: direction,
                     c0,
-                    profile: std::sync::Arc::new(profile),
+                    profile,
                 },
                 colour: DVec3::ONE,
                 intensity: multiplier,
@@ -168,19 +187,28 @@ impl Loader<'_> {
         }
         let kind = match light.type_ {
             json::validation::Checked::Valid(Type::Point) => LightKind::Point { position },
-            json::validation::Checked::Valid(Type::Directional) => LightKind::Sun { direction },
+            json::validation::Checked::Valid(Type::Directional) => LightKind::Sun {
+                direction: direction()?,
+            },
             json::validation::Checked::Valid(Type::Spot) => {
-                let (inner, outer) = light
-                    .spot
-                    .as_ref()
-                    .map_or((0.0, std::f64::consts::FRAC_PI_4), |s| {
-                        (widen(s.inner_cone_angle), widen(s.outer_cone_angle))
-                    });
+                let (inner, outer) = light.spot.as_ref().map_or((0.0, FRAC_PI_4), |s| {
+                    (widen(s.inner_cone_angle), widen(s.outer_cone_angle))
+                });
+                // pi/2, the widest cone the extension allows, is a hair
+                // more once stored as f32.
+                let snap = |a: f64| {
+                    if a > FRAC_PI_2 && a < FRAC_PI_2 + 1e-6 {
+                        FRAC_PI_2
+                    } else {
+                        a
+                    }
+                };
+                let (inner, outer) = (snap(inner), snap(outer));
                 let (inner, outer) = light::cone(inner.to_degrees(), outer.to_degrees())
                     .map_err(|e| fail(self, e.to_string()))?;
                 LightKind::Spot {
                     position,
-                    direction,
+                    direction: direction()?,
                     inner,
                     outer,
                 }

@@ -216,6 +216,13 @@ struct AdaptiveShooting {
     /// Irradiance (luminance, W/m^2) a source may send and still be
     /// accepted whole, for a receiver with no more than the scene's mean
     /// radiosity: the tolerance times that mean.
+    /// `--tolerance`.
+    tolerance: f64,
+    /// Luminance-weighted power brought into the scene so far: the
+    /// emitters', and each light's once it has shot.
+    power: f64,
+    /// Mean radiosity per watt of `power` (the ambient term's estimate).
+    per_watt: f64,
     negligible: f64,
     /// The scene's mean radiosity, estimated (luminance).
     mean_radiosity: f64,
@@ -250,16 +257,21 @@ impl AdaptiveShooting {
             power += luminance(*u) * e.area;
             rho += luminance(scene.surfaces[e.surface as usize].rho) * e.area;
         }
-        let mean_radiosity = if area > 0.0 {
-            power / area / (1.0 - rho / area).max(1e-3)
+        // Radiosity per watt of luminance-weighted power brought in.
+        let per_watt = if area > 0.0 {
+            1.0 / area / (1.0 - rho / area).max(1e-3)
         } else {
             0.0
         };
+        let mean_radiosity = power * per_watt;
         let mut shooting = AdaptiveShooting {
             shooter_power: vec![0.0; hierarchy.shooters.len()],
             hierarchy,
             receiver_tree,
             unshot,
+            tolerance,
+            power,
+            per_watt,
             negligible: tolerance * mean_radiosity,
             mean_radiosity: mean_radiosity.max(f64::MIN_POSITIVE),
             sources: Sources::default(),
@@ -418,5 +430,15 @@ impl Shooter for AdaptiveShooting {
 
     fn counters(&self) -> Vec<(&'static str, Counter)> {
         self.counters.list()
+    }
+
+    /// A light's power counts towards the mean radiosity the tolerance
+    /// scales with, as the emitters' does (a scene lit by lights alone
+    /// would otherwise have a tolerance of zero).
+    fn light_received(&mut self, power: DVec3) {
+        self.power += luminance(power);
+        let mean_radiosity = self.power * self.per_watt;
+        self.negligible = self.tolerance * mean_radiosity;
+        self.mean_radiosity = mean_radiosity.max(f64::MIN_POSITIVE);
     }
 }
