@@ -34,6 +34,27 @@ fn case(obj: &str) -> tempfile::TempDir {
     dir
 }
 
+/// `render scene.obj` with a small picture and the sensors of
+/// `points.txt` written to `lux.csv`, and `extra` flags.
+fn render_with_sensors(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "render",
+        "scene.obj",
+        "--output",
+        "out.png",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--sensors",
+        "points.txt",
+        "--sensors-out",
+        "lux.csv",
+    ];
+    args.extend(extra);
+    run(dir, &args)
+}
+
 /// The lux column of a sensors CSV.
 fn lux(path: &Path) -> Vec<f64> {
     std::fs::read_to_string(path)
@@ -48,25 +69,7 @@ fn lux(path: &Path) -> Vec<f64> {
 fn a_scene_lit_by_a_point_light_alone_renders_and_its_sensors_read_lux() {
     let dir = case(&floor("#@light point 0 2 0 100\n"));
     std::fs::write(dir.path().join("points.txt"), "0 0 0 0 1 0\n2 0 0 0 1 0\n").unwrap();
-    let out = run(
-        dir.path(),
-        &[
-            "render",
-            "scene.obj",
-            "--output",
-            "out.png",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "--sensors",
-            "points.txt",
-            "--sensors-out",
-            "lux.csv",
-            "--stats",
-            "stats.json",
-        ],
-    );
+    let out = render_with_sensors(dir.path(), &["--stats", "stats.json"]);
     assert!(
         out.status.success(),
         "{}",
@@ -100,17 +103,9 @@ fn a_scene_lit_by_a_point_light_alone_renders_and_its_sensors_read_lux() {
 fn daylight_lights_a_scene_with_no_emitter() {
     let dir = case(&floor(""));
     std::fs::write(dir.path().join("points.txt"), "0 0 0 0 1 0\n").unwrap();
-    let out = run(
+    let out = render_with_sensors(
         dir.path(),
         &[
-            "render",
-            "scene.obj",
-            "--output",
-            "out.png",
-            "--width",
-            "32",
-            "--height",
-            "24",
             "--sun",
             "30",
             "120",
@@ -119,10 +114,6 @@ fn daylight_lights_a_scene_with_no_emitter() {
             "overcast",
             "--sky-illuminance",
             "10000",
-            "--sensors",
-            "points.txt",
-            "--sensors-out",
-            "lux.csv",
         ],
     );
     assert!(

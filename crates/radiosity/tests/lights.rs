@@ -695,16 +695,7 @@ fn a_blender_scene_renders_with_its_point_spot_and_sun_lights() {
     let path = common::test_data("blender-lights.glb");
     let mut scene = radiosity::scene::load(path.to_str().unwrap()).unwrap();
     assert!(!scene.surfaces.iter().any(|s| s.is_emitter()));
-    let kinds: Vec<&str> = scene
-        .lights
-        .iter()
-        .map(|l| match l.kind {
-            LightKind::Point { .. } => "point",
-            LightKind::Spot { .. } => "spot",
-            LightKind::Sun { .. } => "sun",
-            _ => "other",
-        })
-        .collect();
+    let kinds: Vec<&str> = scene.lights.iter().map(|l| l.kind.name()).collect();
     assert_eq!(kinds, ["point", "spot", "sun"]);
     // The exporter's physical units: W x 683 / (4 pi) candela for point
     // and spot lights, W/m^2 x 683 lux for the sun.

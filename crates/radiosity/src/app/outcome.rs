@@ -75,20 +75,13 @@ impl LightPower {
     /// The lights of `scene` with the power `power` gives each.
     #[must_use]
     pub fn of(scene: &crate::scene::Scene, power: &[glam::DVec3]) -> Vec<LightPower> {
-        use crate::scene::LightKind;
         scene
             .lights
             .iter()
             .zip(power)
             .map(|(light, p)| LightPower {
                 name: light.name.clone(),
-                kind: match light.kind {
-                    LightKind::Point { .. } => "point",
-                    LightKind::Spot { .. } => "spot",
-                    LightKind::Sun { .. } => "sun",
-                    LightKind::Sky { .. } => "sky",
-                    LightKind::Luminaire { .. } => "ies",
-                },
+                kind: light.kind.name(),
                 power_watts: p.to_array(),
                 lumens: crate::sensors::lux(*p),
             })

@@ -86,6 +86,21 @@ pub enum LightKind {
     },
 }
 
+impl LightKind {
+    /// Its type as the statistics file and messages give it: `point`,
+    /// `spot`, `sun`, `sky` or `ies`.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            LightKind::Point { .. } => "point",
+            LightKind::Spot { .. } => "spot",
+            LightKind::Sun { .. } => "sun",
+            LightKind::Sky { .. } => "sky",
+            LightKind::Luminaire { .. } => "ies",
+        }
+    }
+}
+
 /// A light: its kind, colour and intensity.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
@@ -371,24 +386,25 @@ pub fn spot_solid_angle(cos_inner: f64, cos_outer: f64) -> f64 {
 
 /// A luminaire at `position` with its nadir along `nadir` (not
 /// necessarily unit) and the profile's candela times `multiplier`. Its C0
-/// direction is the world's +x axis made perpendicular to the nadir (the
-/// -z axis when the nadir is within 25 degrees of x), so C90 is the
-/// nadir's upward axis crossed with it: for a luminaire hanging straight
-/// down, C0 along +x and C90 along -z.
+/// direction is `c0_towards` made perpendicular to the nadir (a glTF node's
+/// +x axis); without one, the world's +x axis (the -z axis when the nadir
+/// is within 25 degrees of x), so C90 (counter-clockwise seen from above)
+/// is, for a luminaire hanging straight down, C0 along +x and C90 along -z.
 pub fn luminaire(
     name: String,
     position: DVec3,
     nadir: DVec3,
+    c0_towards: Option<DVec3>,
     multiplier: f64,
     profile: Arc<Profile>,
 ) -> Result<Light, LightError> {
     let nadir = unit_direction(nadir)?;
-    let reference = if nadir.x.abs() > 0.9 {
+    let towards = c0_towards.unwrap_or(if nadir.x.abs() > 0.9 {
         -DVec3::Z
     } else {
         DVec3::X
-    };
-    let c0 = (reference - nadir * nadir.dot(reference)).normalize();
+    });
+    let c0 = unit_direction(towards - nadir * nadir.dot(towards))?;
     let light = Light {
         name,
         kind: LightKind::Luminaire {

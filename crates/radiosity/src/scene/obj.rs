@@ -560,7 +560,7 @@ impl ObjParser<'_> {
                 profile
             }
         };
-        super::light::luminaire(name, position, nadir, multiplier, profile)
+        super::light::luminaire(name, position, nadir, None, multiplier, profile)
             .map_err(|e| bad(self, e.to_string()))
     }
 

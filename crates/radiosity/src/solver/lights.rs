@@ -58,6 +58,27 @@ pub fn sun_reach(scene: &Scene) -> f64 {
     }
 }
 
+/// What a light's shot produced.
+pub struct LightShot {
+    /// One per receiver, in the order of [`ShotInputs::receivers`].
+    pub irradiance: Vec<DVec3>,
+    /// Each element's mean irradiance where it is known better than its
+    /// corners' mean ([`element_means`]); `None` for a sky.
+    pub element_means: Option<Vec<DVec3>>,
+}
+
+/// `light`'s shot: its irradiance at every receiver ([`gather`]) and the
+/// elements integrated across its edges ([`element_means`]); `None` if the
+/// shot's abort fired.
+pub fn shoot(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<LightShot> {
+    let irradiance = gather(light, inputs, stats)?;
+    let element_means = element_means(light, inputs, &irradiance, stats)?;
+    Some(LightShot {
+        irradiance,
+        element_means,
+    })
+}
+
 /// The irradiance `light` sends to each receiver, or `None` if the shot's
 /// abort fired first.
 pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Vec<DVec3>> {

@@ -489,11 +489,10 @@ impl<'a> Solver<'a> {
     }
 
     /// [`Solver::shoot`], abandoned (returning false, nothing changed) if
-    /// `abort` fires during it. Lights not shot yet go first.
+    /// `abort` fires during it. Lights not shot yet go first, each once; a
+    /// sun's or sky's power is what arrives at the mesh's elements, added
+    /// to the emitted power as it shoots.
     fn shoot_unless(&mut self, abort: &Abort) -> bool {
-        if let Some(&next) = self.lights_pending.first() {
-            return self.shoot_light(next, abort);
-        }
         let context = ShotInputs {
             scene: self.scene,
             mesh: self.mesh,
@@ -503,13 +502,37 @@ impl<'a> Solver<'a> {
             irradiance: &self.irradiance,
             abort,
         };
-        let shot = self.shooter.shoot(&context, &mut self.stats);
-        let Some(shot) = shot else {
-            return false;
+        let light = self.lights_pending.first().copied();
+        let (irradiance, element_means, power, selection_time) = match light {
+            Some(index) => {
+                let light = &self.scene.lights[index];
+                let Some(shot) = lights::shoot(light, &context, &mut self.stats) else {
+                    return false;
+                };
+                (
+                    shot.irradiance,
+                    shot.element_means,
+                    light.flux(),
+                    Duration::ZERO,
+                )
+            }
+            None => {
+                let Some(shot) = self.shooter.shoot(&context, &mut self.stats) else {
+                    return false;
+                };
+                (shot.irradiance, None, Some(shot.power), shot.selection_time)
+            }
         };
         let book_start = Instant::now();
-        self.book(&shot.irradiance, None, Some(shot.power));
-        self.stats.bookkeeping_time += (Instant::now() - book_start) + shot.selection_time;
+        let received_before = self.energy.received;
+        let sent = self.book(&irradiance, element_means.as_deref(), power);
+        if let Some(index) = light {
+            self.lights_pending.remove(0);
+            self.light_power[index] = sent;
+            self.shooter
+                .light_received(self.energy.received - received_before);
+        }
+        self.stats.bookkeeping_time += (Instant::now() - book_start) + selection_time;
         true
     }
 
@@ -547,39 +570,6 @@ impl<'a> Solver<'a> {
         self.energy.escaped += power - received.incident;
         self.stats.shots += 1;
         power
-    }
-}
-
-impl Solver<'_> {
-    /// Shoots light `index` of the scene: its irradiance at every receiver,
-    /// then the book-keeping every shot has. A sun's power is what arrives
-    /// at the mesh's elements, added to the emitted power as it shoots.
-    fn shoot_light(&mut self, index: usize, abort: &Abort) -> bool {
-        let light = &self.scene.lights[index];
-        let context = ShotInputs {
-            scene: self.scene,
-            mesh: self.mesh,
-            settings: &self.settings,
-            occluder: self.occluder.as_ref(),
-            receivers: &self.receivers,
-            irradiance: &self.irradiance,
-            abort,
-        };
-        let Some(irradiance) = lights::gather(light, &context, &mut self.stats) else {
-            return false;
-        };
-        let Some(means) = lights::element_means(light, &context, &irradiance, &mut self.stats)
-        else {
-            return false;
-        };
-        let book_start = Instant::now();
-        self.lights_pending.remove(0);
-        let received_before = self.energy.received;
-        self.light_power[index] = self.book(&irradiance, means.as_deref(), light.flux());
-        self.shooter
-            .light_received(self.energy.received - received_before);
-        self.stats.bookkeeping_time += Instant::now() - book_start;
-        true
     }
 }
 

@@ -168,21 +168,15 @@ impl Loader<'_> {
             };
             // C0 along the node's +x axis, made square to the nadir.
             let x = world.transform_vector3(DVec3::X);
-            let x = x - direction * direction.dot(x);
-            let c0 = light::unit_direction(x)
-                .map_err(|e| fail(self, format!("{e} (its node's +x axis)")))?;
-            let light = Light {
-                name: name.clone(),
-                kind: LightKind::Luminaire {
-                    position,
-                    nadir: direction,
-                    c0,
-                    profile,
-                },
-                colour: DVec3::ONE,
-                intensity: multiplier,
-            };
-            light.validate().map_err(|e| fail(self, e.to_string()))?;
+            let light = light::luminaire(
+                name.clone(),
+                position,
+                direction,
+                Some(x),
+                multiplier,
+                profile,
+            )
+            .map_err(|e| fail(self, e.to_string()))?;
             return Ok(light);
         }
         let kind = match light.type_ {
