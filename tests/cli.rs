@@ -359,8 +359,6 @@ fn cornell_writes_picture_vertices_and_stats() {
             "gather_seconds",
             "hemicube_seconds",
             "lights",
-            "linked_receivers",
-            "links",
             "load_seconds",
             "mesh_seconds",
             "pairs",

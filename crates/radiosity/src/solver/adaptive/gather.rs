@@ -1,21 +1,21 @@
 //! The transfers of one adaptive shot ([`super`]): the shooting node's
-//! sources refined against the receivers' tree. A group of receivers far
-//! from a dim source shares one estimate of its visibility (a *link*);
-//! otherwise each receiver refines the source for itself (the adaptive
+//! sources refined against the receivers' tree. The tree only prunes
+//! (groups no point of the source can reach) and spreads the work over
+//! threads; each receiver refines the source for itself (the adaptive
 //! source subdivision of Wallace, Elmquist & Haines 1989, section 4), down
 //! to elements, each its exact factor by the paper's equation (2) and a
-//! shadow ray.
+//! shadow ray. Receivers never share a visibility estimate: a group's
+//! shared estimate (a link, Smits, Arvo & Greenberg 1994) smeared shadow
+//! edges and contacts over the group for no measurable speed.
 
 use std::f64::consts::PI;
 
 use glam::DVec3;
 
 use super::{
-    ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, LINK_FACTOR, LINK_MIN_RECEIVERS, LINK_SPREAD,
-    PARALLEL_RECEIVERS,
-};
+ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, PARALLEL_RECEIVERS};
 use crate::solver::hierarchy::sources::point_factor;
-use crate::solver::hierarchy::transfer::{Cost, Scratch, Transfer, straddles, unanimous};
+use crate::solver::hierarchy::transfer::{Cost, Scratch, Transfer, straddles};
 use crate::solver::hierarchy::{NONE, Node, Tree};
 use crate::solver::{Abort, Counter, Receiver};
 
@@ -24,10 +24,6 @@ use crate::solver::{Abort, Counter, Receiver};
 pub(super) struct Counters {
     /// Pairs, rays and factors, and their times.
     pub(super) cost: Cost,
-    /// Receiver groups that shared one visibility estimate (links).
-    pub(super) links: u64,
-    /// Receivers served by links.
-    pub(super) linked_receivers: u64,
     /// Receivers that walked the source tree for themselves.
     pub(super) walks: u64,
     /// Source nodes those walks visited.
@@ -40,8 +36,6 @@ impl Counters {
     /// The counters the statistics file reports (adaptive shooting's own).
     pub(super) fn list(&self) -> Vec<(&'static str, Counter)> {
         vec![
-            ("links", Counter::Count(self.links)),
-            ("linked_receivers", Counter::Count(self.linked_receivers)),
             ("receiver_walks", Counter::Count(self.walks)),
             ("walk_node_visits", Counter::Count(self.node_visits)),
             ("element_sources", Counter::Count(self.element_sources)),
@@ -52,8 +46,6 @@ impl Counters {
 impl std::ops::AddAssign for Counters {
     fn add_assign(&mut self, o: Counters) {
         self.cost += o.cost;
-        self.links += o.links;
-        self.linked_receivers += o.linked_receivers;
         self.walks += o.walks;
         self.node_visits += o.node_visits;
         self.element_sources += o.element_sources;
@@ -112,29 +104,6 @@ impl Gatherer<'_> {
         if rn.last - rn.first >= ABORT_CHECK_RECEIVERS && self.abort.fired() {
             return;
         }
-        // A link: every receiver of `r` is far enough from `s` for its own
-        // corrected point sources to be accurate, `r` is small as seen from
-        // `s`, and `s` sends it little; then only occlusion is shared, and
-        // only if rays spread over both ends agree. A transfer too bright
-        // to share visibility goes on to each receiver, which refines the
-        // source for itself.
-        let distance = sn.centre.distance(rn.centre);
-        let clearance = distance - sn.radius - rn.radius;
-        let dim = clearance > 0.0
-            && source.weight
-                <= LINK_FACTOR * self.negligible[r as usize] * PI * clearance * clearance;
-        if dim
-            && !sn.is_leaf()
-            && rn.last - rn.first >= LINK_MIN_RECEIVERS
-            && distance - rn.radius >= FAR_RATIO * sn.radius
-            && rn.radius <= LINK_SPREAD * distance
-            && let Some(visible) = self.shared_visibility(s, r, counters)
-        {
-            if visible {
-                self.link(s, r, out, scratch, counters);
-            }
-            return;
-        }
         // Split the receivers, never the source: each receiver refines the
         // source for itself far more cheaply than pairs of pieces could (a
         // source split down to elements against a group of receivers would
@@ -168,54 +137,6 @@ impl Gatherer<'_> {
             }
         }
         true
-    }
-
-    /// Whether every receiver of `r` sees all of source `s` or none of it,
-    /// judged by shadow rays between up to four points spread over each;
-    /// `None` when they disagree.
-    fn shared_visibility(&self, s: u32, r: u32, counters: &mut Counters) -> Option<bool> {
-        let sources = self.transfer.samples(&self.transfer.hierarchy.tree, s);
-        let receivers = self.transfer.samples(self.receiver_tree, r);
-        let (ns, nr) = (sources.1, receivers.1);
-        unanimous((0..ns.max(nr)).filter_map(|i| {
-            let e = self.transfer.representative(sources.0[i % ns])?;
-            let receiver = &self.receivers[self.receiver_tree.items
-                [self.receiver_tree.nodes[receivers.0[i % nr] as usize].first as usize]
-                as usize];
-            counters.cost.pairs += 1;
-            Some(self.transfer.visible_from(e, receiver, &mut counters.cost))
-        }))
-    }
-
-    /// A link: every receiver of `r` takes source `s`'s corrected point
-    /// sources, visible.
-    fn link(
-        &self,
-        s: u32,
-        r: u32,
-        out: &mut [DVec3],
-        scratch: &mut Scratch,
-        counters: &mut Counters,
-    ) {
-        let bins = self.transfer.bins_of(s);
-        let sn = self.transfer.source_node(s);
-        counters.links += 1;
-        counters.linked_receivers += u64::from(self.receiver_tree.nodes[r as usize].last)
-            - u64::from(self.receiver_tree.nodes[r as usize].first);
-        for (i, &index) in self.receiver_tree.items_of(r).iter().enumerate() {
-            let receiver = &self.receivers[index as usize];
-            if straddles(sn, receiver) {
-                // Its horizon cuts the source: no point source will do.
-                let negligible = self.negligible[r as usize];
-                out[i] += self.gather(s, receiver, negligible, scratch, counters);
-                continue;
-            }
-            for bin in bins {
-                out[i] += bin.power
-                    * point_factor(bin, self.transfer.origin, receiver.point, receiver.normal);
-            }
-        }
-        counters.cost.pairs += 1;
     }
 
     /// The irradiance source node `s` sends to one receiver.
