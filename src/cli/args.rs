@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use clap::builder::PossibleValuesParser;
 use clap::{Arg, ArgAction, ArgMatches, Parser, Subcommand};
 
-use super::values::{fraction, memory_size, metres, positive, whole};
+use super::values::{fraction, memory_size, metres, positive, positive_real, whole};
 use crate::serve;
 use radiosity::accel::Accel;
 use radiosity::export::gltf::BakeMode;
@@ -301,6 +301,22 @@ pub struct RenderArgs {
     #[arg(long, value_name = "METRES", allow_negative_numbers = true,
           value_parser = metres())]
     pub element_size: Option<f64>,
+
+    /// Receiver refinement: at most N halvings of an element where a
+    /// first, coarse solve finds the light varying across it (shadow
+    /// edges, contacts, hot spots); 0 keeps the fixed grid. Overrides the
+    /// preset (adaptive: 2; the paper's presets: 0). At most 8
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = whole::<u32>())]
+    pub refine_levels: Option<u32>,
+
+    /// Receiver refinement's threshold: an element splits once its
+    /// radiosity varies by more than this fraction of the larger of its
+    /// own mean and the scene's, once more per doubling beyond (default
+    /// 0.1)
+    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true,
+          value_parser = positive_real())]
+    pub refine_tolerance: Option<f64>,
 
     /// Stop when unshot power falls below this fraction of emitted power.
     #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_CONVERGE,

@@ -8,6 +8,7 @@ use anyhow::{Result, anyhow};
 
 use super::args::{OnOff, RenderArgs};
 use radiosity::app::{BakeJob, ImageJob, Job, SensorJob};
+use radiosity::mesh::MAX_REFINE_LEVELS;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Limits};
 use radiosity::sensors;
@@ -32,6 +33,18 @@ impl RenderArgs {
             settings.accel = accel;
         }
         settings.converge = self.converge;
+        if let Some(levels) = self.refine_levels {
+            if levels > MAX_REFINE_LEVELS {
+                return Err(anyhow!(
+                    "--refine-levels must be at most {MAX_REFINE_LEVELS} (each level can \
+                     multiply an element by four), not {levels}"
+                ));
+            }
+            settings.mesh.refine.refine_levels = levels;
+        }
+        if let Some(tolerance) = self.refine_tolerance {
+            settings.mesh.refine.refine_tolerance = tolerance;
+        }
         if let Some(n) = self.max_elements {
             settings.mesh.max_elements = n;
         }

@@ -157,6 +157,14 @@ pub fn fraction() -> Real {
     }
 }
 
+/// A positive finite real option.
+pub fn positive_real() -> Real {
+    Real {
+        accepts: |v| v.is_finite() && v > 0.0,
+        must_be: "a positive number",
+    }
+}
+
 /// `--max-memory`'s value.
 pub fn memory_size(text: &str) -> Result<u64, String> {
     radiosity::memory::parse_size(text).map_err(|m| format!("--max-memory: {m}"))

@@ -73,18 +73,11 @@ pub fn rgbe_to_rgb(rgbe: Rgbe) -> DVec3 {
 }
 
 /// Triangles of the element mesh as vertex index triples, counter-clockwise
-/// seen from the front (quads split along their first diagonal, as the
-/// software renderer does).
+/// seen from the front: its conforming triangulation, as the software
+/// renderer draws it ([`Mesh::triangles`]).
 #[must_use]
 pub fn triangles(mesh: &Mesh) -> Vec<[u32; 3]> {
-    let mut out = Vec::with_capacity(mesh.elements.len() * 2);
-    for element in &mesh.elements {
-        let c = element.vertices();
-        for i in 1..c.len().saturating_sub(1) {
-            out.push([c[0], c[i], c[i + 1]]);
-        }
-    }
-    out
+    mesh.triangles().into_iter().map(|t| t.corners).collect()
 }
 
 /// The mesh message: magic, vertex count `V`, triangle count `T`, then
@@ -283,12 +276,7 @@ mod tests {
         let v = u32_at(&m, 4) as usize;
         let t = u32_at(&m, 8) as usize;
         assert_eq!(v, mesh.vertices.len());
-        let expected_triangles: usize = mesh
-            .elements
-            .iter()
-            .map(|e| e.corner_count as usize - 2)
-            .sum();
-        assert_eq!(t, expected_triangles);
+        assert_eq!(t, mesh.triangles().len());
         assert_eq!(m.len(), 12 + 24 * v + 12 * t);
         let f = |at: usize| f64::from(f32::from_le_bytes(m[at..at + 4].try_into().unwrap()));
         let position = |i: usize| DVec3::new(f(12 + 12 * i), f(16 + 12 * i), f(20 + 12 * i));

@@ -31,7 +31,7 @@ use radiosity::render::{self, Exposure, RenderSettings};
 use radiosity::scene::sky::{DEFAULT_SUBDIVISION, Daylight, SkySpec, SunSpec};
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
 use radiosity::sensors::{self, SensorPoint};
-use radiosity::solver::{Flow, Preset, Settings, Solver};
+use radiosity::solver::{Flow, Preset, Settings, Solver, refine};
 use radiosity::view;
 
 /// A scene of the experiments and where its OBJ comes from.
@@ -216,9 +216,12 @@ pub struct Solved {
     pub display: Vec<DVec3>,
     /// `E` at each sensor.
     pub sensor_irradiance: Vec<DVec3>,
-    /// Seconds of the solve: the solver's construction (accelerator build)
-    /// and its shots, as `--stats` reports `solve_seconds`.
+    /// Seconds of the solve: receiver refinement's coarse pass, the
+    /// solver's construction (accelerator build) and its shots (`--stats`
+    /// reports the coarse pass in `mesh_seconds`).
     pub solve_seconds: f64,
+    /// Elements of the base grid before refinement.
+    pub base_elements: usize,
     /// Shots taken.
     pub shots: u64,
     /// Unshot fraction at the end.
@@ -266,8 +269,10 @@ pub fn solve_lit(
         patch_size: patch_size.unwrap_or(sized.patch_size),
         ..sized
     };
-    let mesh = Mesh::build(&scene, &settings.mesh).map_err(|e| Error::App(app::Error::Mesh(e)))?;
     let start = Instant::now();
+    let refined = refine::refined_mesh(&scene, &settings, None)
+        .map_err(|e| Error::App(app::Error::Mesh(e)))?;
+    let (mesh, base_elements) = (refined.mesh, refined.base_elements);
     let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers);
     solver.run(|_| Flow::Continue);
     let solve_seconds = start.elapsed().as_secs_f64();
@@ -284,9 +289,65 @@ pub fn solve_lit(
         display,
         sensor_irradiance,
         solve_seconds,
+        base_elements,
         shots,
         unshot,
     })
+}
+
+/// Sensor points `validate` scores per scene.
+pub const SENSOR_POINTS: usize = 300;
+
+/// `n` points drawn uniformly by area over `scene`'s surfaces (a fixed
+/// sequence for a given scene), each with its surface's normal and input
+/// face.
+#[must_use]
+pub fn random_points(scene: &Scene, n: usize) -> Vec<(SensorPoint, u32)> {
+    // SplitMix64 from a fixed seed: the same points, so the same cached
+    // reference, on every run.
+    let mut state = 0x5EED_u64;
+    let mut unit = move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut triangles = Vec::new();
+    for surface in &scene.surfaces {
+        let v0 = surface.polygon[0];
+        for pair in surface.polygon[1..].windows(2) {
+            let area = (pair[0] - v0).cross(pair[1] - v0).length() / 2.0;
+            triangles.push(([v0, pair[0], pair[1]], area, surface));
+        }
+    }
+    let total: f64 = triangles.iter().map(|t| t.1).sum();
+    (0..n)
+        .map(|_| {
+            let mut pick = unit() * total;
+            let (corners, _, surface) = triangles
+                .iter()
+                .find(|t| {
+                    pick -= t.1;
+                    pick < 0.0
+                })
+                .unwrap_or_else(|| triangles.last().expect("a scene has surfaces"));
+            let (mut a, mut b) = (unit(), unit());
+            if a + b > 1.0 {
+                (a, b) = (1.0 - a, 1.0 - b);
+            }
+            let position =
+                corners[0] + (corners[1] - corners[0]) * a + (corners[2] - corners[0]) * b;
+            (
+                SensorPoint {
+                    position,
+                    normal: surface.normal,
+                    line: 0,
+                },
+                surface.face,
+            )
+        })
+        .collect()
 }
 
 /// Writes rows of a vertices CSV (`export::VERTEX_CSV_HEADER`): position,
@@ -488,6 +549,9 @@ pub struct Validated {
     pub scored: reference::Scored,
     /// Our score of the same points (checked against `scored`).
     pub ours: reference::Score,
+    /// `score.py`'s score of the values at [`SENSOR_POINTS`] random
+    /// points ([`random_points`]), gathered as sensors.
+    pub sensors: reference::Scored,
 }
 
 /// The reference's accuracy: `high`, or `medium` in quick mode.
@@ -513,8 +577,19 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
     for case in cases {
         let path = scene_file(context, case)?;
         let daylight = daylight(case.lights.unwrap_or(""))?;
+        let scene = scene::load_with(
+            &path.to_string_lossy(),
+            &LoadOptions {
+                daylight,
+                ..LoadOptions::default()
+            },
+        )
+        .map_err(app::Error::from)?
+        .scene;
+        let drawn = random_points(&scene, SENSOR_POINTS);
+        let points: Vec<SensorPoint> = drawn.iter().map(|(p, _)| *p).collect();
         for (preset, settings) in presets() {
-            let solved = solve_lit(&path, daylight, &settings, None, &[])?;
+            let solved = solve_lit(&path, daylight, &settings, None, &points)?;
             let stem = format!("validate-{}-{preset}", case.name);
             let csv = context.path(&format!("{stem}.csv"));
             write_vertices(&csv, &solved)?;
@@ -528,12 +603,34 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
             let b: Vec<DVec3> = scored.rows.iter().map(|&r| solved.radiosity[r]).collect();
             let ours = reference::score(&b, &scored.reference);
             ours.check_against(&scored, &format!("{} {preset}", case.name))?;
+            let rows: Vec<(DVec3, DVec3, u32, DVec3)> = drawn
+                .iter()
+                .zip(&solved.sensor_irradiance)
+                .map(|((p, face), e)| {
+                    let s = &scene.surfaces[scene
+                        .surfaces
+                        .iter()
+                        .position(|s| s.face == *face)
+                        .unwrap_or(0)];
+                    (p.position, p.normal, *face, s.emission + s.rho * *e)
+                })
+                .collect();
+            let sensors_csv = context.path(&format!("{stem}-sensors.csv"));
+            write_rows(&sensors_csv, &rows)?;
+            let sensors = harness.score(
+                &path,
+                &sensors_csv,
+                accuracy(context),
+                &context.path(&format!("{stem}-sensors.json")),
+                case.lights,
+            )?;
             results.push(Validated {
                 case: *case,
                 preset,
                 solved,
                 scored,
                 ours,
+                sensors,
             });
         }
     }
@@ -645,8 +742,18 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
             vec![
                 v.case.name.to_string(),
                 v.preset.to_string(),
+                if solved.mesh.elements.len() == solved.base_elements {
+                    solved.mesh.elements.len().to_string()
+                } else {
+                    format!(
+                        "{} ({} base)",
+                        solved.mesh.elements.len(),
+                        solved.base_elements
+                    )
+                },
                 solved.mesh.vertices.len().to_string(),
                 percent(ours.l1),
+                percent(v.sensors.l1),
                 signed_percent(ours.bias),
                 percent(ours.median),
                 percent(ours.p90),
@@ -662,8 +769,10 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
         &[
             "scene",
             "preset",
+            "elements",
             "vertices",
             "L1",
+            "sensors L1",
             "bias",
             "median",
             "p90",
@@ -674,11 +783,13 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
         &rows,
     ));
     report.paragraph(
-        "L1 = sum |B - Bref| / sum Bref over the sampled vertices (channel means); bias = sum B / \
-         sum Bref - 1; median and p90: of |B / Bref - 1| over the points brighter than 2% of the \
+        "L1 = sum |B - Bref| / sum Bref over the sampled vertices (channel means); sensors L1: \
+         the same over 300 points drawn uniformly by area over the surfaces (a fixed sequence), \
+         gathered as `--sensors`; elements: after receiver refinement (the base grid's count \
+         in brackets when it split some); bias = sum B / sum Bref - 1; median and p90: of |B / Bref - 1| over the points brighter than 2% of the \
          95th percentile of Bref. These are score.py's numbers (every score is checked against \
-         its own output). Solve seconds: the solver's construction (accelerator build) and its \
-         shots, not loading and meshing. Reference seconds: when the reference was computed \
+         its own output). Solve seconds: receiver refinement's coarse pass, the solver's \
+         construction (accelerator build) and its shots, not loading and meshing. Reference seconds: when the reference was computed \
          (2 cores), read from its cache.",
     );
     report.paragraph(

@@ -238,7 +238,8 @@ pub fn write_exr(out: &mut (impl Write + io::Seek), image: &Image) -> io::Result
 /// CloudCompare: per vertex its position, unit normal, the 8-bit sRGB colour
 /// the picture shows (`display` times `exposure`, through the picture's
 /// sRGB curve) and the linear radiosity `B` (W/m^2, ambient excluded) as
-/// float properties `radiosity_r/g/b`; faces are triangles (quads split).
+/// float properties `radiosity_r/g/b`; faces are the mesh's conforming triangles ([`Mesh::triangles`]: no
+/// T-vertices).
 pub fn write_ply(
     out: &mut impl Write,
     mesh: &Mesh,
@@ -246,11 +247,7 @@ pub fn write_ply(
     exposure: f64,
     radiosity: &[DVec3],
 ) -> io::Result<()> {
-    let triangles: usize = mesh
-        .elements
-        .iter()
-        .map(|e| e.vertices().len().saturating_sub(2))
-        .sum();
+    let triangles = mesh.triangles();
     write!(
         out,
         "ply\nformat binary_little_endian 1.0\ncomment radiosity {}: colours are the picture's \
@@ -258,9 +255,10 @@ pub fn write_ply(
          y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
          property uchar red\nproperty uchar green\nproperty uchar blue\nproperty float \
          radiosity_r\nproperty float radiosity_g\nproperty float radiosity_b\nelement face \
-         {triangles}\nproperty list uchar uint vertex_indices\nend_header\n",
+         {}\nproperty list uchar uint vertex_indices\nend_header\n",
         env!("CARGO_PKG_VERSION"),
-        mesh.vertices.len()
+        mesh.vertices.len(),
+        triangles.len()
     )?;
     for ((v, d), b) in mesh.vertices.iter().zip(display).zip(radiosity) {
         let n = v.normal.normalize_or_zero();
@@ -277,13 +275,10 @@ pub fn write_ply(
             out.write_all(&(c as f32).to_le_bytes())?;
         }
     }
-    for e in &mesh.elements {
-        let corners = e.vertices();
-        for i in 1..corners.len().saturating_sub(1) {
-            out.write_all(&[3])?;
-            for v in [corners[0], corners[i], corners[i + 1]] {
-                out.write_all(&v.to_le_bytes())?;
-            }
+    for t in &triangles {
+        out.write_all(&[3])?;
+        for v in t.corners {
+            out.write_all(&v.to_le_bytes())?;
         }
     }
     Ok(())

@@ -128,21 +128,20 @@ pub fn render(scene: &Scene, mesh: &Mesh, colours: &[DVec3], settings: &RenderSe
     downsample(&samples, &hits, settings.width, settings.height, s)
 }
 
-/// Projects every element (quads as two triangles), culling back faces and
-/// clipping at the near plane.
+/// Projects the mesh's conforming triangles ([`Mesh::triangles`]), culling
+/// back faces and clipping at the near plane.
 fn project(scene: &Scene, mesh: &Mesh, colours: &[DVec3], view: &View) -> Vec<ScreenTriangle> {
     let mut out = Vec::with_capacity(mesh.elements.len() * 2);
     let mut polygon: Vec<(DVec3, DVec3)> = Vec::with_capacity(8);
     let mut clipped: Vec<(DVec3, DVec3)> = Vec::with_capacity(8);
-    for element in &mesh.elements {
-        let corners = element.vertices();
-        let first = &mesh.vertices[corners[0] as usize];
-        let surface = &scene.surfaces[first.surface as usize];
+    for triangle in mesh.triangles() {
+        let element = &mesh.elements[triangle.element as usize];
+        let surface = &scene.surfaces[element.surface as usize];
         if surface.normal.dot(view.eye) - surface.offset <= 0.0 {
             continue;
         }
         polygon.clear();
-        for &c in corners {
+        for c in triangle.corners {
             polygon.push((
                 view.to_camera(mesh.vertices[c as usize].position),
                 colours[c as usize],

@@ -32,6 +32,8 @@ fn first_shot(scene: &Scene) -> (Mesh, Vec<DVec3>) {
             element_size: 0.25,
             max_elements: 100_000,
             bisect_triangles: false,
+            refine: Default::default(),
+            conform: false,
         },
         method: PatchSettings {
             subsources: SUBSOURCES,

@@ -19,6 +19,8 @@ fn settings(form_factor: FormFactor) -> Settings {
             element_size: 0.125,
             max_elements: 100_000,
             bisect_triangles: false,
+            refine: Default::default(),
+            conform: false,
         },
         form_factor,
         converge: 1e-7,

@@ -274,6 +274,8 @@ fn blender_export_renders_like_the_builtin_box() {
                 element_size: 0.1,
                 max_elements: 100_000,
                 bisect_triangles: false,
+                refine: Default::default(),
+                conform: false,
             },
             converge: 0.01,
             method: PatchSettings {
@@ -381,6 +383,8 @@ fn double_sided_faces_receive_on_both_sides_without_leaks() {
                 element_size: 0.125,
                 max_elements: 100_000,
                 bisect_triangles: false,
+                refine: Default::default(),
+                conform: false,
             },
             method: PatchSettings {
                 visibility,

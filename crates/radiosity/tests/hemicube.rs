@@ -220,6 +220,8 @@ fn room_agreement(resolution: u32) -> (PretestCounts, u64) {
             element_size: 0.2,
             max_elements: 4_000_000,
             bisect_triangles: false,
+            refine: Default::default(),
+            conform: false,
         },
     )
     .expect("meshes");

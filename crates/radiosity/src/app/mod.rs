@@ -27,7 +27,7 @@ use crate::mesh::Mesh;
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, LoadOptions, Scene};
 use crate::sensors;
-use crate::solver::Solver;
+use crate::solver::{self, Solver};
 
 /// Runs a job in the current rayon pool.
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
@@ -52,10 +52,16 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let suggested = scene.default_mesh_sizes();
     let settings = job.settings_for(&suggested);
     let mesh_start = Instant::now();
-    let mesh = Mesh::build(&scene, &settings.mesh)
+    let refined = solver::refine::refined_mesh(&scene, &settings, observer.interrupt())
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
+    let mesh = refined.mesh;
     let mesh_time = mesh_start.elapsed();
-    let mut counts = Counts::of(&scene, &mesh);
+    let mut counts = Counts {
+        base_elements: refined.base_elements,
+        refined_elements: refined.split_elements,
+        coarse_shots: refined.coarse_shots,
+        ..Counts::of(&scene, &mesh)
+    };
     let memory_estimate = memory::estimate(
         &memory_sizes(job, &scene, &mesh),
         settings.method.method().memory(),

@@ -102,6 +102,12 @@ pub struct Counts {
     pub elements: usize,
     /// Shared vertices.
     pub vertices: usize,
+    /// Elements of the base grid, before receiver refinement.
+    pub base_elements: usize,
+    /// Base elements the refinement split.
+    pub refined_elements: usize,
+    /// Shots of refinement's coarse pass (0 without refinement).
+    pub coarse_shots: u64,
 }
 
 impl Counts {
@@ -117,6 +123,9 @@ impl Counts {
             patches: mesh.patches.len(),
             elements: mesh.elements.len(),
             vertices: mesh.vertices.len(),
+            base_elements: mesh.elements.len(),
+            refined_elements: 0,
+            coarse_shots: 0,
         }
     }
 }

@@ -542,13 +542,12 @@ pub fn bake(bake: &Bake<'_>, path: &Path) -> io::Result<Vec<(PathBuf, Vec<u8>)>>
         }
     };
     let mut groups: BTreeMap<Option<usize>, Vec<u32>> = BTreeMap::new();
-    for element in &mesh.elements {
-        let corners = element.vertices();
-        let surface = mesh.vertices[corners[0] as usize].surface as usize;
-        let group = groups.entry(surface_material[surface]).or_default();
-        for i in 1..corners.len() - 1 {
-            group.extend([corners[0], corners[i], corners[i + 1]]);
-        }
+    for t in mesh.triangles() {
+        let surface = mesh.elements[t.element as usize].surface as usize;
+        groups
+            .entry(surface_material[surface])
+            .or_default()
+            .extend(t.corners);
     }
 
     match (bake.mode, bake.appearance) {

@@ -28,6 +28,7 @@ pub mod hierarchy;
 pub mod lights;
 pub mod method;
 pub mod patches;
+pub mod refine;
 pub mod registry;
 mod settings;
 

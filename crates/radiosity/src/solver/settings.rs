@@ -13,7 +13,7 @@ use super::patches::PatchSettings;
 use super::registry::{MethodSettings, Shooting};
 use crate::accel::Accel;
 use crate::form_factor::FormFactor;
-use crate::mesh::MeshSettings;
+use crate::mesh::{MeshSettings, RefineSettings};
 
 /// Every setting of a solve, apart from run state. Presets are named
 /// constructors; each field can be overridden on its own. Serialised as
@@ -55,6 +55,9 @@ fn optional_seconds<S: serde::Serializer>(
 ) -> Result<S::Ok, S::Error> {
     serde::Serialize::serialize(&time.map(|t| t.as_secs_f64()), serializer)
 }
+
+/// The default preset's `--refine-levels`.
+pub const DEFAULT_REFINE_LEVELS: u32 = 2;
 
 /// Default `--converge`.
 pub const DEFAULT_CONVERGE: f64 = 0.01;
@@ -102,6 +105,11 @@ impl Settings {
         Settings {
             mesh: MeshSettings {
                 bisect_triangles: true,
+                refine: RefineSettings {
+                    refine_levels: DEFAULT_REFINE_LEVELS,
+                    ..RefineSettings::default()
+                },
+                conform: true,
                 ..MeshSettings::default()
             },
             method: MethodSettings::Adaptive(AdaptiveSettings::default()),

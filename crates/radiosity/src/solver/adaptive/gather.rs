@@ -12,8 +12,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::{
-ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, PARALLEL_RECEIVERS};
+use super::{ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, PARALLEL_RECEIVERS};
 use crate::solver::hierarchy::sources::point_factor;
 use crate::solver::hierarchy::transfer::{Cost, Scratch, Transfer, straddles};
 use crate::solver::hierarchy::{NONE, Node, Tree};

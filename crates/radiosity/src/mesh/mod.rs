@@ -15,11 +15,18 @@
 //!
 //! [`Surface::group`]: crate::scene::Surface::group
 
+mod conform;
+mod refine;
+
 use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::DVec3;
 
+pub use self::conform::Triangle;
+pub use self::refine::{
+    DEFAULT_REFINE_TOLERANCE, MAX_REFINE_LEVELS, RefineSettings, element_centre, split_depths,
+};
 use crate::geometry;
 use crate::scene::Scene;
 
@@ -38,6 +45,14 @@ pub struct MeshSettings {
     /// instead of the regular grid; see the mesh's bisection grid.
     #[serde(skip)]
     pub bisect_triangles: bool,
+    /// Receiver refinement: elements split where a first, coarse solve
+    /// finds the light varying ([`refine`]).
+    #[serde(flatten)]
+    pub refine: RefineSettings,
+    /// Give coplanar surface ids each other's edge vertices
+    /// ([`Mesh::share_coplanar_edge_vertices`]), so the triangles shown and
+    /// written have no T-vertex anywhere.
+    pub conform: bool,
 }
 
 impl Default for MeshSettings {
@@ -47,6 +62,8 @@ impl Default for MeshSettings {
             element_size: DEFAULT_ELEMENT_SIZE,
             max_elements: 4_000_000,
             bisect_triangles: false,
+            refine: RefineSettings::default(),
+            conform: false,
         }
     }
 }
@@ -699,6 +716,8 @@ mod tests {
             element_size: 0.2,
             max_elements: 1_000_000,
             bisect_triangles: false,
+            refine: RefineSettings::default(),
+            conform: false,
         };
         let mesh = Mesh::build(&scene, &settings).unwrap();
         // 6 m: 3 patches of 2 m, 10 elements each; 3 m: 2 patches of 1.5 m,
@@ -728,6 +747,8 @@ mod tests {
             element_size: 0.3,
             max_elements: 1_000_000,
             bisect_triangles: false,
+            refine: RefineSettings::default(),
+            conform: false,
         };
         let mesh = Mesh::build(&scene, &settings).unwrap();
         check_conforming(&scene, &mesh);
@@ -762,6 +783,8 @@ mod tests {
             element_size: 1e-4,
             max_elements: 1_000_000,
             bisect_triangles: false,
+            refine: RefineSettings::default(),
+            conform: false,
         };
         let err = Mesh::build(&scene, &settings).unwrap_err();
         assert!(err.to_string().contains("--element-size"), "{err}");

@@ -1,0 +1,164 @@
+//! The element mesh a solve runs on, refined where a first, coarse solve
+//! finds the light varying: the two-pass scheme of Cohen, Greenberg, Immel
+//! & Brock (1986), whose elements are subdivided where a first solution's
+//! radiosity varies, then solved again (see [`crate::mesh::refine`] for the
+//! error estimate and the split).
+//!
+//! The coarse pass solves the base mesh with the run's own settings and
+//! gathers, besides the vertices, at every element's centre. It stops when
+//! its unshot power falls below [`COARSE_CONVERGE`] of the emitted power or
+//! once every light and every emitting patch could have shot
+//! [`COARSE_SHOTS_PER_SOURCE`] times: the direct light and the first
+//! bounces, which make the shadows and contacts, without the long tail
+//! of a dim scene's later shots. The final solve then starts afresh on the
+//! refined mesh, so every vertex, old or new, gathers from every shot and
+//! the energy ledger is the final solve's alone.
+
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::{Flow, GATHER_NUDGE, Receiver, Settings, Solver};
+use crate::geometry;
+use crate::mesh::{self, Mesh, MeshError};
+use crate::scene::Scene;
+use crate::sensors;
+
+/// The coarse pass stops once its unshot power is below this fraction of
+/// the emitted power.
+pub const COARSE_CONVERGE: f64 = 0.1;
+
+/// The coarse pass takes at most this many shots per light and emitting
+/// patch.
+pub const COARSE_SHOTS_PER_SOURCE: u64 = 4;
+
+/// A mesh ready to solve, and what its refinement did.
+pub struct Refined {
+    /// The mesh.
+    pub mesh: Mesh,
+    /// Elements of the base mesh.
+    pub base_elements: usize,
+    /// Base elements that were split.
+    pub split_elements: usize,
+    /// Shots of the coarse pass (0 without refinement).
+    pub coarse_shots: u64,
+    /// Seconds of the coarse pass and the split.
+    pub seconds: f64,
+}
+
+/// The receivers at the centres of `mesh`'s elements, placed as vertices
+/// are ([`GATHER_NUDGE`]).
+#[must_use]
+pub fn centre_receivers(scene: &Scene, mesh: &Mesh) -> Vec<Receiver> {
+    mesh.elements
+        .iter()
+        .map(|e| {
+            let surface = &scene.surfaces[e.surface as usize];
+            let centre = mesh::element_centre(mesh, e);
+            let centroid = geometry::centroid(&surface.polygon);
+            Receiver {
+                point: centre + (centroid - centre) * GATHER_NUDGE,
+                normal: surface.normal,
+                surface: e.surface,
+                group: surface.group,
+            }
+        })
+        .collect()
+}
+
+/// The mesh `settings` ask for: the base grid, refined after a coarse
+/// solve when `settings.mesh.refine.refine_levels > 0`. The coarse pass
+/// stops early when `interrupt` is raised (the base mesh is then kept).
+///
+/// # Errors
+///
+/// When the base mesh or its refinement is refused ([`MeshError`]).
+pub fn refined_mesh(
+    scene: &Scene,
+    settings: &Settings,
+    interrupt: Option<Arc<AtomicBool>>,
+) -> Result<Refined, MeshError> {
+    let start = Instant::now();
+    let mut base = Mesh::build(scene, &settings.mesh)?;
+    let levels = settings.mesh.refine.refine_levels;
+    let base_elements = base.elements.len();
+    if levels == 0 || base.elements.is_empty() {
+        if settings.mesh.conform {
+            base.share_coplanar_edge_vertices();
+        }
+        return Ok(Refined {
+            mesh: base,
+            base_elements,
+            split_elements: 0,
+            coarse_shots: 0,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    let sources = scene.lights.len() as u64
+        + base
+            .patches
+            .iter()
+            .filter(|p| scene.surfaces[p.surface as usize].emission != DVec3::ZERO)
+            .count() as u64;
+    let mut coarse = settings.clone();
+    coarse.converge = settings.converge.max(COARSE_CONVERGE);
+    coarse.max_shots = Some(
+        sources
+            .max(1)
+            .saturating_mul(COARSE_SHOTS_PER_SOURCE)
+            .min(settings.max_shots.unwrap_or(u64::MAX)),
+    );
+    coarse.max_subsources = None;
+    coarse.time_limit = None;
+    let centres = centre_receivers(scene, &base);
+    let mut solver = Solver::with_sensors(scene, &base, coarse, centres.clone());
+    if let Some(flag) = &interrupt {
+        solver.interrupt_on(flag.clone());
+    }
+    let stop = solver.run(|_| Flow::Continue);
+    let coarse_shots = solver.stats().shots;
+    if stop == super::StopReason::Stopped {
+        drop(solver);
+        if settings.mesh.conform {
+            base.share_coplanar_edge_vertices();
+        }
+        return Ok(Refined {
+            mesh: base,
+            base_elements,
+            split_elements: 0,
+            coarse_shots,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    let centre_radiosity: Vec<DVec3> = centres
+        .iter()
+        .zip(solver.sensor_irradiance())
+        .map(|(r, e)| sensors::radiosity(scene, r, *e))
+        .collect();
+    let depths = mesh::split_depths(
+        &base,
+        solver.radiosity(),
+        &centre_radiosity,
+        settings.mesh.refine.refine_tolerance,
+        levels,
+    );
+    drop(solver);
+    let split_elements = depths.iter().filter(|&&d| d > 0).count();
+    let mut mesh = base.refine(
+        &depths,
+        settings.mesh.max_elements,
+        settings.mesh.element_size,
+    )?;
+    if settings.mesh.conform {
+        mesh.share_coplanar_edge_vertices();
+    }
+    Ok(Refined {
+        mesh,
+        base_elements,
+        split_elements,
+        coarse_shots,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
