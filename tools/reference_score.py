@@ -13,7 +13,9 @@ it beside their outputs and run it with the reference harness's Python
       reference radiosity and score.py's numbers. With --lights-script, the
       reference is computed by that script (lights that are not surfaces:
       #@light, and FLAGS such as --sun and --sky) instead of reference.py,
-      cached in a folder of its own.
+      cached in a folder of its own. The same option runs any other script
+      with reference.py's command line in its place (reference_edges.py:
+      points on a face's edge moved off it), with --lights-args= empty.
 
   reference_score.py radiance HARNESS SCENE.obj POINTS.txt OUT.json
                      --procs P RUN [RUN ...]

@@ -18,7 +18,7 @@ use radiosity::export::gltf::BakeMode;
 use radiosity::form_factor::FormFactor;
 use radiosity::scene::{DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions};
 use radiosity::solver::method::{Kind, Value};
-use radiosity::solver::{DEFAULT_CONVERGE, MethodSettings, Preset, Shooting};
+use radiosity::solver::{MethodSettings, Preset, Shooting};
 
 /// Diffuse global illumination by progressive radiosity with ray-traced
 /// visibility (Wallace et al. 1989; Wong & Tsang 1993).
@@ -318,10 +318,11 @@ pub struct RenderArgs {
           value_parser = positive_real())]
     pub refine_tolerance: Option<f64>,
 
-    /// Stop when unshot power falls below this fraction of emitted power.
-    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_CONVERGE,
-          allow_negative_numbers = true, value_parser = fraction())]
-    pub converge: f64,
+    /// Stop when unshot power falls below this fraction of emitted power
+    /// (default: the preset's; adaptive 0.003, the paper's presets 0.01).
+    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true,
+          value_parser = fraction())]
+    pub converge: Option<f64>,
 
     /// Stop after N patches have shot.
     #[arg(long, value_name = "N", allow_negative_numbers = true,

@@ -32,7 +32,9 @@ impl RenderArgs {
         if let Some(accel) = self.accel {
             settings.accel = accel;
         }
-        settings.converge = self.converge;
+        if let Some(converge) = self.converge {
+            settings.converge = converge;
+        }
         if let Some(levels) = self.refine_levels {
             if levels > MAX_REFINE_LEVELS {
                 return Err(anyhow!(

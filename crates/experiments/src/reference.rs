@@ -26,6 +26,11 @@ const HELPER: &str = include_str!("../../../tools/reference_score.py");
 /// and sun lights, skies), written beside the helper when a scene needs it.
 const LIGHTS: &str = include_str!("../../../tools/reference_lights.py");
 
+/// `tools/reference_edges.py`: the harness's reference.py with points on
+/// a face's edge moved off that edge (see its text), written beside the
+/// helper for [`Harness::score_edges`].
+const EDGES: &str = include_str!("../../../tools/reference_edges.py");
+
 /// The harness folder looked for when none is given, relative to the
 /// working directory and to the source tree (beside a clone, or two levels
 /// up from a worktree under `wt/`).
@@ -329,7 +334,41 @@ impl Harness {
         json: &Path,
         lights: Option<&str>,
     ) -> Result<Scored, Error> {
-        let script = self.helper.with_file_name("reference_lights.py");
+        let script = lights.map(|flags| ("reference_lights.py", LIGHTS, flags));
+        self.score_by(scene, csv, accuracy, json, script)
+    }
+
+    /// [`Harness::score_lit`] with the reference computed by
+    /// `tools/reference_edges.py` (cached apart): reference.py with points
+    /// on an edge of their face moved off that edge, where reference.py
+    /// can leave them within Radiance's 1e-6 m of a surface meeting the
+    /// edge and read 35-40% low.
+    pub fn score_edges(
+        &self,
+        scene: &Path,
+        csv: &Path,
+        accuracy: &str,
+        json: &Path,
+    ) -> Result<Scored, Error> {
+        self.score_by(
+            scene,
+            csv,
+            accuracy,
+            json,
+            Some(("reference_edges.py", EDGES, "")),
+        )
+    }
+
+    /// Scores with the reference computed by `script` (file name, text,
+    /// flags) in place of reference.py, or by reference.py itself.
+    fn score_by(
+        &self,
+        scene: &Path,
+        csv: &Path,
+        accuracy: &str,
+        json: &Path,
+        script: Option<(&str, &str, &str)>,
+    ) -> Result<Scored, Error> {
         let mut args: Vec<&std::ffi::OsStr> = vec![
             "score".as_ref(),
             self.dir.as_os_str(),
@@ -340,14 +379,11 @@ impl Harness {
             accuracy.as_ref(),
         ];
         // One word, `=` joined: the flags start with dashes.
-        let flags = lights.map(|f| format!("--lights-args={f}"));
-        if let Some(flags) = &flags {
-            write_file(&script, LIGHTS.as_bytes())?;
-            args.extend([
-                "--lights-script".as_ref(),
-                script.as_os_str(),
-                flags.as_ref(),
-            ]);
+        let flags = script.map(|(_, _, f)| format!("--lights-args={f}"));
+        let path = script.map(|(name, _, _)| self.helper.with_file_name(name));
+        if let (Some((_, text, _)), Some(flags), Some(path)) = (script, &flags, &path) {
+            write_file(path, text.as_bytes())?;
+            args.extend(["--lights-script".as_ref(), path.as_os_str(), flags.as_ref()]);
         }
         let value = self.helper(&args, json)?;
         let bad = || Error::Experiment(format!("{}: unexpected answer", json.display()));

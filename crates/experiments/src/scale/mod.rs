@@ -42,7 +42,7 @@ use super::early::{self, EARLY_SECONDS, Early};
 use super::rays::{SceneSpec, scenes_folder};
 use super::{Context, Error, Report, write_file};
 use radiosity::accel::Accel;
-use radiosity::solver::{DEFAULT_CONVERGE, Preset, Settings};
+use radiosity::solver::{ADAPTIVE_CONVERGE, Preset, Settings};
 
 /// A scene of the experiment and the time its solve may take.
 #[derive(Clone, Debug)]
@@ -273,7 +273,7 @@ impl Run {
     /// time limit).
     #[must_use]
     pub fn converged(&self) -> bool {
-        self.unshot_fraction <= DEFAULT_CONVERGE
+        self.unshot_fraction <= ADAPTIVE_CONVERGE
     }
 
     /// Rays traced per second of solve (after the build) per thread: the

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use super::{Case, PLOT_FILE, QUICK_COARSENING, ScaleScene};
 use crate::early::{EARLY_SECONDS, Early};
 use crate::{Report, table};
-use radiosity::solver::DEFAULT_CONVERGE;
+use radiosity::solver::ADAPTIVE_CONVERGE;
 
 /// The Markdown of the report: the settings, the tables (sizes and
 /// phases, solves, where the solve's time goes, the early pictures), and
@@ -26,7 +26,7 @@ pub fn markdown(quick: bool, scenes: &[ScaleScene], cases: &[Case]) -> Report {
         .map(|s| format!("{} {} s", s.spec.name, s.effective_time_limit(quick)))
         .collect();
     report.setting("solve time limits", limits.join(", "));
-    report.setting("converge", DEFAULT_CONVERGE);
+    report.setting("converge", ADAPTIVE_CONVERGE);
     if quick {
         report.setting(
             "quick mode",
@@ -110,11 +110,11 @@ pub fn markdown(quick: bool, scenes: &[ScaleScene], cases: &[Case]) -> Report {
     ));
     report.paragraph(&format!(
         "The solves: shots, the unshot power left over the emitted power, whether it fell \
-         below {:.0}% (converged) or the time limit stopped the solve, shadow rays traced, rays \
+         below {:.1}% (converged) or the time limit stopped the solve, shadow rays traced, rays \
          per second of solve per thread (throughput, form factors and book-keeping included) \
          and per second of tracing thread time (the accelerator's own rate), the child's peak \
          resident memory and its own estimate (MB).",
-        100.0 * DEFAULT_CONVERGE
+        100.0 * ADAPTIVE_CONVERGE
     ));
     report.body.push_str(&table(
         &[

@@ -44,7 +44,7 @@ pub struct RefineSettings {
 pub const MAX_REFINE_LEVELS: u32 = 8;
 
 /// Default `--refine-tolerance`.
-pub const DEFAULT_REFINE_TOLERANCE: f64 = 0.1;
+pub const DEFAULT_REFINE_TOLERANCE: f64 = 0.25;
 
 impl Default for RefineSettings {
     fn default() -> Self {

@@ -41,7 +41,7 @@ use glam::DVec3;
 use self::method::ShotInputs;
 pub use self::method::{Counter, Method, Shooter, Stats, Visibility};
 pub use self::registry::{MethodSettings, Shooting};
-pub use self::settings::{DEFAULT_CONVERGE, Preset, Settings, SettingsError};
+pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, SettingsError};
 use crate::accel::Occluder;
 use crate::geometry;
 use crate::luminance;
