@@ -218,7 +218,17 @@ fn path_that_does_not_exist() {
 fn bad_settings_are_refused_before_any_work() {
     let case = Case::new(&obj(""), MTL);
     let scene = case.path("scene.obj");
-    let cases: [(&[&str], &str); 16] = [
+    let cases: [(&[&str], &str); 20] = [
+        (
+            &["--refine-levels", "9"],
+            "--refine-levels must be at most 8",
+        ),
+        (&["--refine-levels", "-1"], "--refine-levels"),
+        (
+            &["--refine-tolerance", "0"],
+            "--refine-tolerance must be a positive number",
+        ),
+        (&["--refine-tolerance", "nan"], "--refine-tolerance"),
         (&["--threads", "0"], "--threads"),
         (&["--threads", "1000000"], "--threads"),
         (&["--element-size", "0"], "--element-size"),

@@ -70,6 +70,12 @@ fn clock(d: Duration) -> String {
 }
 
 impl app::Observer for ProgressDisplay {
+    fn refining(&mut self) {
+        if let Some(bar) = &self.bar {
+            bar.set_message("refining the mesh: a coarse solve");
+        }
+    }
+
     fn started(&mut self, scene: &Scene, mesh: &Mesh) {
         self.meter = app::ProgressMeter::new();
         self.last_line = Instant::now();
@@ -127,6 +133,12 @@ pub fn print_summary(o: &Outcome) {
         "{}: {} surfaces ({} surface ids), {} shooters, {} elements, {} vertices",
         o.scene, c.surfaces, c.surface_ids, c.patches, c.elements, c.vertices
     );
+    if c.refined_elements > 0 {
+        println!(
+            "refined: {} of {} elements split after a coarse pass of {} shots",
+            c.refined_elements, c.base_elements, c.coarse_shots
+        );
+    }
     if !o.lights.is_empty() {
         let lumens: f64 = o.lights.iter().map(|l| l.lumens).sum();
         println!(

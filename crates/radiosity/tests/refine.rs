@@ -304,3 +304,26 @@ fn pieces_tile_their_element() {
     }
     check_conforming(&scene, &refined);
 }
+
+/// The meshes the default settings show and write for the built-in room
+/// and Cornell box (refined after their coarse pass, coplanar surfaces
+/// sharing edge vertices): no T-vertex, counted by brute force (the fixed
+/// grid had 44 and 92: faces of one plane cutting a shared edge apart).
+#[test]
+fn the_default_meshes_of_the_room_and_the_cornell_box_have_no_t_vertices() {
+    for name in ["room", "cornell"] {
+        let scene = scene::load(name).unwrap();
+        let sizes = scene.default_mesh_sizes();
+        let mut settings = Settings::adaptive();
+        settings.mesh.patch_size = sizes.patch_size;
+        settings.mesh.element_size = sizes.element_size;
+        let mut merged = scene.clone();
+        scene::merge::merge_coplanar(&mut merged.surfaces);
+        let refined = refined_mesh(&merged, &settings, None).unwrap();
+        assert!(refined.split_elements > 0, "{name}");
+        let triangles = refined.mesh.triangles();
+        assert_eq!(brute_t_vertices(&refined.mesh, &triangles), 0, "{name}");
+        let fixed = Mesh::build(&merged, &settings.mesh).unwrap();
+        assert!(brute_t_vertices(&fixed, &fixed.triangles()) > 0, "{name}");
+    }
+}

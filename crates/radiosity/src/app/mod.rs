@@ -52,6 +52,9 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let suggested = scene.default_mesh_sizes();
     let settings = job.settings_for(&suggested);
     let mesh_start = Instant::now();
+    if settings.mesh.refine.refine_levels > 0 {
+        observer.refining();
+    }
     let refined = solver::refine::refined_mesh(&scene, &settings, observer.interrupt())
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     let mesh = refined.mesh;

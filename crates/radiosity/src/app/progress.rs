@@ -110,6 +110,10 @@ impl ProgressMeter {
 /// reached). Progress displays, Ctrl-C handling and the live view are
 /// observers.
 pub trait Observer {
+    /// The scene is loaded; receiver refinement's coarse pass is about to
+    /// start (not called without refinement).
+    fn refining(&mut self) {}
+
     /// The scene is loaded and meshed; the solve is about to start.
     fn started(&mut self, _scene: &Scene, _mesh: &Mesh) {}
 

@@ -11,7 +11,11 @@
 //! on a polygon's edge are computed from the edge's ends in a canonical
 //! order, so two faces that share an edge and cut it into the same number
 //! of pieces share its vertices; faces cutting it differently meet at
-//! T-vertices, which cost a little shading continuity and nothing else.
+//! T-vertices, which [`conform`] closes for everything shown and written.
+//!
+//! Beyond the paper, [`refine`] splits elements where a first solve finds
+//! the light varying (Cohen et al. 1986), and [`conform`] cuts the mesh
+//! into triangles with no T-vertex (Baum et al. 1991).
 //!
 //! [`Surface::group`]: crate::scene::Surface::group
 
