@@ -11,10 +11,10 @@
 //! on a polygon's edge are computed from the edge's ends in a canonical
 //! order, so two faces that share an edge and cut it into the same number
 //! of pieces share its vertices; faces cutting it differently meet at
-//! T-vertices, which [`conform`] closes for everything shown and written.
+//! T-vertices, which [`Mesh::triangles`] closes for everything shown and written.
 //!
-//! Beyond the paper, [`refine`] splits elements where a first solve finds
-//! the light varying (Cohen et al. 1986), and [`conform`] cuts the mesh
+//! Beyond the paper, [`Mesh::refine`] splits elements where a first solve finds
+//! the light varying (Cohen et al. 1986), and [`Mesh::triangles`] cuts the mesh
 //! into triangles with no T-vertex (Baum et al. 1991).
 //!
 //! [`Surface::group`]: crate::scene::Surface::group
@@ -50,7 +50,7 @@ pub struct MeshSettings {
     #[serde(skip)]
     pub bisect_triangles: bool,
     /// Receiver refinement: elements split where a first, coarse solve
-    /// finds the light varying ([`refine`]).
+    /// finds the light varying ([`Mesh::refine`], [`split_depths`]).
     #[serde(flatten)]
     pub refine: RefineSettings,
     /// Give coplanar surface ids each other's edge vertices

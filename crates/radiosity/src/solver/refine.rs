@@ -1,7 +1,7 @@
 //! The element mesh a solve runs on, refined where a first, coarse solve
 //! finds the light varying: the two-pass scheme of Cohen, Greenberg, Immel
 //! & Brock (1986), whose elements are subdivided where a first solution's
-//! radiosity varies, then solved again (see [`crate::mesh::refine`] for the
+//! radiosity varies, then solved again (see [`crate::mesh::split_depths`] and [`Mesh::refine`] for the
 //! error estimate and the split).
 //!
 //! The coarse pass solves the base mesh with the run's own settings and
