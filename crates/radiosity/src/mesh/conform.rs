@@ -205,12 +205,7 @@ impl Mesh {
     pub fn share_coplanar_edge_vertices(&mut self) -> usize {
         let planes = self.vertex_planes();
         let grid = VertexGrid::new(self, &planes);
-        let mut lookup: HashMap<(u32, [u64; 3]), u32> = self
-            .vertices
-            .iter()
-            .enumerate()
-            .map(|(i, v)| ((v.group, point_key(v.position)), i as u32))
-            .collect();
+        let mut lookup = self.vertex_lookup();
         let mut on_edge = Vec::new();
         let mut added = Vec::new();
         for element in &self.elements {

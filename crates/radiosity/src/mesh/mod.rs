@@ -362,6 +362,18 @@ impl Mesh {
     }
 }
 
+impl Mesh {
+    /// Each vertex by its surface id and exact position ([`point_key`]):
+    /// the map that shares vertices.
+    fn vertex_lookup(&self) -> HashMap<(u32, [u64; 3]), u32> {
+        self.vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| ((v.group, point_key(v.position)), i as u32))
+            .collect()
+    }
+}
+
 /// The exact bits of a point, the key that shares vertices.
 fn point_key(p: DVec3) -> [u64; 3] {
     // `+ 0.0` folds -0.0 into 0.0 so the sign of a zero cannot split a vertex.

@@ -152,12 +152,7 @@ impl Mesh {
             elements: Vec::with_capacity(total as usize),
             vertices: self.vertices.clone(),
         };
-        let mut lookup: HashMap<(u32, [u64; 3]), u32> = self
-            .vertices
-            .iter()
-            .enumerate()
-            .map(|(i, v)| ((v.group, point_key(v.position)), i as u32))
-            .collect();
+        let mut lookup = self.vertex_lookup();
         for (p, patch) in self.patches.iter().enumerate() {
             let start = out.elements.len();
             for e in patch.elements.clone() {

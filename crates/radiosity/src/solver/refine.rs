@@ -81,20 +81,24 @@ pub fn refined_mesh(
     interrupt: Option<Arc<AtomicBool>>,
 ) -> Result<Refined, MeshError> {
     let start = Instant::now();
-    let mut base = Mesh::build(scene, &settings.mesh)?;
+    let base = Mesh::build(scene, &settings.mesh)?;
     let levels = settings.mesh.refine.refine_levels;
     let base_elements = base.elements.len();
-    if levels == 0 || base.elements.is_empty() {
+    // The base mesh as it is, when nothing is refined.
+    let unrefined = |mut mesh: Mesh, coarse_shots: u64| {
         if settings.mesh.conform {
-            base.share_coplanar_edge_vertices();
+            mesh.share_coplanar_edge_vertices();
         }
-        return Ok(Refined {
-            mesh: base,
+        Ok(Refined {
+            mesh,
             base_elements,
             split_elements: 0,
-            coarse_shots: 0,
+            coarse_shots,
             seconds: start.elapsed().as_secs_f64(),
-        });
+        })
+    };
+    if levels == 0 || base.elements.is_empty() {
+        return unrefined(base, 0);
     }
     let sources = scene.lights.len() as u64
         + base
@@ -121,16 +125,7 @@ pub fn refined_mesh(
     let coarse_shots = solver.stats().shots;
     if stop == super::StopReason::Stopped {
         drop(solver);
-        if settings.mesh.conform {
-            base.share_coplanar_edge_vertices();
-        }
-        return Ok(Refined {
-            mesh: base,
-            base_elements,
-            split_elements: 0,
-            coarse_shots,
-            seconds: start.elapsed().as_secs_f64(),
-        });
+        return unrefined(base, coarse_shots);
     }
     let centre_radiosity: Vec<DVec3> = centres
         .iter()
