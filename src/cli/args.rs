@@ -313,7 +313,7 @@ pub struct RenderArgs {
     /// Receiver refinement's threshold: an element splits once its
     /// radiosity varies by more than this fraction of the larger of its
     /// own mean and the scene's, once more per doubling beyond (default
-    /// 0.1)
+    /// 0.25)
     #[arg(long, value_name = "FRACTION", allow_negative_numbers = true,
           value_parser = positive_real())]
     pub refine_tolerance: Option<f64>,

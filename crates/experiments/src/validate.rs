@@ -812,8 +812,9 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
          lamp's side under the ceiling), for the default preset on the scenes lit by their \
          surfaces; bias = sum B / sum Bref - 1; median and p90: of |B / Bref - 1| over the points brighter than 2% of the \
          95th percentile of Bref. These are score.py's numbers (every score is checked against \
-         its own output). Solve seconds: receiver refinement's coarse pass, the solver's \
-         construction (accelerator build) and its shots, not loading and meshing. Reference seconds: when the reference was computed \
+         its own output). Solve seconds: receiver refinement (the base mesh, its coarse pass and \
+         the split), the solver's construction (accelerator build) and its shots, not \
+         loading. Reference seconds: when the reference was computed \
          (2 cores), read from its cache.",
     );
     report.paragraph(

@@ -327,3 +327,62 @@ fn the_default_meshes_of_the_room_and_the_cornell_box_have_no_t_vertices() {
         assert!(brute_t_vertices(&fixed, &fixed.triangles()) > 0, "{name}");
     }
 }
+
+/// Refinement stops short of `--max-elements`: asked for more, it lowers
+/// the deepest splits until the mesh fits, rather than failing after its
+/// coarse pass.
+#[test]
+fn refinement_fits_under_the_element_limit() {
+    let scene = scene::load("cornell").unwrap();
+    let sizes = scene.default_mesh_sizes();
+    let mut settings = Settings::adaptive();
+    settings.mesh.patch_size = sizes.patch_size;
+    settings.mesh.element_size = 2.0 * sizes.element_size;
+    settings.mesh.refine.refine_tolerance = 0.01;
+    let free = refined_mesh(&scene, &settings, None).unwrap();
+    let base = free.base_elements;
+    assert!(free.mesh.elements.len() > base + 100);
+    settings.mesh.max_elements = base + 100;
+    let capped = refined_mesh(&scene, &settings, None).unwrap();
+    assert!(capped.mesh.elements.len() <= base + 100);
+    assert!(capped.mesh.elements.len() >= base);
+    check_conforming(&scene, &capped.mesh);
+}
+
+/// Vertices a split makes belong to the split element's own face, even in
+/// a surface id of several merged faces whose first corner may lie on a
+/// neighbour (a vertex tagged with the neighbour gathers at a point nudged
+/// towards the wrong centroid, and bakes take the wrong face's UVs).
+#[test]
+fn split_vertices_lie_on_their_own_face() {
+    let a = quad(DVec3::ZERO, DVec3::Z * 1.0, DVec3::X * 1.0, 0.5, 0.0, 0);
+    let b = quad(
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::Z * 1.0,
+        DVec3::X * 1.0,
+        0.5,
+        0.0,
+        1,
+    );
+    let mut scene = scene_of(vec![a, b]);
+    scene::merge::merge_coplanar(&mut scene.surfaces);
+    assert_eq!(scene.surfaces[0].group, scene.surfaces[1].group);
+    let settings = MeshSettings {
+        patch_size: 10.0,
+        element_size: 0.5,
+        ..MeshSettings::default()
+    };
+    let mesh = Mesh::build(&scene, &settings).unwrap();
+    let refined = mesh
+        .refine(&vec![2; mesh.elements.len()], 10_000, 0.5)
+        .unwrap();
+    for v in &refined.vertices[mesh.vertices.len()..] {
+        let surface = &scene.surfaces[v.surface as usize];
+        assert!(
+            geometry::convex_contains(&surface.polygon, surface.normal, v.position, 1e-9),
+            "{:?} tagged with face {}",
+            v.position,
+            v.surface
+        );
+    }
+}

@@ -11,7 +11,7 @@
 //! (`radiosity render SCENE --stats FILE.json ...`): the peak resident
 //! memory is per process, so each case's peak is its own. The child loads
 //! the scene, meshes it, builds the accelerator, solves until the unshot
-//! power falls below the default `--converge` (1%) or the case's time
+//! power falls below its preset's `--converge` or the case's time
 //! limit ([`ScaleScene::time_limit`]) ends the solve, draws an 800 x 600
 //! picture and writes it and the vertices CSV. The report tables its
 //! `--stats`: sizes, the time of each phase, shots, the unshot fraction
@@ -42,7 +42,7 @@ use super::early::{self, EARLY_SECONDS, Early};
 use super::rays::{SceneSpec, scenes_folder};
 use super::{Context, Error, Report, write_file};
 use radiosity::accel::Accel;
-use radiosity::solver::{ADAPTIVE_CONVERGE, Preset, Settings};
+use radiosity::solver::{Preset, Settings};
 
 /// A scene of the experiment and the time its solve may take.
 #[derive(Clone, Debug)]
@@ -269,11 +269,11 @@ impl Run {
         })
     }
 
-    /// Whether the solve reached the default `--converge` (rather than its
-    /// time limit).
+    /// Whether the solve reached its preset's `--converge` (rather than
+    /// its time limit).
     #[must_use]
     pub fn converged(&self) -> bool {
-        self.unshot_fraction <= ADAPTIVE_CONVERGE
+        self.stop_reason == "converged"
     }
 
     /// Rays traced per second of solve (after the build) per thread: the

@@ -52,10 +52,21 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let suggested = scene.default_mesh_sizes();
     let settings = job.settings_for(&suggested);
     let mesh_start = Instant::now();
+    let base = Mesh::build(&scene, &settings.mesh)
+        .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
+    // Checked on the base mesh before the coarse pass solves it, and again
+    // on the refined mesh before the solve.
+    let estimate = |mesh: &Mesh| {
+        memory::estimate(
+            &memory_sizes(job, &scene, mesh),
+            settings.method.method().memory(),
+        )
+    };
+    memory::check(&estimate(&base), job.max_memory).map_err(Error::Memory)?;
     if settings.mesh.refine.refine_levels > 0 {
         observer.refining();
     }
-    let refined = solver::refine::refined_mesh(&scene, &settings, observer.interrupt())
+    let refined = solver::refine::refine_base(&scene, &settings, base, observer.interrupt())
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     let mesh = refined.mesh;
     let mesh_time = mesh_start.elapsed();
@@ -65,10 +76,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         coarse_shots: refined.coarse_shots,
         ..Counts::of(&scene, &mesh)
     };
-    let memory_estimate = memory::estimate(
-        &memory_sizes(job, &scene, &mesh),
-        settings.method.method().memory(),
-    );
+    let memory_estimate = estimate(&mesh);
     memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
     observer.started(&scene, &mesh);
 

@@ -104,7 +104,9 @@ impl VertexGrid {
         };
         let slack = DVec3::splat(ON_EDGE * length);
         let (lo, hi) = (self.key(pa.min(pb) - slack), self.key(pa.max(pb) + slack));
-        let span = (0..3).map(|i| hi[i] - lo[i] + 1).product::<i64>();
+        let span = (0..3).fold(1i64, |product, i| {
+            product.saturating_mul(hi[i].saturating_sub(lo[i]).saturating_add(1))
+        });
         if span > MAX_CELLS {
             for &v in self.groups.get(&group).map_or(&[][..], Vec::as_slice) {
                 test(v);

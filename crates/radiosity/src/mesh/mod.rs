@@ -29,7 +29,8 @@ use glam::DVec3;
 
 pub use self::conform::Triangle;
 pub use self::refine::{
-    DEFAULT_REFINE_TOLERANCE, MAX_REFINE_LEVELS, RefineSettings, element_centre, split_depths,
+    DEFAULT_REFINE_TOLERANCE, MAX_REFINE_LEVELS, RefineSettings, element_centre, refined_count,
+    split_depths,
 };
 use crate::geometry;
 use crate::scene::Scene;

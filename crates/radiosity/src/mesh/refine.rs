@@ -120,6 +120,16 @@ pub fn split_depths(
         .collect()
 }
 
+/// Elements `count` elements make when element `e` is split `depth[e]`
+/// times (0 where `depth` has no entry), saturating.
+#[must_use]
+pub fn refined_count(count: usize, depth: &[u8]) -> u128 {
+    (0..count).fold(0u128, |sum, e| {
+        let d = depth.get(e).copied().unwrap_or(0).min(60);
+        sum.saturating_add(1u128 << (2 * u32::from(d)))
+    })
+}
+
 impl Mesh {
     /// This mesh with element `e` split `depth[e]` times into four (see
     /// the module's text); patches keep their polygons and take their
@@ -136,9 +146,7 @@ impl Mesh {
         max_elements: usize,
         element_size: f64,
     ) -> Result<Mesh, MeshError> {
-        let total: u128 = self.elements.iter().zip(depth).fold(0u128, |sum, (_, &d)| {
-            sum.saturating_add(1u128 << (2 * u32::from(d.min(60))))
-        });
+        let total = refined_count(self.elements.len(), depth);
         if total > max_elements as u128 {
             return Err(MeshError::TooManyElements {
                 elements: total,
@@ -157,7 +165,12 @@ impl Mesh {
             let start = out.elements.len();
             for e in patch.elements.clone() {
                 let element = self.elements[e];
-                let template = self.vertices[element.corners[0] as usize];
+                // The element's own surface: its first corner may belong
+                // to a neighbouring face of the same surface id.
+                let template = Vertex {
+                    surface: element.surface,
+                    ..self.vertices[element.corners[0] as usize]
+                };
                 let mut splitter = Splitter {
                     out: &mut out,
                     lookup: &mut lookup,

@@ -80,8 +80,30 @@ pub fn refined_mesh(
     settings: &Settings,
     interrupt: Option<Arc<AtomicBool>>,
 ) -> Result<Refined, MeshError> {
+    refine_base(
+        scene,
+        settings,
+        Mesh::build(scene, &settings.mesh)?,
+        interrupt,
+    )
+}
+
+/// [`refined_mesh`] from a base mesh built already (with
+/// `settings.mesh`), so a caller can check it before the coarse pass. The
+/// splits stop short of `settings.mesh.max_elements`: when the depths the
+/// estimate asks for would exceed it, the deepest are lowered a level at a
+/// time until the mesh fits (the base mesh at worst).
+///
+/// # Errors
+///
+/// When the refined mesh is refused ([`MeshError`]).
+pub fn refine_base(
+    scene: &Scene,
+    settings: &Settings,
+    base: Mesh,
+    interrupt: Option<Arc<AtomicBool>>,
+) -> Result<Refined, MeshError> {
     let start = Instant::now();
-    let base = Mesh::build(scene, &settings.mesh)?;
     let levels = settings.mesh.refine.refine_levels;
     let base_elements = base.elements.len();
     // The base mesh as it is, when nothing is refined.
@@ -132,7 +154,7 @@ pub fn refined_mesh(
         .zip(solver.sensor_irradiance())
         .map(|(r, e)| sensors::radiosity(scene, r, *e))
         .collect();
-    let depths = mesh::split_depths(
+    let mut depths = mesh::split_depths(
         &base,
         solver.radiosity(),
         &centre_radiosity,
@@ -140,6 +162,13 @@ pub fn refined_mesh(
         levels,
     );
     drop(solver);
+    let limit = settings.mesh.max_elements as u128;
+    while mesh::refined_count(base.elements.len(), &depths) > limit {
+        let deepest = depths.iter().copied().max().unwrap_or(0);
+        for d in &mut depths {
+            *d = (*d).min(deepest.saturating_sub(1));
+        }
+    }
     let split_elements = depths.iter().filter(|&&d| d > 0).count();
     let mut mesh = base.refine(
         &depths,
