@@ -27,7 +27,7 @@ use crate::mesh::Mesh;
 use crate::render::{self, Exposure, RenderSettings};
 use crate::scene::{self, LoadOptions, Scene};
 use crate::sensors;
-use crate::solver::{self, Solver};
+use crate::solver::{self, Settings, Solver};
 
 /// Runs a job in the current rayon pool.
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
@@ -68,6 +68,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     }
     let refined = solver::refine::refine_base(&scene, &settings, base, observer.interrupt())
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
+    let refined_seconds = refined.seconds;
     let mesh = refined.mesh;
     let mesh_time = mesh_start.elapsed();
     let mut counts = Counts {
@@ -86,7 +87,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let mut solver = Solver::with_sensors_and_occluder(
         &scene,
         &mesh,
-        settings.clone(),
+        Settings {
+            // The coarse pass has had its share of the time limit.
+            time_limit: settings
+                .time_limit
+                .map(|t| t.saturating_sub(Duration::from_secs_f64(refined_seconds))),
+            ..settings.clone()
+        },
         sensor_receivers.clone(),
         occluder,
     );

@@ -5,12 +5,13 @@
 //! error estimate and the split).
 //!
 //! The coarse pass solves the base mesh with the run's own settings and
-//! gathers, besides the vertices, at every element's centre. It stops when
-//! its unshot power falls below [`COARSE_CONVERGE`] of the emitted power or
-//! once every light and every emitting patch could have shot
-//! [`COARSE_SHOTS_PER_SOURCE`] times: the direct light and the first
-//! bounces, which make the shadows and contacts, without the long tail
-//! of a dim scene's later shots. The final solve then starts afresh on the
+//! gathers, besides the vertices, at every element's centre. It takes as
+//! many shots as there are lights and emitting patches (the direct light,
+//! which makes the shadows and shows the contacts; measured, a coarse pass
+//! four times as long found no better mesh and cost the conference room
+//! 287 s), or fewer if its unshot power falls below [`COARSE_CONVERGE`] of
+//! the emitted power first; under a `--time-limit` it takes at most
+//! [`COARSE_TIME_SHARE`] of it. The final solve then starts afresh on the
 //! refined mesh, so every vertex, old or new, gathers from every shot and
 //! the energy ledger is the final solve's alone.
 
@@ -32,7 +33,11 @@ pub const COARSE_CONVERGE: f64 = 0.1;
 
 /// The coarse pass takes at most this many shots per light and emitting
 /// patch.
-pub const COARSE_SHOTS_PER_SOURCE: u64 = 4;
+pub const COARSE_SHOTS_PER_SOURCE: u64 = 1;
+
+/// Under a time limit, the coarse pass takes at most this share of it
+/// (the final solve has the rest: see [`Refined::seconds`]).
+pub const COARSE_TIME_SHARE: f64 = 0.25;
 
 /// A mesh ready to solve, and what its refinement did.
 pub struct Refined {
@@ -137,7 +142,7 @@ pub fn refine_base(
             .min(settings.max_shots.unwrap_or(u64::MAX)),
     );
     coarse.max_subsources = None;
-    coarse.time_limit = None;
+    coarse.time_limit = settings.time_limit.map(|t| t.mul_f64(COARSE_TIME_SHARE));
     let centres = centre_receivers(scene, &base);
     let mut solver = Solver::with_sensors(scene, &base, coarse, centres.clone());
     if let Some(flag) = &interrupt {
