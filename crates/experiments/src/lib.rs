@@ -31,6 +31,7 @@ pub mod validate;
 // What the experiments share.
 pub mod charts;
 pub mod early;
+pub mod error_picture;
 pub mod form_factor_accuracy;
 pub mod plot;
 pub mod reference;

@@ -21,6 +21,7 @@
 
 mod conform;
 mod refine;
+mod subsources;
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -32,6 +33,7 @@ pub use self::refine::{
     DEFAULT_REFINE_TOLERANCE, MAX_REFINE_LEVELS, RefineSettings, element_centre, refined_count,
     split_depths,
 };
+pub use self::subsources::{Subsource, subsources};
 use crate::geometry;
 use crate::scene::Scene;
 
@@ -364,6 +366,20 @@ impl Mesh {
 }
 
 impl Mesh {
+    /// The index of the vertex of `vertex.group` at `vertex.position`,
+    /// pushing `vertex` first when there is none (`lookup`:
+    /// [`Mesh::vertex_lookup`] kept up to date).
+    fn shared_vertex(&mut self, lookup: &mut HashMap<(u32, [u64; 3]), u32>, vertex: Vertex) -> u32 {
+        let next = self.vertices.len() as u32;
+        let v = *lookup
+            .entry((vertex.group, point_key(vertex.position)))
+            .or_insert(next);
+        if v == next {
+            self.vertices.push(vertex);
+        }
+        v
+    }
+
     /// Each vertex by its surface id and exact position ([`point_key`]):
     /// the map that shares vertices.
     fn vertex_lookup(&self) -> HashMap<(u32, [u64; 3]), u32> {
@@ -414,19 +430,13 @@ struct SurfaceBuilder<'a> {
 
 impl SurfaceBuilder<'_> {
     fn vertex(&mut self, p: DVec3) -> u32 {
-        let key = (self.group, point_key(p));
-        if let Some(&v) = self.lookup.get(&key) {
-            return v;
-        }
-        let v = self.mesh.vertices.len() as u32;
-        self.mesh.vertices.push(Vertex {
+        let vertex = Vertex {
             position: p,
             normal: self.normal,
             surface: self.surface,
             group: self.group,
-        });
-        self.lookup.insert(key, v);
-        v
+        };
+        self.mesh.shared_vertex(self.lookup, vertex)
     }
 
     fn push_patch(&mut self, polygon: Vec<DVec3>, elements: &[([DVec3; 4], u8)]) {
@@ -581,62 +591,6 @@ fn barycentric(tri: [DVec3; 3], s: f64, t: f64) -> DVec3 {
     tri[0] + (tri[1] - tri[0]) * s + (tri[2] - tri[0]) * t
 }
 
-/// A piece of a patch that shoots as one: its polygon, area-weighted
-/// centroid `c_k`, area `A_k` (design.md section 2, step 2).
-#[derive(Clone, Debug)]
-pub struct Subsource {
-    /// Corners (3 or 4), counter-clockwise.
-    pub polygon: Vec<DVec3>,
-    /// Area-weighted centroid.
-    pub centroid: DVec3,
-    /// Area, m^2.
-    pub area: f64,
-}
-
-/// Splits a patch polygon into an `n x n` grid of subsources: `n^2`
-/// bilinear sub-quads of a quad, `n^2` sub-triangles of a triangle.
-#[must_use]
-pub fn subsources(polygon: &[DVec3], n: u32) -> Vec<Subsource> {
-    let n = u64::from(n.max(1));
-    let mut out = Vec::with_capacity((n * n) as usize);
-    let mut push = |polygon: Vec<DVec3>| {
-        out.push(Subsource {
-            centroid: geometry::centroid(&polygon),
-            area: geometry::area(&polygon),
-            polygon,
-        });
-    };
-    if polygon.len() == 4 {
-        let point = |i: u64, j: u64| bilinear(polygon, i as f64 / n as f64, j as f64 / n as f64);
-        for j in 0..n {
-            for i in 0..n {
-                push(vec![
-                    point(i, j),
-                    point(i + 1, j),
-                    point(i + 1, j + 1),
-                    point(i, j + 1),
-                ]);
-            }
-        }
-    } else {
-        let v0 = polygon[0];
-        let fans = polygon.len().saturating_sub(2);
-        for f in 0..fans {
-            let tri = [v0, polygon[f + 1], polygon[f + 2]];
-            let point = |i: u64, j: u64| barycentric(tri, i as f64 / n as f64, j as f64 / n as f64);
-            for j in 0..n {
-                for i in 0..n - j {
-                    push(vec![point(i, j), point(i + 1, j), point(i, j + 1)]);
-                    if i + j + 2 <= n {
-                        push(vec![point(i + 1, j), point(i + 1, j + 1), point(i, j + 1)]);
-                    }
-                }
-            }
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -772,24 +726,6 @@ mod tests {
         // Triangle: p = 3, m = 4 -> 9 patches, 144 elements, 13*14/2 vertices.
         let tri_vertices = mesh.vertices.iter().filter(|v| v.surface == 0).count();
         assert_eq!(tri_vertices, 13 * 14 / 2);
-    }
-
-    #[test]
-    fn subsources_tile_the_patch() {
-        for polygon in [
-            rect(1.0, 2.0),
-            vec![DVec3::ZERO, DVec3::X, DVec3::new(0.3, 1.0, 0.0)],
-        ] {
-            for n in 1..5 {
-                let subs = subsources(&polygon, n);
-                assert_eq!(subs.len(), (n * n) as usize);
-                let total: f64 = subs.iter().map(|s| s.area).sum();
-                assert!((total - geometry::area(&polygon)).abs() < 1e-12);
-                // The area-weighted mean of the centroids is the centroid.
-                let c: DVec3 = subs.iter().map(|s| s.centroid * s.area).sum::<DVec3>() / total;
-                assert!((c - geometry::centroid(&polygon)).length() < 1e-12);
-            }
-        }
     }
 
     #[test]

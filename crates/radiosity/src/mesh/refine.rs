@@ -23,7 +23,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::{Element, Mesh, MeshError, Vertex, edge_point, point_key};
+use super::{Element, Mesh, MeshError, Vertex, edge_point};
 use crate::geometry;
 
 /// How the element mesh refines: how many times an element may be halved
@@ -195,17 +195,11 @@ struct Splitter<'a> {
 
 impl Splitter<'_> {
     fn vertex(&mut self, p: DVec3) -> u32 {
-        let key = (self.template.group, point_key(p));
-        if let Some(&v) = self.lookup.get(&key) {
-            return v;
-        }
-        let v = self.out.vertices.len() as u32;
-        self.out.vertices.push(Vertex {
+        let vertex = Vertex {
             position: p,
             ..self.template
-        });
-        self.lookup.insert(key, v);
-        v
+        };
+        self.out.shared_vertex(self.lookup, vertex)
     }
 
     fn midpoint(&mut self, a: u32, b: u32) -> u32 {

@@ -139,18 +139,29 @@ pub const GATHER_NUDGE: f64 = 1e-6;
 /// The receivers of a mesh: its vertices at their gathering points.
 #[must_use]
 pub fn vertex_receivers(scene: &Scene, mesh: &Mesh) -> Vec<Receiver> {
+    surface_receivers(scene, mesh.vertices.iter().map(|v| (v.surface, v.position)))
+}
+
+/// Receivers at `(surface, point)` pairs, each moved [`GATHER_NUDGE`] of
+/// the way towards its surface's centroid, with the surface's normal.
+pub fn surface_receivers(
+    scene: &Scene,
+    points: impl Iterator<Item = (u32, DVec3)>,
+) -> Vec<Receiver> {
     let centroids: Vec<DVec3> = scene
         .surfaces
         .iter()
         .map(|s| geometry::centroid(&s.polygon))
         .collect();
-    mesh.vertices
-        .iter()
-        .map(|v| Receiver {
-            point: v.position + (centroids[v.surface as usize] - v.position) * GATHER_NUDGE,
-            normal: v.normal,
-            surface: v.surface,
-            group: v.group,
+    points
+        .map(|(surface, p)| {
+            let s = &scene.surfaces[surface as usize];
+            Receiver {
+                point: p + (centroids[surface as usize] - p) * GATHER_NUDGE,
+                normal: s.normal,
+                surface,
+                group: s.group,
+            }
         })
         .collect()
 }

@@ -21,8 +21,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::{Flow, GATHER_NUDGE, Receiver, Settings, Solver};
-use crate::geometry;
+use super::{Flow, Receiver, Settings, Solver};
 use crate::mesh::{self, Mesh, MeshError};
 use crate::scene::Scene;
 use crate::sensors;
@@ -57,20 +56,12 @@ pub struct Refined {
 /// are ([`GATHER_NUDGE`]).
 #[must_use]
 pub fn centre_receivers(scene: &Scene, mesh: &Mesh) -> Vec<Receiver> {
-    mesh.elements
-        .iter()
-        .map(|e| {
-            let surface = &scene.surfaces[e.surface as usize];
-            let centre = mesh::element_centre(mesh, e);
-            let centroid = geometry::centroid(&surface.polygon);
-            Receiver {
-                point: centre + (centroid - centre) * GATHER_NUDGE,
-                normal: surface.normal,
-                surface: e.surface,
-                group: surface.group,
-            }
-        })
-        .collect()
+    super::surface_receivers(
+        scene,
+        mesh.elements
+            .iter()
+            .map(|e| (e.surface, mesh::element_centre(mesh, e))),
+    )
 }
 
 /// The mesh `settings` ask for: the base grid, refined after a coarse
