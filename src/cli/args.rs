@@ -14,7 +14,8 @@ use clap::{Arg, ArgAction, ArgMatches, Parser, Subcommand};
 use super::values::{fraction, memory_size, metres, positive, positive_real, whole};
 use crate::serve;
 use radiosity::accel::Accel;
-use radiosity::export::gltf::BakeMode;
+use radiosity::export::gltf::{BakeMode, BakeTarget};
+use radiosity::export::lightmap;
 use radiosity::form_factor::FormFactor;
 use radiosity::scene::{DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions};
 use radiosity::solver::method::{Kind, Value};
@@ -233,6 +234,22 @@ pub struct RenderArgs {
     /// UVs kept, for engines that multiply it with their own base colour).
     #[arg(long, value_name = "MODE", default_value_t = BakeMode::Lit)]
     pub bake_mode: BakeMode,
+
+    /// Where the bake puts the light: vertices (the element mesh with
+    /// COLOR_0) or lightmap (the input's own nodes, meshes and materials,
+    /// a second UV set TEXCOORD_1, the input's or generated, and a lightmap
+    /// texture inside the file, plus NAME.lightmap.exr beside it).
+    #[arg(long, value_name = "TARGET", default_value_t = BakeTarget::Vertices)]
+    pub bake_target: BakeTarget,
+
+    /// Lightmap texels per metre of surface (lowered, with a note, when the
+    /// lightmap would exceed --lightmap-max-size).
+    #[arg(long, value_name = "TEXELS_PER_METRE", default_value_t = lightmap::DEFAULT_DENSITY)]
+    pub lightmap_density: f64,
+
+    /// Largest lightmap width or height, texels.
+    #[arg(long, value_name = "TEXELS", default_value_t = lightmap::DEFAULT_MAX_SIZE)]
+    pub lightmap_max_size: u32,
 
     /// Write the element mesh as binary PLY: positions, normals, the
     /// picture's 8-bit sRGB colours and float radiosity (W/m^2).

@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::{Result, anyhow};
 
 use super::args::{OnOff, RenderArgs};
+use radiosity::export::lightmap::{self, AtlasSettings};
 use radiosity::app::{BakeJob, ImageJob, Job, SensorJob};
 use radiosity::mesh::MAX_REFINE_LEVELS;
 use radiosity::render::Exposure;
@@ -106,6 +107,12 @@ impl RenderArgs {
             bake: self.bake.clone().map(|path| BakeJob {
                 path,
                 mode: self.bake_mode,
+                target: self.bake_target,
+                lightmap: AtlasSettings {
+                    density: self.lightmap_density,
+                    max_size: self.lightmap_max_size,
+                    padding: lightmap::PADDING,
+                },
             }),
             ply: self.ply.clone(),
             sensors: match (&self.sensors, &self.sensors_out) {

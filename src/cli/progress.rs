@@ -169,6 +169,28 @@ pub fn print_summary(o: &Outcome) {
             radiosity::memory::bytes(o.memory_estimate.total())
         );
     }
+    if let Some(l) = &o.lightmap {
+        println!(
+            "lightmap: {} x {} texels at {:.1} per metre ({}), {} texels shown{}; layout {:.2} s, \
+             texels {:.2} s",
+            l.width,
+            l.height,
+            l.density,
+            if l.generated {
+                format!("{} charts generated", l.charts)
+            } else {
+                "the input's TEXCOORD_1".into()
+            },
+            l.texels,
+            if l.missing > 0 {
+                format!(", {} found no element and took their neighbours' value", l.missing)
+            } else {
+                String::new()
+            },
+            l.layout_seconds,
+            l.texel_seconds
+        );
+    }
     for path in &o.written {
         println!("wrote {}", path.display());
     }

@@ -20,6 +20,7 @@ use crate::render::{self, Image};
 use crate::scene::Scene;
 
 pub mod gltf;
+pub mod lightmap;
 
 /// A file being written under a temporary name; [`Staged::commit`] moves it
 /// into place, dropping it uncommitted deletes it.

@@ -6,12 +6,30 @@ use crate::export::gltf::BakeMode;
 use crate::solver::Solver;
 
 /// The `COLOR_0` values of a bake and the metadata recorded beside them
-/// (see [`crate::export::gltf`]): `COLOR_0 = min(1, color_scale x radiance)`, the
-/// radiance being `B_shown / pi` (lit) or `(E + ambient) / pi`
-/// (irradiance). Lit uses the picture's exposure; irradiance uses it too
-/// unless that would clip a vertex, then the largest scale that does not.
+/// (see [`crate::export::gltf`]): [`bake_values`] clamped to [0, 1].
 #[must_use]
 pub fn bake_colours(
+    solver: &Solver<'_>,
+    mode: BakeMode,
+    display: &[glam::DVec3],
+    exposure: f64,
+    ambient: bool,
+) -> (Vec<glam::DVec3>, serde_json::Value) {
+    let (values, metadata) = bake_values(solver, mode, display, exposure, ambient);
+    let colours: Vec<glam::DVec3> = values
+        .iter()
+        .map(|v| v.clamp(glam::DVec3::ZERO, glam::DVec3::ONE))
+        .collect();
+    (colours, metadata)
+}
+
+/// The values a bake holds per mesh vertex before clamping, and the
+/// metadata recorded beside them: `color_scale x radiance`, the radiance
+/// being `B_shown / pi` (lit) or `(E + ambient) / pi` (irradiance). Lit
+/// uses the picture's exposure; irradiance uses it too unless that would
+/// clip a vertex, then the largest scale that does not.
+#[must_use]
+pub fn bake_values(
     solver: &Solver<'_>,
     mode: BakeMode,
     display: &[glam::DVec3],
@@ -46,10 +64,7 @@ pub fn bake_colours(
             scale = 1.0 / peak;
         }
     }
-    let colours = radiance
-        .iter()
-        .map(|r| (*r * scale).clamp(glam::DVec3::ZERO, glam::DVec3::ONE))
-        .collect();
+    let values: Vec<glam::DVec3> = radiance.iter().map(|r| *r * scale).collect();
     let metadata = serde_json::json!({
         "bake_mode": mode.name(),
         "color_0": quantity,
@@ -57,5 +72,5 @@ pub fn bake_colours(
         "ambient": ambient_term.to_array(),
         "picture_exposure": exposure,
     });
-    (colours, metadata)
+    (values, metadata)
 }

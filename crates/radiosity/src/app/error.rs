@@ -64,6 +64,18 @@ pub enum Error {
     /// Supersampling outside 1 to 8.
     #[error("--supersampling must be between 1 and 8, not {0}")]
     Supersampling(u32),
+    /// `--lightmap-density` out of range.
+    #[error(
+        "--lightmap-density must be a number of texels per metre above 0 and at most {max}, not {0}",
+        max = crate::export::lightmap::MAX_DENSITY
+    )]
+    LightmapDensity(f64),
+    /// `--lightmap-max-size` out of range.
+    #[error(
+        "--lightmap-max-size must be between 16 and {max} texels, not {0}",
+        max = crate::export::lightmap::MAX_MAX_SIZE
+    )]
+    LightmapSize(u32),
     /// `--max-sensors 0`.
     #[error("--max-sensors must be at least 1")]
     NoSensors,

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 
 use super::Error;
 use crate::export;
-use crate::export::gltf::BakeMode;
+use crate::export::gltf::{BakeMode, BakeTarget};
+use crate::export::lightmap::{self, AtlasSettings};
 use crate::mesh::{MeshError, MeshSettings};
 use crate::render::{self, Exposure};
 use crate::scene::{Camera, LoadOptions, MeshHint};
@@ -93,13 +94,43 @@ pub struct SensorJob {
     pub max_points: usize,
 }
 
-/// `--bake`: the element mesh as glTF with baked vertex colours.
+/// `--bake`: light baked into glTF, as vertex colours of the element mesh
+/// or as a lightmap on the input's own meshes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeJob {
     /// `.glb`, or `.gltf` (written with a `.bin` beside it).
     pub path: PathBuf,
-    /// What `COLOR_0` holds.
+    /// What the baked values hold.
     pub mode: BakeMode,
+    /// Vertex colours or lightmap.
+    pub target: BakeTarget,
+    /// The lightmap's density and size (`--lightmap-density`,
+    /// `--lightmap-max-size`).
+    pub lightmap: AtlasSettings,
+}
+
+impl BakeJob {
+    /// A vertex bake to `path` in `mode`, lightmap settings at their
+    /// defaults.
+    #[must_use]
+    pub fn vertices(path: PathBuf, mode: BakeMode) -> BakeJob {
+        BakeJob {
+            path,
+            mode,
+            target: BakeTarget::Vertices,
+            lightmap: default_lightmap(),
+        }
+    }
+}
+
+/// The default lightmap settings.
+#[must_use]
+pub fn default_lightmap() -> AtlasSettings {
+    AtlasSettings {
+        density: lightmap::DEFAULT_DENSITY,
+        max_size: lightmap::DEFAULT_MAX_SIZE,
+        padding: lightmap::PADDING,
+    }
 }
 
 /// Most samples (pixels times supersampling) a picture may take: about
@@ -159,6 +190,13 @@ pub fn validate(job: &Job) -> Result<(), Error> {
     job.load.validate()?;
     if let Some(bake) = &job.bake {
         check_output(&bake.path, &["glb", "gltf"], "--bake")?;
+        let density = bake.lightmap.density;
+        if !(density.is_finite() && density > 0.0 && density <= lightmap::MAX_DENSITY) {
+            return Err(Error::LightmapDensity(density));
+        }
+        if !(16..=lightmap::MAX_MAX_SIZE).contains(&bake.lightmap.max_size) {
+            return Err(Error::LightmapSize(bake.lightmap.max_size));
+        }
     }
     if let Some(path) = &job.ply {
         check_output(path, &["ply"], "--ply")?;

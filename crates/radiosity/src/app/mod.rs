@@ -14,13 +14,13 @@ mod progress;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-pub use self::bake::bake_colours;
+pub use self::bake::{bake_colours, bake_values};
 pub use self::error::Error;
 pub use self::job::{BakeJob, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
 use self::job::{check_output, mesh_error};
 pub use self::outcome::{Counts, Outcome, StatsFile};
 pub use self::progress::{Observer, Progress, ProgressMeter, progress_of};
-use crate::export::gltf::Bake;
+use crate::export::gltf::{Bake, BakeTarget};
 use crate::export::{self, Staged};
 use crate::memory;
 use crate::mesh::Mesh;
@@ -172,23 +172,57 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             });
         }
     }
+    let mut lightmap_report = None;
     if let (Some(bake_job), Some(exposure)) = (&job.bake, exposure) {
-        let (colours, metadata) =
-            bake_colours(&solver, bake_job.mode, &display, exposure, view.ambient);
-        let bake = Bake {
-            scene: &scene,
-            mesh: &mesh,
-            appearance: loaded.appearance.as_ref(),
-            colours: &colours,
-            mode: bake_job.mode,
-            camera,
-            aspect_ratio: f64::from(view.width) / f64::from(view.height),
-            metadata,
-        };
-        let files = export::gltf::bake(&bake, &bake_job.path).map_err(|source| Error::Output {
+        let output = |source| Error::Output {
             path: bake_job.path.clone(),
             source,
-        })?;
+        };
+        let aspect_ratio = f64::from(view.width) / f64::from(view.height);
+        let files = match bake_job.target {
+            BakeTarget::Vertices => {
+                let (colours, metadata) =
+                    bake_colours(&solver, bake_job.mode, &display, exposure, view.ambient);
+                let bake = Bake {
+                    scene: &scene,
+                    mesh: &mesh,
+                    appearance: loaded.appearance.as_ref(),
+                    colours: &colours,
+                    mode: bake_job.mode,
+                    camera,
+                    aspect_ratio,
+                    metadata,
+                };
+                export::gltf::bake(&bake, &bake_job.path).map_err(output)?
+            }
+            BakeTarget::Lightmap => {
+                let (values, metadata) =
+                    bake_values(&solver, bake_job.mode, &display, exposure, view.ambient);
+                let own;
+                let appearance = match loaded.appearance.as_ref() {
+                    Some(a) => a,
+                    None => {
+                        own = export::lightmap::appearance_of_scene(&scene).map_err(output)?;
+                        &own
+                    }
+                };
+                let bake = export::lightmap::LightmapBake {
+                    scene: &scene,
+                    mesh: &mesh,
+                    appearance,
+                    values: &values,
+                    mode: bake_job.mode,
+                    settings: bake_job.lightmap,
+                    camera,
+                    aspect_ratio,
+                    metadata,
+                };
+                let (files, report) =
+                    export::lightmap::bake(&bake, &bake_job.path).map_err(output)?;
+                lightmap_report = Some(report);
+                files
+            }
+        };
         for (path, bytes) in files {
             staged.push(stage(&path, &mut |w| std::io::Write::write_all(w, &bytes))?);
         }
@@ -235,6 +269,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         peak_memory_bytes: None,
         memory_estimate,
         lights: outcome::LightPower::of(&scene, solver.light_power()),
+        lightmap: lightmap_report,
     };
     outcome.peak_memory_bytes = memory::peak_resident_bytes();
     outcome.write_time = write_start.elapsed();

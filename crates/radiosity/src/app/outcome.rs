@@ -53,6 +53,8 @@ pub struct Outcome {
     pub memory_estimate: memory::Estimate,
     /// The scene's lights and the power each sent.
     pub lights: Vec<LightPower>,
+    /// What a lightmap bake made.
+    pub lightmap: Option<crate::export::lightmap::LightmapReport>,
 }
 
 /// A light of the run and the power it sent (the `--stats` file's
@@ -182,6 +184,8 @@ pub struct StatsFile {
     /// The scene's lights that are not surfaces (point, spot, sun, sky,
     /// IES) and the power each sent.
     pub lights: Vec<LightPower>,
+    /// The lightmap of a `--bake-target lightmap` run (`null` otherwise).
+    pub lightmap: Option<crate::export::lightmap::LightmapReport>,
 }
 
 /// A run's method counters with every other method's at zero, as a map.
@@ -227,6 +231,7 @@ impl StatsFile {
             accel_build: outcome.accel_statistics.iter().copied().collect(),
             settings: settings.clone(),
             lights: outcome.lights.clone(),
+            lightmap: outcome.lightmap.clone(),
         }
     }
 

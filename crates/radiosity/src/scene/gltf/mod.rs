@@ -103,6 +103,40 @@ pub struct Appearance {
     pub json: json::Root,
     /// The bytes of every image, in `json.images` order.
     pub images: Vec<ImageData>,
+    /// The bytes of every buffer, in `json.buffers` order (a lightmap bake
+    /// rewrites the input's primitives from them).
+    pub buffers: Vec<Vec<u8>>,
+    /// Every placed triangle primitive, in loading order.
+    pub primitives: Vec<PrimitiveUse>,
+}
+
+/// One triangle primitive placed in the scene by one node: what a lightmap
+/// bake needs to give it a second UV set and to find its surface points.
+#[derive(Clone, Debug)]
+pub struct PrimitiveUse {
+    /// The node that places it.
+    pub node: usize,
+    /// Its mesh (`json.meshes`).
+    pub mesh: usize,
+    /// Its index among the mesh's primitives.
+    pub primitive: usize,
+    /// The node's world transform.
+    pub world: glam::DMat4,
+    /// Vertex positions, in the mesh's own frame.
+    pub positions: Vec<[f32; 3]>,
+    /// Its triangles (lists, strips and fans assembled), vertex indices in
+    /// the primitive's winding.
+    pub triangles: Vec<[u32; 3]>,
+    /// `TEXCOORD_1`, when the primitive has one.
+    pub uv1: Option<Vec<[f32; 2]>>,
+    /// Its material (`None`: the glTF default material).
+    pub material: Option<usize>,
+    /// Whether the material is double-sided (both faces lit in the solve).
+    pub double_sided: bool,
+    /// For a primitive carrying `FB_ngon_encoding`, the polygon each
+    /// triangle belongs to (a polygon's triangles keep one chart, so the
+    /// encoding stays valid).
+    pub polygons: Option<Vec<u32>>,
 }
 
 /// Loads a `.gltf` (reading its buffers and images relative to its folder)
@@ -160,6 +194,7 @@ pub fn load_slice(
         surfaces: Vec::new(),
         material_of: Vec::new(),
         uvs: Vec::new(),
+        primitives: Vec::new(),
         texcoord_sets: 0,
         faces: 0,
         triangles: 0,
@@ -181,6 +216,8 @@ pub fn load_slice(
         texcoord_sets: loader.texcoord_sets,
         json: root.clone(),
         images,
+        buffers: std::mem::take(&mut loader.buffers),
+        primitives: std::mem::take(&mut loader.primitives),
     };
     Ok((scene, appearance))
 }
@@ -200,6 +237,7 @@ struct Loader<'a> {
     surfaces: Vec<Surface>,
     material_of: Vec<Option<usize>>,
     uvs: Vec<Vec<Vec<[f64; 2]>>>,
+    primitives: Vec<PrimitiveUse>,
     texcoord_sets: usize,
     faces: u32,
     /// Triangles read so far, over every instance of every mesh: bounded

@@ -97,7 +97,7 @@ impl Loader<'_> {
             }
             if let Some(mesh) = node.mesh {
                 skinned |= node.skin.is_some();
-                morphed |= self.load_mesh(mesh.value(), world, images)?;
+                morphed |= self.load_mesh(n, mesh.value(), world, images)?;
             }
             for child in node.children.iter().flatten().rev() {
                 stack.push((child.value(), world));

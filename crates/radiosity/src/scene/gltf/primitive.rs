@@ -30,6 +30,7 @@ impl Loader<'_> {
     /// the mesh has morph targets.
     pub(super) fn load_mesh(
         &mut self,
+        node: usize,
         index: usize,
         world: DMat4,
         images: &[ImageData],
@@ -189,6 +190,39 @@ impl Loader<'_> {
             } else {
                 triangles.iter().map(|t| t.to_vec()).collect()
             };
+            self.primitives.push(super::PrimitiveUse {
+                node,
+                mesh: index,
+                primitive: p,
+                world,
+                positions: (0..vertex_count)
+                    .map(|v| {
+                        let x = positions.get(v);
+                        [x[0] as f32, x[1] as f32, x[2] as f32]
+                    })
+                    .collect(),
+                triangles: triangles
+                    .iter()
+                    .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+                    .collect(),
+                uv1: uv_sets.get(1).map(|d| {
+                    (0..vertex_count)
+                        .map(|v| {
+                            let uv = d.get(v);
+                            [uv[0] as f32, uv[1] as f32]
+                        })
+                        .collect()
+                }),
+                material: material_index,
+                double_sided: material.double_sided,
+                polygons: ngon.then(|| {
+                    polygons
+                        .iter()
+                        .enumerate()
+                        .flat_map(|(k, p)| std::iter::repeat_n(k as u32, p.len().saturating_sub(2)))
+                        .collect()
+                }),
+            });
             for corners_in in polygons {
                 let mut corners = corners_in;
                 if flip {

@@ -25,15 +25,19 @@
 //! (the inverse of the loader's mapping), with the exact values in
 //! `extras.radiosity`, so reading it back gives the same surfaces.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, HashMap};
 use std::io;
 use std::path::{Path, PathBuf};
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::DVec3;
 use gltf_json as json;
-use json::validation::{Checked, USize64};
+use json::validation::Checked;
 
 use crate::mesh::Mesh;
+
+mod builder;
+
+pub(crate) use builder::{Builder, extension_name_list, primitive, raw_extras};
 use crate::scene::gltf::{Appearance, NGON_EXTENSION, interpolate_on_fan};
 use crate::scene::{Camera, Scene};
 
@@ -44,6 +48,17 @@ crate::choice::named_choice! {
         Lit = "lit",
         /// Irradiance / pi, with the original materials.
         Irradiance = "irradiance",
+    }
+}
+
+crate::choice::named_choice! {
+    /// What a bake writes the light onto.
+    pub enum BakeTarget: "bake target" {
+        /// The element mesh, light in `COLOR_0` per vertex.
+        Vertices = "vertices",
+        /// The input's own meshes, light in a lightmap texture on
+        /// `TEXCOORD_1` ([`crate::export::lightmap`]).
+        Lightmap = "lightmap",
     }
 }
 
@@ -65,254 +80,6 @@ pub struct Bake<'a> {
     pub aspect_ratio: f64,
     /// Recorded in the scene's `extras.radiosity`.
     pub metadata: serde_json::Value,
-}
-
-/// A glTF document being built: JSON plus one binary buffer.
-struct Builder {
-    root: json::Root,
-    bin: Vec<u8>,
-}
-
-impl Builder {
-    fn new() -> Builder {
-        let root = json::Root {
-            asset: json::Asset {
-                generator: Some(format!("radiosity {}", env!("CARGO_PKG_VERSION"))),
-                version: "2.0".into(),
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        Builder {
-            root,
-            bin: Vec::new(),
-        }
-    }
-
-    /// Appends bytes as a buffer view, 4-byte aligned.
-    fn view(
-        &mut self,
-        bytes: &[u8],
-        target: Option<json::buffer::Target>,
-    ) -> json::Index<json::buffer::View> {
-        while !self.bin.len().is_multiple_of(4) {
-            self.bin.push(0);
-        }
-        let offset = self.bin.len();
-        self.bin.extend_from_slice(bytes);
-        self.root.push(json::buffer::View {
-            buffer: json::Index::new(0),
-            byte_length: USize64::from(bytes.len()),
-            byte_offset: Some(USize64::from(offset)),
-            byte_stride: None,
-            extensions: None,
-            extras: Default::default(),
-            name: None,
-            target: target.map(Checked::Valid),
-        })
-    }
-
-    fn accessor(
-        &mut self,
-        bytes: &[u8],
-        count: usize,
-        component: json::accessor::ComponentType,
-        kind: json::accessor::Type,
-        target: json::buffer::Target,
-        bounds: Option<(Vec<f32>, Vec<f32>)>,
-    ) -> json::Index<json::Accessor> {
-        let view = self.view(bytes, Some(target));
-        self.root.push(json::Accessor {
-            buffer_view: Some(view),
-            byte_offset: Some(USize64(0)),
-            count: USize64::from(count),
-            component_type: Checked::Valid(json::accessor::GenericComponentType(component)),
-            extensions: None,
-            extras: Default::default(),
-            type_: Checked::Valid(kind),
-            min: bounds.as_ref().map(|(lo, _)| serde_json::json!(lo)),
-            max: bounds.as_ref().map(|(_, hi)| serde_json::json!(hi)),
-            name: None,
-            normalized: false,
-            sparse: None,
-        })
-    }
-
-    /// A float VEC3 (or VEC2) attribute; `with_bounds` adds min and max
-    /// (required for `POSITION`).
-    fn floats<const N: usize>(
-        &mut self,
-        values: &[[f32; N]],
-        with_bounds: bool,
-    ) -> json::Index<json::Accessor> {
-        let bytes: Vec<u8> = values
-            .iter()
-            .flat_map(|v| v.iter().flat_map(|c| c.to_le_bytes()))
-            .collect();
-        let bounds = with_bounds.then(|| {
-            let mut lo = vec![f32::INFINITY; N];
-            let mut hi = vec![f32::NEG_INFINITY; N];
-            for v in values {
-                for k in 0..N {
-                    lo[k] = lo[k].min(v[k]);
-                    hi[k] = hi[k].max(v[k]);
-                }
-            }
-            (lo, hi)
-        });
-        let kind = match N {
-            2 => json::accessor::Type::Vec2,
-            3 => json::accessor::Type::Vec3,
-            _ => json::accessor::Type::Vec4,
-        };
-        self.accessor(
-            &bytes,
-            values.len(),
-            json::accessor::ComponentType::F32,
-            kind,
-            json::buffer::Target::ArrayBuffer,
-            bounds,
-        )
-    }
-
-    fn indices(&mut self, indices: &[u32]) -> json::Index<json::Accessor> {
-        let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-        self.accessor(
-            &bytes,
-            indices.len(),
-            json::accessor::ComponentType::U32,
-            json::accessor::Type::Scalar,
-            json::buffer::Target::ElementArrayBuffer,
-            None,
-        )
-    }
-
-    fn camera(
-        &mut self,
-        camera: &Camera,
-        aspect_ratio: f64,
-        znear: f64,
-    ) -> json::Index<json::Node> {
-        let forward = (camera.target - camera.eye).normalize();
-        let right = forward.cross(camera.up).normalize();
-        let up = right.cross(forward);
-        // A glTF camera looks down its -Z with +Y up.
-        let rotation = DQuat::from_mat3(&DMat3::from_cols(right, up, -forward)).normalize();
-        let c = camera;
-        let index = self.root.push(json::Camera {
-            name: Some("radiosity view".into()),
-            orthographic: None,
-            perspective: Some(json::camera::Perspective {
-                aspect_ratio: Some(aspect_ratio as f32),
-                yfov: c.fov_degrees.to_radians() as f32,
-                zfar: None,
-                znear: znear as f32,
-                extensions: None,
-                extras: Default::default(),
-            }),
-            type_: Checked::Valid(json::camera::Type::Perspective),
-            extensions: None,
-            extras: raw_extras(&serde_json::json!({ "radiosity": { "camera": [
-                c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z,
-                c.up.x, c.up.y, c.up.z, c.fov_degrees
-            ] } })),
-        });
-        self.root.push(json::Node {
-            camera: Some(index),
-            name: Some("camera".into()),
-            rotation: Some(json::scene::UnitQuaternion(
-                rotation.to_array().map(|v| v as f32),
-            )),
-            translation: Some(camera.eye.to_array().map(|v| v as f32)),
-            ..Default::default()
-        })
-    }
-
-    /// The finished files: one `.glb`, or a `.gltf` and its `.bin`.
-    fn finish(mut self, path: &Path) -> io::Result<Vec<(PathBuf, Vec<u8>)>> {
-        while !self.bin.len().is_multiple_of(4) {
-            self.bin.push(0);
-        }
-        let glb = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
-        let bin_path = path.with_extension("bin");
-        let uri = if glb {
-            None
-        } else {
-            let name = bin_path
-                .file_name()
-                .and_then(|n| n.to_str())
-                .ok_or_else(|| io::Error::other("the output name is not UTF-8"))?;
-            Some(percent_encode(name))
-        };
-        if !self.bin.is_empty() {
-            self.root.buffers.push(json::Buffer {
-                byte_length: USize64::from(self.bin.len()),
-                name: None,
-                uri,
-                extensions: None,
-                extras: Default::default(),
-            });
-        }
-        let text = serde_json::to_vec(&self.root).map_err(io::Error::other)?;
-        if glb {
-            let file = ::gltf::binary::Glb {
-                header: ::gltf::binary::Header {
-                    magic: *b"glTF",
-                    version: 2,
-                    length: 0,
-                },
-                json: text.into(),
-                bin: (!self.bin.is_empty()).then(|| self.bin.into()),
-            };
-            let bytes = file.to_vec().map_err(io::Error::other)?;
-            Ok(vec![(path.to_path_buf(), bytes)])
-        } else {
-            let mut files = vec![(path.to_path_buf(), text)];
-            if !self.bin.is_empty() {
-                files.push((bin_path, self.bin));
-            }
-            Ok(files)
-        }
-    }
-}
-
-/// Escapes what a URI reference may not hold literally.
-fn percent_encode(name: &str) -> String {
-    let mut out = String::new();
-    for b in name.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-            out.push(b as char);
-        } else {
-            out.push_str(&format!("%{b:02X}"));
-        }
-    }
-    out
-}
-
-/// `extras` holding a JSON value.
-fn raw_extras(value: &serde_json::Value) -> json::Extras {
-    serde_json::value::to_raw_value(value).ok()
-}
-
-/// Extension names used anywhere in a JSON value (keys of every
-/// `extensions` object).
-fn extensions_in(value: &serde_json::Value, out: &mut BTreeSet<String>) {
-    match value {
-        serde_json::Value::Object(map) => {
-            for (key, v) in map {
-                if key == "extensions"
-                    && let Some(e) = v.as_object()
-                {
-                    out.extend(e.keys().cloned());
-                }
-                extensions_in(v, out);
-            }
-        }
-        serde_json::Value::Array(items) => items.iter().for_each(|v| extensions_in(v, out)),
-        _ => {}
-    }
 }
 
 /// A material with reflectance `rho` and exitance `emission` (the inverse
@@ -474,30 +241,6 @@ fn lights(root: &mut json::Root, lights: &[crate::scene::Light]) -> Vec<json::In
         }));
     }
     out
-}
-
-fn extension_name_list(root: &json::Root) -> Vec<String> {
-    let value = serde_json::to_value(root).unwrap_or_default();
-    let mut used = BTreeSet::new();
-    extensions_in(&value, &mut used);
-    used.into_iter().collect()
-}
-
-fn primitive(
-    attributes: &BTreeMap<Checked<json::mesh::Semantic>, json::Index<json::Accessor>>,
-    indices: json::Index<json::Accessor>,
-    material: Option<json::Index<json::Material>>,
-    extensions: Option<json::extensions::mesh::Primitive>,
-) -> json::mesh::Primitive {
-    json::mesh::Primitive {
-        attributes: attributes.clone(),
-        extensions,
-        extras: Default::default(),
-        indices: Some(indices),
-        material,
-        mode: Checked::Valid(json::mesh::Mode::Triangles),
-        targets: None,
-    }
 }
 
 /// Writes a bake; returns the files to stage (`.glb`, or `.gltf` + `.bin`).
@@ -740,12 +483,6 @@ pub fn export_scene(scene: &Scene, path: &Path) -> io::Result<Vec<(PathBuf, Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn uri_escaping() {
-        assert_eq!(percent_encode("out bake.bin"), "out%20bake.bin");
-        assert_eq!(percent_encode("a-b_c.d~e.bin"), "a-b_c.d~e.bin");
-    }
 
     #[test]
     fn emissive_mapping_inverts() {

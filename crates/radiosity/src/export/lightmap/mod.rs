@@ -1,0 +1,363 @@
+//! Lightmap bakes (`--bake-target lightmap`), beyond the paper: light baked
+//! the way game engines take it (Unity's and Godot's bakers, Bakery,
+//! lightmapper.h; three.js's `lightMap`, Bevy's `Lightmap`): the user's own
+//! meshes, nodes and materials kept, a second UV set (`TEXCOORD_1`) and a
+//! lightmap texture holding the solved light.
+//!
+//! The pipeline: [`atlas`] lays out `TEXCOORD_1` (the input's own, or
+//! charts generated at `--lightmap-density` texels per metre, capped at
+//! `--lightmap-max-size` texels a side); [`texels`] finds each texel's
+//! surface point and its value in the solved element mesh, and pads the
+//! charts; [`document`] rewrites the input glTF around them. The values are
+//! the vertex bake's ([`crate::app::bake_values`]): lit radiance at the
+//! picture's exposure (lit mode, shown by `KHR_materials_unlit`), or
+//! irradiance over pi times a recorded scale (irradiance mode, materials
+//! kept). The texture is 8-bit sRGB PNG inside the file; an OpenEXR copy of
+//! the same values before clamping and rounding is written beside it
+//! (`NAME.lightmap.exr`), for HDR pipelines.
+//!
+//! A scene read from OBJ or built in has no glTF document: its surfaces are
+//! first written as `export-scene` writes them ([`appearance_of_scene`]),
+//! and that document is the one lightmapped.
+//!
+//! The lightmap holds one value per point, but a double-sided material
+//! was solved as two surfaces back to back: each such primitive shows the
+//! side that receives more light (the inside of a room whose walls face
+//! out), chosen over its texels.
+
+pub mod atlas;
+mod document;
+pub mod texels;
+
+use std::io;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use gltf_json as json;
+use rayon::prelude::*;
+
+use crate::export::gltf::{BakeMode, extension_name_list, raw_extras};
+use crate::mesh::Mesh;
+use crate::scene::gltf::Appearance;
+use crate::scene::{Camera, LoadOptions, Scene};
+
+pub use atlas::{AtlasSettings, Layout};
+
+/// Default `--lightmap-density`, texels per metre (a texel of 3 cm, about
+/// what engines default to for interiors).
+pub const DEFAULT_DENSITY: f64 = 32.0;
+
+/// Default `--lightmap-max-size`, texels a side: what every GPU that runs
+/// WebGL 2 can sample.
+pub const DEFAULT_MAX_SIZE: u32 = 4096;
+
+/// Largest `--lightmap-density` accepted, texels per metre (a texel of a
+/// millimetre).
+pub const MAX_DENSITY: f64 = 1000.0;
+
+/// Largest `--lightmap-max-size` accepted.
+pub const MAX_MAX_SIZE: u32 = 16384;
+
+/// Empty texels kept around each chart, filled by dilation.
+pub const PADDING: u32 = 2;
+
+/// A lightmap bake to write.
+pub struct LightmapBake<'a> {
+    /// The scene solved.
+    pub scene: &'a Scene,
+    /// Its element mesh.
+    pub mesh: &'a Mesh,
+    /// The glTF document to lightmap (the input's, or
+    /// [`appearance_of_scene`]).
+    pub appearance: &'a Appearance,
+    /// The linear value per mesh vertex, before clamping.
+    pub values: &'a [DVec3],
+    /// Lit or irradiance.
+    pub mode: BakeMode,
+    /// Density and size.
+    pub settings: AtlasSettings,
+    /// The view written as the file's camera.
+    pub camera: Camera,
+    /// Width over height of the picture.
+    pub aspect_ratio: f64,
+    /// Recorded in the scene's `extras.radiosity`.
+    pub metadata: serde_json::Value,
+}
+
+/// What a lightmap bake made (the `--stats` file's `lightmap`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LightmapReport {
+    /// Lightmap width, texels.
+    pub width: u32,
+    /// Lightmap height, texels.
+    pub height: u32,
+    /// Texels per metre.
+    pub density: f64,
+    /// Whether `TEXCOORD_1` was generated.
+    pub generated: bool,
+    /// Charts packed.
+    pub charts: u32,
+    /// Texels showing a surface point.
+    pub texels: usize,
+    /// Of those, how many found no element of their surface (filled from
+    /// their neighbours).
+    pub missing: usize,
+    /// Seconds laying out the charts.
+    pub layout_seconds: f64,
+    /// Seconds computing the texels and encoding the files.
+    pub texel_seconds: f64,
+}
+
+/// The glTF document `export-scene` writes for `scene`, read back: the
+/// document a lightmap bake of a scene from OBJ (or built in) rewrites.
+///
+/// # Errors
+/// If writing or reading the document fails.
+pub fn appearance_of_scene(scene: &Scene) -> io::Result<Appearance> {
+    let name = Path::new("scene.glb");
+    let files = crate::export::gltf::export_scene(scene, name)?;
+    let bytes = &files
+        .first()
+        .ok_or_else(|| io::Error::other("export-scene wrote nothing"))?
+        .1;
+    let options = LoadOptions {
+        // The scene was within the user's limits when it was read.
+        limits: crate::scene::Limits {
+            max_file_bytes: u64::MAX,
+            max_faces: usize::MAX,
+            max_vertices: usize::MAX,
+            ..crate::scene::Limits::default()
+        },
+        ..LoadOptions::default()
+    };
+    let (_, appearance) = crate::scene::gltf::load_slice(
+        &scene.name,
+        name,
+        bytes,
+        &mut |_| Err(io::Error::other("no external files")),
+        &options,
+    )
+    .map_err(|e| io::Error::other(e.to_string()))?;
+    Ok(appearance)
+}
+
+/// The lightmap's linear values, `width x height`, top row first, and the
+/// counts of texels shown and texels that found no surface.
+fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize) {
+    let (width, height) = (layout.width, layout.height);
+    let primitives = &bake.appearance.primitives;
+    // World corners and front normal of every output triangle.
+    let world: Vec<Vec<[DVec3; 3]>> = primitives
+        .iter()
+        .zip(&layout.primitives)
+        .map(|(use_, plan)| {
+            let positions = atlas::world_positions(use_);
+            plan.triangles
+                .iter()
+                .map(|t| t.map(|v| Vec3::from(positions[plan.xref[v as usize] as usize]).as_dvec3()))
+                .collect()
+        })
+        .collect();
+    let flip: Vec<bool> = primitives.iter().map(|u| u.world.determinant() < 0.0).collect();
+    let uv: Vec<Vec<[[f32; 2]; 3]>> = layout
+        .primitives
+        .iter()
+        .map(|plan| {
+            plan.triangles
+                .iter()
+                .map(|t| t.map(|v| plan.uv[v as usize]))
+                .collect()
+        })
+        .collect();
+    let claims = texels::claims(width, height, &uv);
+    let (lo, hi) = bake.scene.bounds();
+    let locator = texels::Locator::new(
+        bake.mesh,
+        crate::sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
+    );
+    let value = |p: DVec3, n: DVec3| {
+        locator.locate(p, n).map(|(corners, bary)| {
+            corners
+                .iter()
+                .zip(bary)
+                .map(|(v, w)| bake.values[*v as usize] * w)
+                .sum::<DVec3>()
+        })
+    };
+    // Front and (for double-sided materials) back values of every texel.
+    let both: Vec<Option<(Option<DVec3>, Option<DVec3>)>> = claims
+        .par_iter()
+        .map(|claim| {
+            let c = (*claim)?;
+            let corners = world[c.primitive as usize][c.triangle as usize];
+            let p = corners
+                .iter()
+                .zip(c.bary)
+                .map(|(q, w)| *q * f64::from(w))
+                .sum::<DVec3>();
+            let mut n = (corners[1] - corners[0])
+                .cross(corners[2] - corners[0])
+                .normalize_or_zero();
+            if flip[c.primitive as usize] {
+                n = -n;
+            }
+            let back = primitives[c.primitive as usize]
+                .double_sided
+                .then(|| value(p, -n))
+                .flatten();
+            Some((value(p, n), back))
+        })
+        .collect();
+    // Each double-sided primitive shows its brighter side.
+    let mut sums = vec![[0.0f64; 2]; primitives.len()];
+    for (claim, pair) in claims.iter().zip(&both) {
+        if let (Some(c), Some((front, back))) = (claim, pair) {
+            let s = &mut sums[c.primitive as usize];
+            s[0] += front.map_or(0.0, |v| v.element_sum());
+            s[1] += back.map_or(0.0, |v| v.element_sum());
+        }
+    }
+    let back_side: Vec<bool> = sums.iter().map(|s| s[1] > s[0]).collect();
+    let shown = claims.iter().filter(|c| c.is_some()).count();
+    let mut values: Vec<Option<DVec3>> = claims
+        .iter()
+        .zip(&both)
+        .map(|(claim, pair)| {
+            let (c, (front, back)) = (claim.as_ref()?, pair.as_ref()?);
+            if back_side[c.primitive as usize] {
+                *back
+            } else {
+                *front
+            }
+        })
+        .collect();
+    let missing = shown - values.iter().filter(|v| v.is_some()).count();
+    texels::dilate(&mut values, width, height, PADDING + 2);
+    let pixels = values
+        .into_iter()
+        .map(|v| v.unwrap_or(DVec3::ZERO).as_vec3())
+        .collect();
+    (pixels, shown, missing)
+}
+
+/// Writes a lightmap bake; returns the files to stage (`.glb`, or `.gltf`
+/// and `.bin`; then the `.lightmap.exr`) and what was made.
+///
+/// # Errors
+/// If the charts cannot be laid out, the input's data is malformed, or
+/// encoding fails.
+pub fn bake(
+    bake: &LightmapBake<'_>,
+    path: &Path,
+) -> io::Result<(Vec<(PathBuf, Vec<u8>)>, LightmapReport)> {
+    let start = Instant::now();
+    let layout = atlas::layout(&bake.appearance.primitives, &bake.settings)
+        .map_err(|e| io::Error::other(format!("lightmap layout: {e}")))?;
+    let layout_time = start.elapsed();
+    let start = Instant::now();
+    let (pixels, texels, missing) = texel_values(bake, &layout);
+    let image = crate::render::Image {
+        width: layout.width,
+        height: layout.height,
+        coverage: vec![1.0; pixels.len()],
+        pixels,
+    };
+    let mut png = Vec::new();
+    crate::export::write_png(&mut png, image.width, image.height, &image.to_srgb8(1.0))?;
+    let mut exr = io::Cursor::new(Vec::new());
+    crate::export::write_exr(&mut exr, &image)?;
+    let (mut b, texture) = document::rewrite(
+        bake.appearance,
+        &layout,
+        &document::LightmapImage {
+            png,
+            mode: bake.mode,
+        },
+    )
+    .map_err(|e| io::Error::other(format!("lightmap bake: {e}")))?;
+    let exr_path = path.with_extension("lightmap.exr");
+    let exr_name = exr_path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut metadata = bake.metadata.clone();
+    if let Some(object) = metadata.as_object_mut() {
+        object.insert(
+            "lightmap".into(),
+            serde_json::json!({
+                "texture": texture.value(),
+                "texCoord": 1,
+                "width": layout.width,
+                "height": layout.height,
+                "texels_per_metre": layout.density,
+                "uv_generated": layout.generated,
+                "encoding": "sRGB 8-bit; the values before clamping and rounding, linear, in the EXR",
+                "exr": exr_name,
+            }),
+        );
+    }
+    let (lo, hi) = bake.scene.bounds();
+    let camera = b.camera(&bake.camera, bake.aspect_ratio, 1e-3 * (hi - lo).length());
+    add_to_default_scene(&mut b.root, camera, &metadata);
+    b.root.extensions_used = extension_name_list(&b.root);
+    let mut files = b.finish(path)?;
+    files.push((exr_path, exr.into_inner()));
+    let report = LightmapReport {
+        width: layout.width,
+        height: layout.height,
+        density: layout.density,
+        generated: layout.generated,
+        charts: layout.charts,
+        texels,
+        missing,
+        layout_seconds: layout_time.as_secs_f64(),
+        texel_seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((files, report))
+}
+
+/// Puts the bake's camera node in the default scene (made of the root
+/// nodes when the document has none) and the metadata in its extras.
+fn add_to_default_scene(
+    root: &mut json::Root,
+    camera: json::Index<json::Node>,
+    metadata: &serde_json::Value,
+) {
+    let index = match root.scene.map(|s| s.value()) {
+        Some(s) if s < root.scenes.len() => s,
+        _ if !root.scenes.is_empty() => 0,
+        _ => {
+            let mut is_child = vec![false; root.nodes.len()];
+            for node in &root.nodes {
+                for c in node.children.iter().flatten() {
+                    if let Some(flag) = is_child.get_mut(c.value()) {
+                        *flag = true;
+                    }
+                }
+            }
+            let nodes = (0..root.nodes.len())
+                .filter(|&i| !is_child[i] && i != camera.value())
+                .map(|i| json::Index::new(i as u32))
+                .collect();
+            root.push(json::Scene {
+                extensions: None,
+                extras: Default::default(),
+                name: None,
+                nodes,
+            })
+            .value()
+        }
+    };
+    root.scene = Some(json::Index::new(index as u32));
+    let scene = &mut root.scenes[index];
+    scene.nodes.push(camera);
+    let mut extras: serde_json::Value = scene
+        .extras
+        .as_ref()
+        .and_then(|raw| serde_json::from_str(raw.get()).ok())
+        .filter(serde_json::Value::is_object)
+        .unwrap_or_else(|| serde_json::json!({}));
+    extras["radiosity"] = metadata.clone();
+    scene.extras = raw_extras(&extras);
+}
