@@ -29,13 +29,19 @@ import { BIN, CHROMIUM_ARGS, decodePng, radiosity, tempDir } from './helpers.mjs
 const WIDTH = 400;
 const HEIGHT = 400;
 const TOLERANCE = { lit: 2, irradiance: 3 };
+const DENSITY = process.env.LIGHTMAP_DENSITY || '128';
 
 const dir = tempDir('viewer');
 const png = join(dir, 'cornell.png');
-const bakes = { lit: join(dir, 'cornell-lit.glb'), irradiance: join(dir, 'cornell-irradiance.glb') };
-for (const [mode, file] of Object.entries(bakes)) {
-  radiosity(['render', 'cornell', '-q', '--output', png, '--bake', file, '--bake-mode', mode,
-    '--width', String(WIDTH), '--height', String(HEIGHT)]);
+const bakes = {};
+for (const target of ['vertices', 'lightmap']) {
+  for (const mode of ['lit', 'irradiance']) {
+    const file = join(dir, `cornell-${target}-${mode}.glb`);
+    bakes[`${target} ${mode}`] = { file, mode, target };
+    radiosity(['render', 'cornell', '-q', '--output', png, '--bake', file, '--bake-mode', mode,
+      '--bake-target', target, '--lightmap-density', DENSITY,
+      '--width', String(WIDTH), '--height', String(HEIGHT)]);
+  }
 }
 const ours = decodePng(readFileSync(png));
 
@@ -70,7 +76,7 @@ function redness(image, x0, x1) {
 const browser = await chromium.launch({ executablePath: process.env.CHROMIUM, args: CHROMIUM_ARGS });
 const failures = [];
 try {
-  for (const [mode, file] of Object.entries(bakes)) {
+  for (const [name, { file, mode, target }] of Object.entries(bakes)) {
     const [url, server] = await serve(file);
     let shot;
     try {
@@ -81,14 +87,15 @@ try {
       await page.goto(`${url}&ui=0`);
       await page.waitForFunction(() => window.viewer, null, { timeout: 60000 });
       const state = await page.evaluate(() => window.viewer);
-      if (!state.ready) throw new Error(`${mode}: the viewer failed: ${state.error}\n${logs.join('\n')}`);
+      if (!state.ready) throw new Error(`${name}: the viewer failed: ${state.error}\n${logs.join('\n')}`);
       if (state.mode !== mode) throw new Error(`the bake's mode is ${state.mode}, expected ${mode}`);
+      if (state.target !== target) throw new Error(`the bake's target is ${state.target}, expected ${target}`);
       shot = await page.locator('canvas').screenshot();
       await page.close();
     } finally {
       server.kill();
     }
-    const screenshot = join(dir, `browser-${mode}.png`);
+    const screenshot = join(dir, `browser-${target}-${mode}.png`);
     writeFileSync(screenshot, shot);
     const theirs = decodePng(shot);
     if (theirs.width !== ours.width || theirs.height !== ours.height) {
@@ -100,12 +107,12 @@ try {
     // The red wall (x = 0.55) is seen on the left, the green wall (x = 0) on the right.
     const left = redness(theirs, 0.04, 0.14);
     const right = redness(theirs, 0.86, 0.96);
-    console.log(`${mode} bake in three.js vs our picture: mean absolute difference ${mad.toFixed(2)} levels `
+    console.log(`${name} bake in three.js vs our picture: mean absolute difference ${mad.toFixed(2)} levels `
       + `(tolerance ${TOLERANCE[mode]}); redness (R-G) left wall ${left.toFixed(1)}, right wall ${right.toFixed(1)}; `
       + `screenshot ${screenshot}`);
-    if (!(mad <= TOLERANCE[mode])) failures.push(`${mode}: mean absolute difference ${mad.toFixed(2)} > ${TOLERANCE[mode]}`);
+    if (!(mad <= TOLERANCE[mode])) failures.push(`${name}: mean absolute difference ${mad.toFixed(2)} > ${TOLERANCE[mode]}`);
     if (!(left > 0 && right < 0 && left - right > 100)) {
-      failures.push(`${mode}: the red wall (redness ${left.toFixed(1)}) is not clearly redder than the green (${right.toFixed(1)})`);
+      failures.push(`${name}: the red wall (redness ${left.toFixed(1)}) is not clearly redder than the green (${right.toFixed(1)})`);
     }
   }
 } finally {

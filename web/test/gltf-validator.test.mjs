@@ -1,10 +1,11 @@
 // The Khronos glTF-Validator (npm `gltf-validator`) on every kind of glTF
-// radiosity writes or reads in its tests: --bake in both modes as .glb and
-// .gltf (from the built-in Cornell box, from the hand-written
-// tests/data/hierarchy.gltf with its texture, and from the Blender export
-// tests/data/blender-cornell.glb), export-scene of both built-in scenes, and
-// the hand-written inputs themselves. Any error fails; warnings and infos
-// are printed.
+// radiosity writes or reads in its tests: --bake in both modes and both
+// targets (vertices, lightmap) as .glb and .gltf (from the built-in Cornell
+// box, from the hand-written tests/data/hierarchy.gltf with its texture and
+// node hierarchy, from the Blender exports tests/data/blender-*.glb, and
+// from the built-in room written by export-scene), export-scene of both
+// built-in scenes, and the hand-written inputs themselves. Any error fails;
+// warnings and infos are printed.
 import { existsSync } from 'node:fs';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -17,15 +18,21 @@ const dir = tempDir('validator');
 const quick = ['-q', '--width', '160', '--height', '120', '--supersampling', '1', '--converge', '0.05'];
 
 const files = [];
-const inputs = ['cornell', join(data, 'hierarchy.gltf')];
-if (existsSync(join(data, 'blender-cornell.glb'))) inputs.push(join(data, 'blender-cornell.glb'));
+const room = join(dir, 'room-input.glb');
+radiosity(['export-scene', 'room', room]);
+const inputs = ['cornell', join(data, 'hierarchy.gltf'), room];
+for (const blender of ['blender-cornell.glb', 'blender-lights.glb']) {
+  if (existsSync(join(data, blender))) inputs.push(join(data, blender));
+}
 for (const [i, scene] of inputs.entries()) {
-  for (const mode of ['lit', 'irradiance']) {
-    for (const ext of ['glb', 'gltf']) {
-      const out = join(dir, `bake-${i}-${mode}.${ext}`);
-      radiosity(['render', scene, ...quick, '--output', join(dir, `bake-${i}.png`), '--bake', out,
-        '--bake-mode', mode]);
-      files.push(out);
+  for (const target of ['vertices', 'lightmap']) {
+    for (const mode of ['lit', 'irradiance']) {
+      for (const ext of ['glb', 'gltf']) {
+        const out = join(dir, `bake-${i}-${target}-${mode}.${ext}`);
+        radiosity(['render', scene, ...quick, '--output', join(dir, `bake-${i}.png`), '--bake', out,
+          '--bake-mode', mode, '--bake-target', target]);
+        files.push(out);
+      }
     }
   }
 }

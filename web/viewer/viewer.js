@@ -10,6 +10,14 @@
 // light of intensity pi x (pi x exposure / color_scale) turns three.js's
 // Lambert term (irradiance x base / pi) into base x COLOR_0 at the
 // picture's exposure.
+//
+// Lightmap bakes (`--bake-target lightmap`, the scene's extras holding
+// `radiosity.lightmap`): lit ones need nothing (each material is unlit, its
+// base colour the lightmap on texCoord 1); irradiance ones keep the input's
+// materials, and the lightmap texture the extras name becomes each
+// material's lightMap on uv channel 1, sRGB-decoded, at the intensity
+// pi x (pi x exposure / color_scale) that the ambient light has above (three.js
+// adds lightMap x intensity to the irradiance).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -41,7 +49,8 @@ function fail(message) {
   window.viewer = { ready: false, error: message };
 }
 
-new GLTFLoader().load(modelUrl, (gltf) => {
+/** Shows the loaded document. */
+async function show(gltf) {
   scene.add(gltf.scene);
   gltf.scene.updateMatrixWorld(true);
   const info = gltf.scene.userData.radiosity || {};
@@ -58,10 +67,26 @@ new GLTFLoader().load(modelUrl, (gltf) => {
   }
   camera.aspect = window.innerWidth / window.innerHeight;
   camera.updateProjectionMatrix();
+  const target = info.lightmap ? 'lightmap' : 'vertices';
   if (info.bake_mode === 'irradiance') {
     const exposure = info.picture_exposure || 1;
     const scale = info.color_scale || Math.PI * exposure;
-    scene.add(new THREE.AmbientLight(0xffffff, Math.PI * (Math.PI * exposure / scale)));
+    const intensity = Math.PI * (Math.PI * exposure / scale);
+    if (target === 'lightmap') {
+      const lightMap = await gltf.parser.getDependency('texture', info.lightmap.texture);
+      lightMap.channel = info.lightmap.texCoord ?? 1;
+      lightMap.colorSpace = THREE.SRGBColorSpace;
+      gltf.scene.traverse((object) => {
+        if (!object.isMesh) return;
+        for (const material of [object.material].flat()) {
+          material.lightMap = lightMap;
+          material.lightMapIntensity = intensity;
+          material.needsUpdate = true;
+        }
+      });
+    } else {
+      scene.add(new THREE.AmbientLight(0xffffff, intensity));
+    }
   }
   // Orbit about the point of the scene straight ahead of the camera.
   const forward = new THREE.Vector3();
@@ -73,9 +98,16 @@ new GLTFLoader().load(modelUrl, (gltf) => {
   controls.update();
   controls.addEventListener('change', draw);
   draw();
-  status.textContent = `${modelUrl.split('/').pop()}: ${info.bake_mode || 'glTF'} — drag to orbit, wheel to zoom`;
-  window.viewer = { ready: true, mode: info.bake_mode || null };
-}, undefined, (error) => fail(`cannot load ${modelUrl}: ${error.message || error}`));
+  status.textContent = `${modelUrl.split('/').pop()}: ${info.bake_mode ? `${info.bake_mode} ${target} bake` : 'glTF'} — drag to orbit, wheel to zoom`;
+  window.viewer = { ready: true, mode: info.bake_mode || null, target };
+}
+
+new GLTFLoader().load(
+  modelUrl,
+  (gltf) => show(gltf).catch((error) => fail(`cannot show ${modelUrl}: ${error.message || error}`)),
+  undefined,
+  (error) => fail(`cannot load ${modelUrl}: ${error.message || error}`),
+);
 
 window.addEventListener('resize', () => {
   renderer.setSize(window.innerWidth, window.innerHeight);

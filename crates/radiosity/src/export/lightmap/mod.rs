@@ -318,7 +318,8 @@ pub fn bake(
 }
 
 /// Puts the bake's camera node in the default scene (made of the root
-/// nodes when the document has none) and the metadata in its extras.
+/// nodes when the document has none), its camera first of the document's,
+/// and the metadata in the scene's extras.
 fn add_to_default_scene(
     root: &mut json::Root,
     camera: json::Index<json::Node>,
@@ -349,6 +350,15 @@ fn add_to_default_scene(
             .value()
         }
     };
+    // The bake's camera first, where viewers look for the default view.
+    if let Some(ours) = root.cameras.pop() {
+        root.cameras.insert(0, ours);
+        for (n, node) in root.nodes.iter_mut().enumerate() {
+            if let Some(c) = &mut node.camera {
+                *c = json::Index::new(if n == camera.value() { 0 } else { c.value() as u32 + 1 });
+            }
+        }
+    }
     root.scene = Some(json::Index::new(index as u32));
     let scene = &mut root.scenes[index];
     scene.nodes.push(camera);
