@@ -167,7 +167,8 @@ pub struct ExperimentArgs {
     /// Experiments to run, or `all` (the paper's): fig2-1, fig4-2, fig4-3,
     /// formula-timing, fig5-1, fig5-2; and, by name only, rays (the shared
     /// real scenes), validate (against the Radiance reference harness),
-    /// accuracy-curve (L1 against time, ours and Radiance's) and scale (a
+    /// accuracy-curve (L1 against time, ours and Radiance's), lightmap
+    /// (lightmap bakes read back and checked against sensors) and scale (a
     /// whole render job on scenes up to the shared conference room).
     #[arg(required = true, value_name = "NAME")]
     pub names: Vec<String>,

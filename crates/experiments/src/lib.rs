@@ -24,6 +24,7 @@ pub mod fig4_3;
 pub mod fig5_1;
 pub mod fig5_2;
 pub mod formula_timing;
+pub mod lightmap;
 pub mod rays;
 pub mod scale;
 pub mod validate;
@@ -168,6 +169,12 @@ pub const EXPERIMENTS: &[Experiment] = &[
         name: "accuracy-curve",
         title: "Accuracy against time: our presets and Radiance",
         run: accuracy::accuracy_curve,
+        in_all: false,
+    },
+    Experiment {
+        name: "lightmap",
+        title: "Lightmap bakes: layout, accuracy at sensor points, time",
+        run: lightmap::lightmap,
         in_all: false,
     },
     Experiment {

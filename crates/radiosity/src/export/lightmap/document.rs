@@ -251,6 +251,9 @@ pub struct LightmapImage {
     /// Lit (materials become unlit, showing the lightmap) or irradiance
     /// (materials kept, the lightmap referenced from the scene's extras).
     pub mode: BakeMode,
+    /// Per placed primitive: whether the lightmap shows its back side (a
+    /// double-sided material lit from behind).
+    pub back_side: Vec<bool>,
 }
 
 /// Builds the document: the input's, rewritten (see the module
@@ -285,14 +288,19 @@ pub fn rewrite(
         };
         lightmapped.push((mesh, use_.primitive));
     }
-    for (use_, (&(mesh, p), plan)) in appearance
-        .primitives
-        .iter()
-        .zip(lightmapped.iter().zip(&layout.primitives))
-    {
-        let _ = use_;
+    for (k, (&(mesh, p), plan)) in lightmapped.iter().zip(&layout.primitives).enumerate() {
         let source = root.meshes[mesh].primitives[p].clone();
         let mut primitive = source.clone();
+        if image.back_side.get(k).copied().unwrap_or(false) {
+            let mut extras: serde_json::Value = source
+                .extras
+                .as_ref()
+                .and_then(|raw| serde_json::from_str(raw.get()).ok())
+                .filter(serde_json::Value::is_object)
+                .unwrap_or_else(|| serde_json::json!({}));
+            extras["radiosity"] = serde_json::json!({ "lightmap_side": "back" });
+            primitive.extras = crate::export::gltf::raw_extras(&extras);
+        }
         if layout.generated {
             for (semantic, accessor) in &source.attributes {
                 if *semantic == Checked::Valid(Semantic::TexCoords(1)) {

@@ -23,7 +23,8 @@
 //! The lightmap holds one value per point, but a double-sided material
 //! was solved as two surfaces back to back: each such primitive shows the
 //! side that receives more light (the inside of a room whose walls face
-//! out), chosen over its texels.
+//! out), chosen over its texels, and says so in its `extras`
+//! (`radiosity.lightmap_side: "back"`).
 
 pub mod atlas;
 mod document;
@@ -61,6 +62,10 @@ pub const MAX_MAX_SIZE: u32 = 16384;
 
 /// Empty texels kept around each chart, filled by dilation.
 pub const PADDING: u32 = 2;
+
+/// How far a texel's surface point is moved towards its triangle's
+/// centroid, as a fraction of the way.
+const INSIDE: f64 = 1e-3;
 
 /// A lightmap bake to write.
 pub struct LightmapBake<'a> {
@@ -142,9 +147,10 @@ pub fn appearance_of_scene(scene: &Scene) -> io::Result<Appearance> {
     Ok(appearance)
 }
 
-/// The lightmap's linear values, `width x height`, top row first, and the
-/// counts of texels shown and texels that found no surface.
-fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize) {
+/// The lightmap's linear values, `width x height`, top row first; the
+/// counts of texels shown and texels that found no surface; and which
+/// placed primitives show their back side.
+fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize, Vec<bool>) {
     let (width, height) = (layout.width, layout.height);
     let primitives = &bake.appearance.primitives;
     // World corners and front normal of every output triangle.
@@ -191,10 +197,13 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         .map(|claim| {
             let c = (*claim)?;
             let corners = world[c.primitive as usize][c.triangle as usize];
+            // A hair inside the triangle: a texel clamped onto an edge
+            // shared with another surface in the same plane (a ceiling
+            // around its lamp) takes its own surface's light.
             let p = corners
                 .iter()
                 .zip(c.bary)
-                .map(|(q, w)| *q * f64::from(w))
+                .map(|(q, w)| *q * (f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0))
                 .sum::<DVec3>();
             let mut n = (corners[1] - corners[0])
                 .cross(corners[2] - corners[0])
@@ -238,7 +247,7 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         .into_iter()
         .map(|v| v.unwrap_or(DVec3::ZERO).as_vec3())
         .collect();
-    (pixels, shown, missing)
+    (pixels, shown, missing, back_side)
 }
 
 /// Writes a lightmap bake; returns the files to stage (`.glb`, or `.gltf`
@@ -256,7 +265,7 @@ pub fn bake(
         .map_err(|e| io::Error::other(format!("lightmap layout: {e}")))?;
     let layout_time = start.elapsed();
     let start = Instant::now();
-    let (pixels, texels, missing) = texel_values(bake, &layout);
+    let (pixels, texels, missing, back_side) = texel_values(bake, &layout);
     let image = crate::render::Image {
         width: layout.width,
         height: layout.height,
@@ -273,6 +282,7 @@ pub fn bake(
         &document::LightmapImage {
             png,
             mode: bake.mode,
+            back_side,
         },
     )
     .map_err(|e| io::Error::other(format!("lightmap bake: {e}")))?;
