@@ -218,7 +218,20 @@ fn path_that_does_not_exist() {
 fn bad_settings_are_refused_before_any_work() {
     let case = Case::new(&obj(""), MTL);
     let scene = case.path("scene.obj");
-    let cases: [(&[&str], &str); 20] = [
+    let cases: [(&[&str], &str); 24] = [
+        (
+            &["--bake", "x.glb", "--bake-target", "lightmap", "--lightmap-density", "0"],
+            "--lightmap-density must be a number of texels per metre above 0",
+        ),
+        (
+            &["--bake", "x.glb", "--lightmap-density", "nan"],
+            "--lightmap-density",
+        ),
+        (
+            &["--bake", "x.glb", "--lightmap-max-size", "8"],
+            "--lightmap-max-size must be between 16 and 16384",
+        ),
+        (&["--bake-target", "texture"], "--bake-target"),
         (
             &["--refine-levels", "9"],
             "--refine-levels must be at most 8",
@@ -1086,4 +1099,42 @@ fn limit_defaults_in_the_help_are_the_library_defaults() {
         let line = help.lines().find(|l| l.contains(flag)).unwrap();
         assert!(line.contains(&format!("[default: {value}]")), "{line}");
     }
+}
+
+/// A lightmap bake from the command line: the `.glb`, the `.lightmap.exr`
+/// beside it and the lightmap's figures in `--stats`.
+#[test]
+fn lightmap_bake_writes_the_file_the_exr_and_its_statistics() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_string_lossy().into_owned();
+    let out = run(&[
+        "render",
+        "cornell",
+        "-q",
+        "--converge",
+        "0.05",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--output",
+        &path("c.png"),
+        "--bake",
+        &path("c.glb"),
+        "--bake-target",
+        "lightmap",
+        "--lightmap-density",
+        "40",
+        "--stats",
+        &path("c.json"),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(dir.path().join("c.glb").is_file());
+    assert!(dir.path().join("c.lightmap.exr").is_file());
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("c.json")).unwrap()).unwrap();
+    let lightmap = &stats["lightmap"];
+    assert_eq!(lightmap["density"], 40.0);
+    assert!(lightmap["texels"].as_u64().unwrap() > 100);
+    assert_eq!(lightmap["missing"], 0);
 }

@@ -86,10 +86,10 @@ fn world_area(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> f64 {
 /// drawn twice (its instances would share texels) and no two primitives'
 /// triangles cover the same texel centre at `size` texels.
 fn input_uvs_usable(primitives: &[PrimitiveUse], size: u32) -> bool {
-    let mut meshes = std::collections::HashSet::new();
+    let mut drawn_by = std::collections::HashMap::new();
     for p in primitives {
         let Some(uv) = &p.uv1 else { return false };
-        if !meshes.insert(p.mesh) {
+        if *drawn_by.entry(p.mesh).or_insert(p.node) != p.node {
             return false;
         }
         if uv

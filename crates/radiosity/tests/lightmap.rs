@@ -1,0 +1,297 @@
+//! Lightmap bakes (`--bake-target lightmap`), read back from the bytes
+//! written as an engine would read them (the `gltf` crate's reader, the
+//! EXR decoded by the `exr` crate): no light leaking under a thin wall, a
+//! mesh drawn twice getting its own texels, the input's own `TEXCOORD_1`
+//! kept, points and lines left alone. Accuracy against sensor points is
+//! the `lightmap` experiment's, tested in `crates/experiments`.
+
+mod common;
+
+use std::io::Cursor;
+use std::path::Path;
+
+use common::{quad, scene_of};
+use glam::{DVec2, DVec3};
+use radiosity::export::gltf::BakeMode;
+use radiosity::export::lightmap::{self, AtlasSettings, LightmapBake, LightmapReport};
+use radiosity::scene::gltf::{Appearance, load_slice};
+use radiosity::scene::{Camera, LoadOptions, Scene};
+use radiosity::solver::refine::refined_mesh;
+use radiosity::solver::{Flow, Settings, Solver};
+
+/// Solves `scene` and bakes a lit lightmap of `appearance` at `density`;
+/// returns the written files and the report.
+fn bake(scene: &Scene, appearance: &Appearance, density: f64, mode: BakeMode) -> (Vec<(std::path::PathBuf, Vec<u8>)>, LightmapReport) {
+    let mut settings = Settings::adaptive();
+    settings.mesh = settings.mesh.sized_for(scene);
+    settings.converge = 1e-3;
+    let refined = refined_mesh(scene, &settings, None).unwrap();
+    let mut solver = Solver::new(scene, &refined.mesh, settings);
+    solver.run(|_| Flow::Continue);
+    let values = solver.radiosity().to_vec();
+    let bake = LightmapBake {
+        scene,
+        mesh: &refined.mesh,
+        appearance,
+        values: &values,
+        mode,
+        settings: AtlasSettings {
+            density,
+            max_size: lightmap::DEFAULT_MAX_SIZE,
+            padding: lightmap::PADDING,
+        },
+        camera: Camera {
+            eye: DVec3::new(1.0, 1.0, -3.0),
+            target: DVec3::new(1.0, 0.5, 1.0),
+            up: DVec3::Y,
+            fov_degrees: 50.0,
+        },
+        aspect_ratio: 1.0,
+        metadata: serde_json::json!({}),
+    };
+    lightmap::bake(&bake, Path::new("out.glb")).unwrap()
+}
+
+/// A `.glb`'s scene and appearance, as the loader reads it.
+fn load(glb: &[u8]) -> (Scene, Appearance) {
+    load_slice(
+        "test",
+        Path::new("test.glb"),
+        glb,
+        &mut |_| Err(std::io::Error::other("no external files")),
+        &LoadOptions::default(),
+    )
+    .unwrap()
+}
+
+/// An OBJ-like scene through `export-scene`, as a lightmap bake of a
+/// scene with no glTF input does.
+fn exported(scene: &Scene) -> (Scene, Appearance) {
+    let files = radiosity::export::gltf::export_scene(scene, Path::new("scene.glb")).unwrap();
+    load(&files[0].1)
+}
+
+/// Every lightmapped primitive of a written `.glb`, in node order: world
+/// positions (the nodes' transforms are translations here), `TEXCOORD_1`
+/// and triangle indices.
+fn primitives(glb: &[u8]) -> Vec<(Vec<DVec3>, Vec<[f32; 2]>, Vec<u32>)> {
+    let gltf = gltf::Gltf::from_slice(glb).unwrap();
+    let blob = gltf.blob.clone().unwrap();
+    let mut out = Vec::new();
+    for node in gltf.default_scene().unwrap().nodes().flat_map(|n| std::iter::once(n.clone()).chain(n.children())) {
+        let Some(mesh) = node.mesh() else { continue };
+        let offset = DVec3::from(node.transform().decomposed().0.map(f64::from));
+        for p in mesh.primitives() {
+            let reader = p.reader(|_| Some(&blob));
+            let Some(uv) = reader.read_tex_coords(1) else { continue };
+            let positions = reader
+                .read_positions()
+                .unwrap()
+                .map(|q| DVec3::from(q.map(f64::from)) + offset)
+                .collect();
+            out.push((positions, uv.into_f32().collect(), reader.read_indices().unwrap().into_u32().collect()));
+        }
+    }
+    out
+}
+
+/// The EXR's pixels, width and height.
+fn exr_pixels(bytes: &[u8]) -> (Vec<[f32; 3]>, usize, usize) {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |size, _| (size.0, vec![[0f32; 3]; size.0 * size.1]),
+            |(w, pixels): &mut (usize, Vec<[f32; 3]>), at, (r, g, b, _): (f32, f32, f32, f32)| {
+                pixels[at.1 * *w + at.0] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .unwrap();
+    let size = image.layer_data.size;
+    (image.layer_data.channel_data.pixels.1, size.0, size.1)
+}
+
+/// Bilinear lookup at `uv` (glTF's convention), clamped at the edges.
+fn sample(pixels: &[[f32; 3]], width: usize, height: usize, uv: DVec2) -> DVec3 {
+    let x = (uv.x * width as f64 - 0.5).clamp(0.0, (width - 1) as f64);
+    let y = (uv.y * height as f64 - 0.5).clamp(0.0, (height - 1) as f64);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
+    let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+    let at = |x: usize, y: usize| DVec3::from(pixels[y * width + x].map(f64::from));
+    (at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx) * (1.0 - fy) + (at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx) * fy
+}
+
+/// Texel centres strictly inside two or more `TEXCOORD_1` triangles.
+fn overlaps(primitives: &[(Vec<DVec3>, Vec<[f32; 2]>, Vec<u32>)], width: usize, height: usize) -> usize {
+    let mut count = vec![0u8; width * height];
+    for (_, uv, indices) in primitives {
+        for t in indices.chunks_exact(3) {
+            let c = [0, 1, 2].map(|k| {
+                let p = uv[t[k] as usize];
+                DVec2::new(f64::from(p[0]) * width as f64, f64::from(p[1]) * height as f64)
+            });
+            let area = (c[1] - c[0]).perp_dot(c[2] - c[0]);
+            for y in 0..height {
+                for x in 0..width {
+                    let p = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+                    let w = [
+                        (c[2] - c[1]).perp_dot(p - c[1]) / area,
+                        (c[0] - c[2]).perp_dot(p - c[2]) / area,
+                        (c[1] - c[0]).perp_dot(p - c[0]) / area,
+                    ];
+                    if area.abs() > 1e-12 && w.iter().all(|&w| w > 1e-6) {
+                        count[y * width + x] += 1;
+                    }
+                }
+            }
+        }
+    }
+    count.iter().filter(|&&c| c > 1).count()
+}
+
+/// A lit room (x in [0, 2]) and a dark one (x in [2.02, 4.02]) on either
+/// side of a 2 cm wall as high as the lamp: no light reaches the dark room.
+fn two_rooms() -> Scene {
+    let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+    scene_of(vec![
+        quad(DVec3::ZERO, 2.0 * z, 2.0 * x, 0.8, 0.0, 0),                      // lit floor
+        quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * z, 2.0 * x, 0.8, 0.0, 1),       // dark floor
+        quad(DVec3::new(2.0, 0.0, 0.0), 2.0 * z, 2.0 * y, 0.8, 0.0, 2),        // wall, lit side (faces -x)
+        quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * y, 2.0 * z, 0.8, 0.0, 3),       // wall, dark side (faces +x)
+        quad(DVec3::new(0.5, 2.0, 0.5), x, z, 0.0, 50.0, 4),                   // lamp, facing down
+    ])
+}
+
+#[test]
+fn no_light_leaks_under_a_thin_wall() {
+    let scene = two_rooms();
+    assert_eq!(scene.surfaces[2].normal, -DVec3::X);
+    assert_eq!(scene.surfaces[3].normal, DVec3::X);
+    assert_eq!(scene.surfaces[4].normal, -DVec3::Y);
+    let (scene, appearance) = exported(&scene);
+    // Texels of 5 cm: wider than the wall, so a texel of the dark floor
+    // by the wall has its centre on the lit side.
+    let (files, report) = bake(&scene, &appearance, 20.0, BakeMode::Lit);
+    assert!(report.generated);
+    let (pixels, width, height) = exr_pixels(&files.last().unwrap().1);
+    let (mut dark, mut lit) = (0, 0);
+    for (positions, uv, indices) in primitives(&files[0].1) {
+        for t in indices.chunks_exact(3) {
+            let corners = [0, 1, 2].map(|k| (positions[t[k] as usize], uv[t[k] as usize]));
+            if corners.iter().any(|c| c.0.y.abs() > 1e-6) {
+                continue; // not a floor
+            }
+            for i in 0..=20 {
+                for j in 0..=(20 - i) {
+                    let w = [i as f64 / 20.0, j as f64 / 20.0, (20 - i - j) as f64 / 20.0];
+                    let p: DVec3 = corners.iter().zip(w).map(|(c, w)| c.0 * w).sum();
+                    let at: DVec2 = corners.iter().zip(w).map(|(c, w)| DVec2::from(c.1.map(f64::from)) * w).sum();
+                    let value = sample(&pixels, width, height, at);
+                    if p.x > 2.01 && p.x < 2.05 {
+                        dark += 1;
+                        assert!(value.max_element() < 1e-9, "dark floor at {p}: {value}");
+                    } else if p.x > 1.9 && p.x <= 2.0 {
+                        lit += 1;
+                        assert!(value.min_element() > 0.1, "lit floor at {p}: {value}");
+                    }
+                }
+            }
+        }
+    }
+    assert!(dark > 20 && lit > 20, "{dark} dark and {lit} lit points by the wall");
+}
+
+#[test]
+fn a_mesh_drawn_twice_gets_a_copy_with_its_own_texels() {
+    let lamp_room = scene_of(vec![
+        quad(DVec3::ZERO, 2.0 * DVec3::Z, 2.0 * DVec3::X, 0.8, 0.0, 0),
+        quad(DVec3::new(0.5, 1.0, 0.5), DVec3::X, DVec3::Z, 0.0, 20.0, 1),
+    ]);
+    let files = radiosity::export::gltf::export_scene(&lamp_room, Path::new("one.glb")).unwrap();
+    // A second node drawing mesh 0 five metres away.
+    let glb = gltf::binary::Glb::from_slice(&files[0].1).unwrap();
+    let mut json: serde_json::Value = serde_json::from_slice(&glb.json).unwrap();
+    let node = json["nodes"].as_array().unwrap().len();
+    json["nodes"].as_array_mut().unwrap().push(serde_json::json!({ "mesh": 0, "translation": [5.0, 0.0, 0.0] }));
+    json["scenes"][0]["nodes"].as_array_mut().unwrap().push(serde_json::json!(node));
+    let text = serde_json::to_vec(&json).unwrap();
+    let twice = gltf::binary::Glb {
+        header: glb.header,
+        json: text.into(),
+        bin: glb.bin.clone(),
+    }
+    .to_vec()
+    .unwrap();
+    let (scene, appearance) = load(&twice);
+    assert_eq!(appearance.primitives.len(), 4, "two primitives drawn twice");
+    let (out, report) = bake(&scene, &appearance, 32.0, BakeMode::Lit);
+    let written = gltf::Gltf::from_slice(&out[0].1).unwrap();
+    let meshes: Vec<usize> = written.meshes().map(|m| m.primitives().len()).collect();
+    assert_eq!(meshes, vec![2, 2], "the mesh and one copy, with the same primitives");
+    let copy = written.nodes().nth(node).unwrap();
+    assert_eq!(copy.mesh().map(|m| m.index()), Some(1));
+    let placed = primitives(&out[0].1);
+    assert_eq!(placed.len(), 4);
+    assert_eq!(overlaps(&placed, report.width as usize, report.height as usize), 0);
+    // Both copies are lit alike (each lamp over its own floor).
+    let (pixels, width, height) = exr_pixels(&out.last().unwrap().1);
+    let mean = |k: usize| {
+        let (_, uv, indices) = &placed[k];
+        let c: DVec2 = indices[..3].iter().map(|&i| DVec2::from(uv[i as usize].map(f64::from))).sum::<DVec2>() / 3.0;
+        sample(&pixels, width, height, c)
+    };
+    let (a, b) = (mean(0), mean(2));
+    assert!(a.x > 0.1 && ((a - b).abs().max_element() / a.x) < 0.05, "{a} {b}");
+}
+
+#[test]
+fn the_inputs_own_second_uv_set_is_kept() {
+    let lamp_room = scene_of(vec![
+        quad(DVec3::ZERO, 2.0 * DVec3::Z, 2.0 * DVec3::X, 0.8, 0.0, 0),
+        quad(DVec3::new(0.5, 1.0, 0.5), DVec3::X, DVec3::Z, 0.0, 20.0, 1),
+    ]);
+    let (scene, appearance) = exported(&lamp_room);
+    // An irradiance bake keeps the materials, so it can be read and baked again.
+    let (first, _) = bake(&scene, &appearance, 32.0, BakeMode::Irradiance);
+    let (scene, appearance) = load(&first[0].1);
+    assert!(appearance.primitives.iter().all(|p| p.uv1.is_some()));
+    let (second, report) = bake(&scene, &appearance, 32.0, BakeMode::Lit);
+    assert!(!report.generated, "the input's TEXCOORD_1 is used");
+    let before = primitives(&first[0].1);
+    let after = primitives(&second[0].1);
+    assert_eq!(before.len(), after.len());
+    for (b, a) in before.iter().zip(&after) {
+        assert_eq!(b.1, a.1, "TEXCOORD_1 unchanged");
+        assert_eq!(b.2, a.2, "triangles unchanged");
+    }
+}
+
+#[test]
+fn points_and_lines_are_kept_and_every_triangle_primitive_gets_uvs() {
+    let path = common::test_data("hierarchy.gltf");
+    let options = LoadOptions::default();
+    let (scene, appearance) = radiosity::scene::gltf::load_file(&path, &options).unwrap();
+    let (files, _) = bake(&scene, &appearance, 64.0, BakeMode::Lit);
+    let input = gltf::Gltf::open(&path).unwrap();
+    let output = gltf::Gltf::from_slice(&files[0].1).unwrap();
+    let modes = |g: &gltf::Gltf| -> Vec<Vec<gltf::mesh::Mode>> {
+        g.meshes().map(|m| m.primitives().map(|p| p.mode()).collect()).collect()
+    };
+    let out_modes = modes(&output);
+    assert_eq!(out_modes.len(), input.meshes().len());
+    for (i, o) in modes(&input).iter().zip(&out_modes) {
+        assert_eq!(i.len(), o.len(), "same primitives");
+    }
+    assert_eq!(output.nodes().count(), input.nodes().count() + 1, "the input's nodes and the bake's camera");
+    for (mesh, modes) in output.meshes().zip(&out_modes) {
+        for (p, mode) in mesh.primitives().zip(modes) {
+            let has_uv1 = p.attributes().any(|(s, _)| s == gltf::Semantic::TexCoords(1));
+            assert_eq!(has_uv1, *mode == gltf::mesh::Mode::Triangles, "{:?}: {mode:?}", mesh.name());
+        }
+    }
+}
