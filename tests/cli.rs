@@ -220,7 +220,14 @@ fn bad_settings_are_refused_before_any_work() {
     let scene = case.path("scene.obj");
     let cases: [(&[&str], &str); 24] = [
         (
-            &["--bake", "x.glb", "--bake-target", "lightmap", "--lightmap-density", "0"],
+            &[
+                "--bake",
+                "x.glb",
+                "--bake-target",
+                "lightmap",
+                "--lightmap-density",
+                "0",
+            ],
             "--lightmap-density must be a number of texels per metre above 0",
         ),
         (
@@ -1128,7 +1135,11 @@ fn lightmap_bake_writes_the_file_the_exr_and_its_statistics() {
         "--stats",
         &path("c.json"),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(dir.path().join("c.glb").is_file());
     assert!(dir.path().join("c.lightmap.exr").is_file());
     let stats: serde_json::Value =

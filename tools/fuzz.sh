@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the loader fuzzers (fuzz/, libFuzzer through cargo-fuzz).
 #
-#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf, sensors, ies)
+#   tools/fuzz.sh TARGET SECONDS     one target (obj, mtl, load_mesh, gltf, lightmap, sensors, ies)
 #   tools/fuzz.sh all SECONDS        every target in fuzz/Cargo.toml in turn
 #   tools/fuzz.sh list               the targets
 #
@@ -71,7 +71,8 @@ case "$target" in
     # OBJ targets share the OBJ seeds.
     obj | load_mesh) seeds=(seeds/obj generated-seeds/obj) ;;
     mtl) seeds=(generated-seeds/mtl) ;;
-    gltf) seeds=(seeds/gltf generated-seeds/gltf) ;;
+    # The lightmap rewrite reads glTF, as the loader does.
+    gltf | lightmap) seeds=(seeds/gltf generated-seeds/gltf) ;;
     *) seeds=(); [ -d "seeds/$target" ] && seeds=("seeds/$target") ;;
 esac
 # -max_len: inputs up to 64 KiB (the load_mesh target itself skips inputs

@@ -252,3 +252,43 @@ pub fn check_ies(data: &[u8]) {
         }
     }
 }
+
+/// Lightmap settings for fuzzed inputs: small, so a hostile input's size
+/// cannot make a large lightmap.
+pub const LIGHTMAP: radiosity::export::lightmap::AtlasSettings =
+    radiosity::export::lightmap::AtlasSettings {
+        density: 8.0,
+        max_size: 256,
+        padding: 2,
+    };
+
+/// Rewrites a loaded glTF for a lightmap ([`LIGHTMAP`]); when that
+/// succeeds, the document written must read back with `TEXCOORD_1`, inside
+/// [0, 1], on as many placed primitives.
+pub fn check_lightmap(appearance: &gltf::Appearance) {
+    use radiosity::export::lightmap;
+    let Ok((layout, glb)) = lightmap::rewrite_blank(appearance, &LIGHTMAP) else {
+        return;
+    };
+    assert!(layout.width <= LIGHTMAP.max_size && layout.height <= LIGHTMAP.max_size);
+    let options = LoadOptions {
+        limits: LIMITS,
+        ..LoadOptions::default()
+    };
+    let back = gltf::load_slice(
+        "fuzz",
+        Path::new("blank.glb"),
+        &glb,
+        &mut |_| Err(std::io::Error::other("no external files")),
+        &options,
+    );
+    // The written document holds the input's lights and emitters, so it
+    // reads back whenever the input did (limits permitting).
+    if let Ok((_, written)) = back {
+        assert_eq!(written.primitives.len(), appearance.primitives.len());
+        for p in &written.primitives {
+            let uv = p.uv1.as_ref().expect("every placed primitive has TEXCOORD_1");
+            assert!(uv.iter().flatten().all(|c| (0.0..=1.0).contains(c)));
+        }
+    }
+}

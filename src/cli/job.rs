@@ -7,8 +7,8 @@ use std::time::Duration;
 use anyhow::{Result, anyhow};
 
 use super::args::{OnOff, RenderArgs};
-use radiosity::export::lightmap::{self, AtlasSettings};
 use radiosity::app::{BakeJob, ImageJob, Job, SensorJob};
+use radiosity::export::lightmap::{self, AtlasSettings};
 use radiosity::mesh::MAX_REFINE_LEVELS;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Limits};

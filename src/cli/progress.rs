@@ -183,7 +183,10 @@ pub fn print_summary(o: &Outcome) {
             },
             l.texels,
             if l.missing > 0 {
-                format!(", {} found no element and took their neighbours' value", l.missing)
+                format!(
+                    ", {} found no element and took their neighbours' value",
+                    l.missing
+                )
             } else {
                 String::new()
             },

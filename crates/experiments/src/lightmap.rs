@@ -109,7 +109,7 @@ fn sample(appearance: &scene::gltf::Appearance, n: usize) -> Vec<Sample> {
         }
     }
     let total: f64 = triangles.iter().map(|t| t.4).sum();
-    let mut unit = uniform(0x11_6874_3A9);
+    let mut unit = uniform(0x0001_1687_43A9);
     (0..n)
         .map(|_| {
             let mut pick = unit() * total;
@@ -136,10 +136,14 @@ fn sample(appearance: &scene::gltf::Appearance, n: usize) -> Vec<Sample> {
         .collect()
 }
 
+/// A written primitive: `TEXCOORD_1`, triangle indices, and whether it
+/// shows its back side.
+type Written = (Vec<[f32; 2]>, Vec<u32>, bool);
+
 /// The written document's lightmapped primitives in the loader's order
 /// (default scene, nodes depth first): `TEXCOORD_1`, triangles, and whether
 /// the back side is shown.
-fn read_back(glb: &[u8]) -> Result<(Vec<usize>, Vec<(Vec<[f32; 2]>, Vec<u32>, bool)>), String> {
+fn read_back(glb: &[u8]) -> Result<(Vec<usize>, Vec<Written>), String> {
     let gltf = gltf::Gltf::from_slice(glb).map_err(|e| e.to_string())?;
     let blob = gltf.blob.clone().ok_or("no binary chunk")?;
     let scene = gltf
@@ -147,12 +151,19 @@ fn read_back(glb: &[u8]) -> Result<(Vec<usize>, Vec<(Vec<[f32; 2]>, Vec<u32>, bo
         .or_else(|| gltf.scenes().next())
         .ok_or("no scene")?;
     let mut out = Vec::new();
-    let mut stack: Vec<gltf::Node<'_>> = scene.nodes().collect::<Vec<_>>().into_iter().rev().collect();
+    let mut stack: Vec<gltf::Node<'_>> = scene
+        .nodes()
+        .collect::<Vec<_>>()
+        .into_iter()
+        .rev()
+        .collect();
     while let Some(node) = stack.pop() {
         if let Some(mesh) = node.mesh() {
             for p in mesh.primitives() {
                 let reader = p.reader(|_| Some(&blob));
-                let Some(uv) = reader.read_tex_coords(1) else { continue };
+                let Some(uv) = reader.read_tex_coords(1) else {
+                    continue;
+                };
                 let uv: Vec<[f32; 2]> = uv.into_f32().collect();
                 let indices: Vec<u32> = reader
                     .read_indices()
@@ -189,13 +200,16 @@ fn bilinear(pixels: &[[f32; 3]], width: usize, height: usize, uv: [f64; 2]) -> D
 }
 
 /// Texel centres strictly inside two or more `TEXCOORD_1` triangles.
-fn overlapping_texels(primitives: &[(Vec<[f32; 2]>, Vec<u32>, bool)], width: u32, height: u32) -> usize {
+fn overlapping_texels(primitives: &[Written], width: u32, height: u32) -> usize {
     let mut count = vec![0u8; width as usize * height as usize];
     for (uv, indices, _) in primitives {
         for t in indices.chunks_exact(3) {
             let c = [0, 1, 2].map(|k| {
                 let p = uv[t[k] as usize];
-                glam::DVec2::new(f64::from(p[0]) * f64::from(width), f64::from(p[1]) * f64::from(height))
+                glam::DVec2::new(
+                    f64::from(p[0]) * f64::from(width),
+                    f64::from(p[1]) * f64::from(height),
+                )
             });
             let area = (c[1] - c[0]).perp_dot(c[2] - c[0]);
             if area.abs() < 1e-12 {
@@ -232,14 +246,19 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
     let loaded = scene::load_with(&name, &LoadOptions::default()).map_err(app::Error::from)?;
     let appearance = match loaded.appearance {
         Some(a) => a,
-        None => lightmap::appearance_of_scene(&loaded.scene).map_err(|e| failed("export", e.to_string()))?,
+        None => lightmap::appearance_of_scene(&loaded.scene)
+            .map_err(|e| failed("export", e.to_string()))?,
     };
     let samples = sample(&appearance, POINTS);
     // Both sides where the material is double-sided: the bake says which it shows.
     let mut points = Vec::new();
     for s in &samples {
         // Single-sided: the front twice, keeping two rows per sample.
-        let back = if appearance.primitives[s.primitive].double_sided { -1.0 } else { 1.0 };
+        let back = if appearance.primitives[s.primitive].double_sided {
+            -1.0
+        } else {
+            1.0
+        };
         for side in [1.0, back] {
             points.push(SensorPoint {
                 position: s.position,
@@ -278,12 +297,15 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
     for (path, bytes) in &files {
         crate::write_file(path, bytes)?;
     }
-    let (primitives, written) = read_back(&files[0].1).map_err(|e| failed("reading the bake", e))?;
+    let (primitives, written) =
+        read_back(&files[0].1).map_err(|e| failed("reading the bake", e))?;
     let exr_path = &files.last().expect("the bake writes an EXR").0;
     let image = exr::prelude::read_first_rgba_layer_from_file(
         exr_path,
         |size, _| (size.0, size.1, vec![[0f32; 3]; size.0 * size.1]),
-        |(w, _, pixels): &mut (usize, usize, Vec<[f32; 3]>), at, (r, g, b, _): (f32, f32, f32, f32)| {
+        |(w, _, pixels): &mut (usize, usize, Vec<[f32; 3]>),
+         at,
+         (r, g, b, _): (f32, f32, f32, f32)| {
             pixels[at.1 * *w + at.0] = [r, g, b];
         },
     )
@@ -292,10 +314,19 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
     if written.len() != appearance.primitives.len() {
         return Err(failed(
             "reading the bake",
-            format!("{} lightmapped primitives, {} placed", written.len(), appearance.primitives.len()),
+            format!(
+                "{} lightmapped primitives, {} placed",
+                written.len(),
+                appearance.primitives.len()
+            ),
         ));
     }
-    let input_primitives: Vec<usize> = appearance.json.meshes.iter().map(|m| m.primitives.len()).collect();
+    let input_primitives: Vec<usize> = appearance
+        .json
+        .meshes
+        .iter()
+        .map(|m| m.primitives.len())
+        .collect();
     let primitives_kept = primitives.get(..input_primitives.len()) == Some(&input_primitives[..]);
     let (lo, hi) = solved.scene.bounds();
     let locator = lightmap::texels::Locator::new(
@@ -318,9 +349,14 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
         let texel = bilinear(&pixels, width, height, at);
         let b = exact[2 * i + usize::from(*back)];
         let normal = if *back { -s.normal } else { s.normal };
-        let on_mesh = locator.locate(s.position, normal).map_or(DVec3::ZERO, |(v, w)| {
-            v.iter().zip(w).map(|(v, w)| solved.radiosity[*v as usize] * w).sum()
-        });
+        let on_mesh = locator
+            .locate(s.position, normal)
+            .map_or(DVec3::ZERO, |(v, w)| {
+                v.iter()
+                    .zip(w)
+                    .map(|(v, w)| solved.radiosity[*v as usize] * w)
+                    .sum()
+            });
         mesh_difference += (on_mesh - b).abs().element_sum();
         let d = (texel - b).abs().element_sum();
         difference += d;
@@ -330,7 +366,10 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
         let relative = d / b.element_sum().max(0.1 * mean).max(1e-300);
         worst = worst.max(relative);
         if std::env::var_os("LIGHTMAP_DEBUG").is_some() && relative > 0.2 {
-            eprintln!("{} point {i}: primitive {} triangle {} uv {at:?} texel {texel:.3} B {b:.3} mesh {on_mesh:.3} back {back} p {:.3}", case.name, s.primitive, s.triangle, s.position);
+            eprintln!(
+                "{} point {i}: primitive {} triangle {} uv {at:?} texel {texel:.3} B {b:.3} mesh {on_mesh:.3} back {back} p {:.3}",
+                case.name, s.primitive, s.triangle, s.position
+            );
         }
         if relative <= 0.03 {
             within += 1;
@@ -349,7 +388,11 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
     let output_vertices: usize = written.iter().map(|w| w.0.len()).sum();
     Ok(Row {
         name: case.name,
-        triangles: appearance.primitives.iter().map(|p| p.triangles.len()).sum(),
+        triangles: appearance
+            .primitives
+            .iter()
+            .map(|p| p.triangles.len())
+            .sum(),
         primitives_kept,
         overlaps: overlapping_texels(&written, report.width, report.height),
         report,
@@ -369,9 +412,11 @@ fn cases(context: &Context) -> Result<Vec<Case>, Error> {
     for name in ["cornell", "room"] {
         let scene = scene::load(name).map_err(app::Error::from)?;
         let path = context.path(&format!("{name}-export.glb"));
-        let files = radiosity::export::gltf::export_scene(&scene, &path).map_err(|source| Error::Output {
-            path: path.clone(),
-            source,
+        let files = radiosity::export::gltf::export_scene(&scene, &path).map_err(|source| {
+            Error::Output {
+                path: path.clone(),
+                source,
+            }
         })?;
         for (path, bytes) in files {
             crate::write_file(&path, &bytes)?;
@@ -384,7 +429,10 @@ fn cases(context: &Context) -> Result<Vec<Case>, Error> {
         });
     }
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
-    for (name, file) in [("blender-cornell", "blender-cornell.glb"), ("blender-lights", "blender-lights.glb")] {
+    for (name, file) in [
+        ("blender-cornell", "blender-cornell.glb"),
+        ("blender-lights", "blender-lights.glb"),
+    ] {
         cases.push(Case {
             name,
             input: data.join(file),
@@ -428,9 +476,17 @@ pub fn lightmap(context: &Context) -> Result<Report, Error> {
                 r.triangles.to_string(),
                 format!("{} x {}", r.report.width, r.report.height),
                 format!("{:.1}", r.report.density),
-                if r.report.generated { r.report.charts.to_string() } else { "input's".into() },
+                if r.report.generated {
+                    r.report.charts.to_string()
+                } else {
+                    "input's".into()
+                },
                 format!("{:.2}", r.split),
-                if r.primitives_kept { "yes".into() } else { "NO".into() },
+                if r.primitives_kept {
+                    "yes".into()
+                } else {
+                    "NO".into()
+                },
                 r.overlaps.to_string(),
                 format!("{:.2}%", 100.0 * r.l1),
                 format!("{:.2}%", 100.0 * r.mesh_l1),
@@ -473,7 +529,10 @@ pub fn lightmap(context: &Context) -> Result<Report, Error> {
          relative error is taken against its own B, or a tenth of the mean B for points darker \
          than that. Built-in scenes are baked from their export-scene .glb."
     ));
-    report.files.extend(rows.iter().map(|r| context.path(&format!("lightmap-{}.glb", r.name))));
+    report.files.extend(
+        rows.iter()
+            .map(|r| context.path(&format!("lightmap-{}.glb", r.name))),
+    );
     Ok(report)
 }
 
@@ -501,6 +560,11 @@ mod tests {
         assert_eq!(row.overlaps, 0);
         assert!(row.l1 <= 0.03, "L1 against sensors {}", row.l1);
         // The lightmap adds little to the mesh's own interpolation error.
-        assert!(row.l1 <= row.mesh_l1 + 0.005, "{} against the mesh's {}", row.l1, row.mesh_l1);
+        assert!(
+            row.l1 <= row.mesh_l1 + 0.005,
+            "{} against the mesh's {}",
+            row.l1,
+            row.mesh_l1
+        );
     }
 }

@@ -95,10 +95,7 @@ fn job(scene: &str, dir: &Path, bake: Option<(&str, BakeMode)>, image: &str) -> 
         vertices_csv: Some(dir.join("vertices.csv")),
         stats_json: None,
         load: LoadOptions::default(),
-        bake: bake.map(|(name, mode)| BakeJob {
-            path: dir.join(name),
-            mode,
-        }),
+        bake: bake.map(|(name, mode)| BakeJob::vertices(dir.join(name), mode)),
         ply: Some(dir.join("mesh.ply")),
         sensors: None,
         max_memory: None,

@@ -21,7 +21,12 @@ use radiosity::solver::{Flow, Settings, Solver};
 
 /// Solves `scene` and bakes a lit lightmap of `appearance` at `density`;
 /// returns the written files and the report.
-fn bake(scene: &Scene, appearance: &Appearance, density: f64, mode: BakeMode) -> (Vec<(std::path::PathBuf, Vec<u8>)>, LightmapReport) {
+fn bake(
+    scene: &Scene,
+    appearance: &Appearance,
+    density: f64,
+    mode: BakeMode,
+) -> (Vec<(std::path::PathBuf, Vec<u8>)>, LightmapReport) {
     let mut settings = Settings::adaptive();
     settings.mesh = settings.mesh.sized_for(scene);
     settings.converge = 1e-3;
@@ -71,25 +76,39 @@ fn exported(scene: &Scene) -> (Scene, Appearance) {
     load(&files[0].1)
 }
 
+/// A written primitive: world positions, `TEXCOORD_1`, triangle indices.
+type Written = (Vec<DVec3>, Vec<[f32; 2]>, Vec<u32>);
+
 /// Every lightmapped primitive of a written `.glb`, in node order: world
 /// positions (the nodes' transforms are translations here), `TEXCOORD_1`
 /// and triangle indices.
-fn primitives(glb: &[u8]) -> Vec<(Vec<DVec3>, Vec<[f32; 2]>, Vec<u32>)> {
+fn primitives(glb: &[u8]) -> Vec<Written> {
     let gltf = gltf::Gltf::from_slice(glb).unwrap();
     let blob = gltf.blob.clone().unwrap();
     let mut out = Vec::new();
-    for node in gltf.default_scene().unwrap().nodes().flat_map(|n| std::iter::once(n.clone()).chain(n.children())) {
+    for node in gltf
+        .default_scene()
+        .unwrap()
+        .nodes()
+        .flat_map(|n| std::iter::once(n.clone()).chain(n.children()))
+    {
         let Some(mesh) = node.mesh() else { continue };
         let offset = DVec3::from(node.transform().decomposed().0.map(f64::from));
         for p in mesh.primitives() {
             let reader = p.reader(|_| Some(&blob));
-            let Some(uv) = reader.read_tex_coords(1) else { continue };
+            let Some(uv) = reader.read_tex_coords(1) else {
+                continue;
+            };
             let positions = reader
                 .read_positions()
                 .unwrap()
                 .map(|q| DVec3::from(q.map(f64::from)) + offset)
                 .collect();
-            out.push((positions, uv.into_f32().collect(), reader.read_indices().unwrap().into_u32().collect()));
+            out.push((
+                positions,
+                uv.into_f32().collect(),
+                reader.read_indices().unwrap().into_u32().collect(),
+            ));
         }
     }
     out
@@ -123,17 +142,21 @@ fn sample(pixels: &[[f32; 3]], width: usize, height: usize, uv: DVec2) -> DVec3 
     let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
     let (fx, fy) = (x - x0 as f64, y - y0 as f64);
     let at = |x: usize, y: usize| DVec3::from(pixels[y * width + x].map(f64::from));
-    (at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx) * (1.0 - fy) + (at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx) * fy
+    (at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx) * (1.0 - fy)
+        + (at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx) * fy
 }
 
 /// Texel centres strictly inside two or more `TEXCOORD_1` triangles.
-fn overlaps(primitives: &[(Vec<DVec3>, Vec<[f32; 2]>, Vec<u32>)], width: usize, height: usize) -> usize {
+fn overlaps(primitives: &[Written], width: usize, height: usize) -> usize {
     let mut count = vec![0u8; width * height];
     for (_, uv, indices) in primitives {
         for t in indices.chunks_exact(3) {
             let c = [0, 1, 2].map(|k| {
                 let p = uv[t[k] as usize];
-                DVec2::new(f64::from(p[0]) * width as f64, f64::from(p[1]) * height as f64)
+                DVec2::new(
+                    f64::from(p[0]) * width as f64,
+                    f64::from(p[1]) * height as f64,
+                )
             });
             let area = (c[1] - c[0]).perp_dot(c[2] - c[0]);
             for y in 0..height {
@@ -159,11 +182,11 @@ fn overlaps(primitives: &[(Vec<DVec3>, Vec<[f32; 2]>, Vec<u32>)], width: usize, 
 fn two_rooms() -> Scene {
     let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
     scene_of(vec![
-        quad(DVec3::ZERO, 2.0 * z, 2.0 * x, 0.8, 0.0, 0),                      // lit floor
-        quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * z, 2.0 * x, 0.8, 0.0, 1),       // dark floor
-        quad(DVec3::new(2.0, 0.0, 0.0), 2.0 * z, 2.0 * y, 0.8, 0.0, 2),        // wall, lit side (faces -x)
-        quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * y, 2.0 * z, 0.8, 0.0, 3),       // wall, dark side (faces +x)
-        quad(DVec3::new(0.5, 2.0, 0.5), x, z, 0.0, 50.0, 4),                   // lamp, facing down
+        quad(DVec3::ZERO, 2.0 * z, 2.0 * x, 0.8, 0.0, 0), // lit floor
+        quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * z, 2.0 * x, 0.8, 0.0, 1), // dark floor
+        quad(DVec3::new(2.0, 0.0, 0.0), 2.0 * z, 2.0 * y, 0.8, 0.0, 2), // wall, lit side (faces -x)
+        quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * y, 2.0 * z, 0.8, 0.0, 3), // wall, dark side (faces +x)
+        quad(DVec3::new(0.5, 2.0, 0.5), x, z, 0.0, 50.0, 4),             // lamp, facing down
     ])
 }
 
@@ -190,7 +213,11 @@ fn no_light_leaks_under_a_thin_wall() {
                 for j in 0..=(20 - i) {
                     let w = [i as f64 / 20.0, j as f64 / 20.0, (20 - i - j) as f64 / 20.0];
                     let p: DVec3 = corners.iter().zip(w).map(|(c, w)| c.0 * w).sum();
-                    let at: DVec2 = corners.iter().zip(w).map(|(c, w)| DVec2::from(c.1.map(f64::from)) * w).sum();
+                    let at: DVec2 = corners
+                        .iter()
+                        .zip(w)
+                        .map(|(c, w)| DVec2::from(c.1.map(f64::from)) * w)
+                        .sum();
                     let value = sample(&pixels, width, height, at);
                     if p.x > 2.01 && p.x < 2.05 {
                         dark += 1;
@@ -203,7 +230,10 @@ fn no_light_leaks_under_a_thin_wall() {
             }
         }
     }
-    assert!(dark > 20 && lit > 20, "{dark} dark and {lit} lit points by the wall");
+    assert!(
+        dark > 20 && lit > 20,
+        "{dark} dark and {lit} lit points by the wall"
+    );
 }
 
 #[test]
@@ -217,8 +247,14 @@ fn a_mesh_drawn_twice_gets_a_copy_with_its_own_texels() {
     let glb = gltf::binary::Glb::from_slice(&files[0].1).unwrap();
     let mut json: serde_json::Value = serde_json::from_slice(&glb.json).unwrap();
     let node = json["nodes"].as_array().unwrap().len();
-    json["nodes"].as_array_mut().unwrap().push(serde_json::json!({ "mesh": 0, "translation": [5.0, 0.0, 0.0] }));
-    json["scenes"][0]["nodes"].as_array_mut().unwrap().push(serde_json::json!(node));
+    json["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({ "mesh": 0, "translation": [5.0, 0.0, 0.0] }));
+    json["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(node));
     let text = serde_json::to_vec(&json).unwrap();
     let twice = gltf::binary::Glb {
         header: glb.header,
@@ -232,21 +268,35 @@ fn a_mesh_drawn_twice_gets_a_copy_with_its_own_texels() {
     let (out, report) = bake(&scene, &appearance, 32.0, BakeMode::Lit);
     let written = gltf::Gltf::from_slice(&out[0].1).unwrap();
     let meshes: Vec<usize> = written.meshes().map(|m| m.primitives().len()).collect();
-    assert_eq!(meshes, vec![2, 2], "the mesh and one copy, with the same primitives");
+    assert_eq!(
+        meshes,
+        vec![2, 2],
+        "the mesh and one copy, with the same primitives"
+    );
     let copy = written.nodes().nth(node).unwrap();
     assert_eq!(copy.mesh().map(|m| m.index()), Some(1));
     let placed = primitives(&out[0].1);
     assert_eq!(placed.len(), 4);
-    assert_eq!(overlaps(&placed, report.width as usize, report.height as usize), 0);
+    assert_eq!(
+        overlaps(&placed, report.width as usize, report.height as usize),
+        0
+    );
     // Both copies are lit alike (each lamp over its own floor).
     let (pixels, width, height) = exr_pixels(&out.last().unwrap().1);
     let mean = |k: usize| {
         let (_, uv, indices) = &placed[k];
-        let c: DVec2 = indices[..3].iter().map(|&i| DVec2::from(uv[i as usize].map(f64::from))).sum::<DVec2>() / 3.0;
+        let c: DVec2 = indices[..3]
+            .iter()
+            .map(|&i| DVec2::from(uv[i as usize].map(f64::from)))
+            .sum::<DVec2>()
+            / 3.0;
         sample(&pixels, width, height, c)
     };
     let (a, b) = (mean(0), mean(2));
-    assert!(a.x > 0.1 && ((a - b).abs().max_element() / a.x) < 0.05, "{a} {b}");
+    assert!(
+        a.x > 0.1 && ((a - b).abs().max_element() / a.x) < 0.05,
+        "{a} {b}"
+    );
 }
 
 #[test]
@@ -280,18 +330,31 @@ fn points_and_lines_are_kept_and_every_triangle_primitive_gets_uvs() {
     let input = gltf::Gltf::open(&path).unwrap();
     let output = gltf::Gltf::from_slice(&files[0].1).unwrap();
     let modes = |g: &gltf::Gltf| -> Vec<Vec<gltf::mesh::Mode>> {
-        g.meshes().map(|m| m.primitives().map(|p| p.mode()).collect()).collect()
+        g.meshes()
+            .map(|m| m.primitives().map(|p| p.mode()).collect())
+            .collect()
     };
     let out_modes = modes(&output);
     assert_eq!(out_modes.len(), input.meshes().len());
     for (i, o) in modes(&input).iter().zip(&out_modes) {
         assert_eq!(i.len(), o.len(), "same primitives");
     }
-    assert_eq!(output.nodes().count(), input.nodes().count() + 1, "the input's nodes and the bake's camera");
+    assert_eq!(
+        output.nodes().count(),
+        input.nodes().count() + 1,
+        "the input's nodes and the bake's camera"
+    );
     for (mesh, modes) in output.meshes().zip(&out_modes) {
         for (p, mode) in mesh.primitives().zip(modes) {
-            let has_uv1 = p.attributes().any(|(s, _)| s == gltf::Semantic::TexCoords(1));
-            assert_eq!(has_uv1, *mode == gltf::mesh::Mode::Triangles, "{:?}: {mode:?}", mesh.name());
+            let has_uv1 = p
+                .attributes()
+                .any(|(s, _)| s == gltf::Semantic::TexCoords(1));
+            assert_eq!(
+                has_uv1,
+                *mode == gltf::mesh::Mode::Triangles,
+                "{:?}: {mode:?}",
+                mesh.name()
+            );
         }
     }
 }

@@ -289,7 +289,6 @@ pub(crate) fn primitive(
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -37,9 +37,9 @@ use crate::mesh::Mesh;
 
 mod builder;
 
-pub(crate) use builder::{Builder, extension_name_list, primitive, raw_extras};
 use crate::scene::gltf::{Appearance, NGON_EXTENSION, interpolate_on_fan};
 use crate::scene::{Camera, Scene};
+pub(crate) use builder::{Builder, extension_name_list, primitive, raw_extras};
 
 crate::choice::named_choice! {
     /// What `COLOR_0` of a bake holds.

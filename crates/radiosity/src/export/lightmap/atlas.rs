@@ -62,9 +62,11 @@ pub fn world_positions(primitive: &PrimitiveUse) -> Vec<[f32; 3]> {
         .positions
         .iter()
         .map(|p| {
-            let w = primitive
-                .world
-                .transform_point3(DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+            let w = primitive.world.transform_point3(DVec3::new(
+                f64::from(p[0]),
+                f64::from(p[1]),
+                f64::from(p[2]),
+            ));
             [w.x as f32, w.y as f32, w.z as f32]
         })
         .collect()

@@ -41,7 +41,11 @@ fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8
         Type::Vec2 => 2,
         Type::Vec3 => 3,
         Type::Vec4 => 4,
-        _ => return Err(format!("{what}: a matrix vertex attribute is not supported")),
+        _ => {
+            return Err(format!(
+                "{what}: a matrix vertex attribute is not supported"
+            ));
+        }
     };
     let size = component.0.size() * components;
     let count = accessor.count.0 as usize;
@@ -96,8 +100,14 @@ fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8
         // Indices and values are tightly packed.
         let indices = {
             let v = sparse.indices.buffer_view.value();
-            let bytes = bytes_of_sized(root, buffers, v, sparse.indices.byte_offset.0, index_size * n)
-                .ok_or_else(|| format!("{what}: its sparse indices lie outside their buffer view"))?;
+            let bytes = bytes_of_sized(
+                root,
+                buffers,
+                v,
+                sparse.indices.byte_offset.0,
+                index_size * n,
+            )
+            .ok_or_else(|| format!("{what}: its sparse indices lie outside their buffer view"))?;
             bytes
                 .chunks_exact(index_size)
                 .map(|b| match index_size {
@@ -117,7 +127,9 @@ fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8
         .ok_or_else(|| format!("{what}: its sparse values lie outside their buffer view"))?;
         for (k, &i) in indices.iter().enumerate() {
             if i >= count {
-                return Err(format!("{what}: sparse index {i} is past its count {count}"));
+                return Err(format!(
+                    "{what}: sparse index {i} is past its count {count}"
+                ));
             }
             out[i * size..(i + 1) * size].copy_from_slice(&values[k * size..(k + 1) * size]);
         }
@@ -213,7 +225,9 @@ fn gather(
     for &v in xref {
         let v = v as usize;
         if v >= count {
-            return Err(format!("accessor {index} has {count} elements, vertex {v} asked"));
+            return Err(format!(
+                "accessor {index} has {count} elements, vertex {v} asked"
+            ));
         }
         out.extend_from_slice(&bytes[v * size..(v + 1) * size]);
     }
@@ -227,7 +241,8 @@ fn gather(
     // Bounds are required on POSITION and must match the data exactly;
     // they are recomputed for float data and left out otherwise.
     let float = component.0 == json::accessor::ComponentType::F32;
-    let bounds = (float && (is_position || source.min.is_some())).then(|| float_bounds(&out, components));
+    let bounds =
+        (float && (is_position || source.min.is_some())).then(|| float_bounds(&out, components));
     if is_position && !float {
         return Err(format!(
             "accessor {index}: quantised positions cannot be given lightmap coordinates here"
@@ -307,29 +322,49 @@ pub fn rewrite(
                     continue;
                 }
                 let position = *semantic == Checked::Valid(Semantic::Positions);
-                let new = gather(&mut root, appearance, &mut pending, accessor.value(), &plan.xref, position)?;
+                let new = gather(
+                    &mut root,
+                    appearance,
+                    &mut pending,
+                    accessor.value(),
+                    &plan.xref,
+                    position,
+                )?;
                 primitive.attributes.insert(semantic.clone(), new);
             }
             if let Some(targets) = &source.targets {
                 let mut out = targets.clone();
                 for (t, target) in targets.iter().enumerate() {
-                    let gathered = |root: &mut json::Root, pending: &mut Vec<Pending>, a: Option<json::Index<json::Accessor>>| {
-                        a.map(|a| gather(root, appearance, pending, a.value(), &plan.xref, false))
+                    let gathered =
+                        |root: &mut json::Root,
+                         pending: &mut Vec<Pending>,
+                         a: Option<json::Index<json::Accessor>>| {
+                            a.map(|a| {
+                                gather(root, appearance, pending, a.value(), &plan.xref, false)
+                            })
                             .transpose()
-                    };
+                        };
                     out[t].positions = gathered(&mut root, &mut pending, target.positions)?;
                     out[t].normals = gathered(&mut root, &mut pending, target.normals)?;
                     out[t].tangents = gathered(&mut root, &mut pending, target.tangents)?;
                 }
                 primitive.targets = Some(out);
             }
-            let uv: Vec<u8> = plan.uv.iter().flat_map(|c| c.iter().flat_map(|x| x.to_le_bytes())).collect();
+            let uv: Vec<u8> = plan
+                .uv
+                .iter()
+                .flat_map(|c| c.iter().flat_map(|x| x.to_le_bytes()))
+                .collect();
             let uv_accessor = push_accessor(
                 &mut root,
                 &mut pending,
                 uv,
                 plan.uv.len(),
-                (json::accessor::ComponentType::F32, json::accessor::Type::Vec2, false),
+                (
+                    json::accessor::ComponentType::F32,
+                    json::accessor::Type::Vec2,
+                    false,
+                ),
                 None,
                 json::buffer::Target::ArrayBuffer,
             );
@@ -344,12 +379,20 @@ pub fn rewrite(
                 .or_insert(uv_accessor);
             let (bytes, component) = if plan.xref.len() <= usize::from(u16::MAX) {
                 (
-                    plan.triangles.iter().flatten().flat_map(|i| (*i as u16).to_le_bytes()).collect::<Vec<u8>>(),
+                    plan.triangles
+                        .iter()
+                        .flatten()
+                        .flat_map(|i| (*i as u16).to_le_bytes())
+                        .collect::<Vec<u8>>(),
                     json::accessor::ComponentType::U16,
                 )
             } else {
                 (
-                    plan.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect(),
+                    plan.triangles
+                        .iter()
+                        .flatten()
+                        .flat_map(|i| i.to_le_bytes())
+                        .collect(),
                     json::accessor::ComponentType::U32,
                 )
             };
@@ -450,7 +493,10 @@ fn unlit_materials(
             Some(i) => {
                 let source = &root.materials[i];
                 let material = unlit(
-                    Some(format!("{} (lightmap)", source.name.clone().unwrap_or_default())),
+                    Some(format!(
+                        "{} (lightmap)",
+                        source.name.clone().unwrap_or_default()
+                    )),
                     source.double_sided,
                 );
                 root.push(material).value()
@@ -464,7 +510,11 @@ fn unlit_materials(
 /// Writes the binary data afresh (see the module documentation): the
 /// accessors still referenced, their buffer views' bytes, the images, and
 /// the pending accessors' bytes.
-fn compact(mut root: json::Root, appearance: &Appearance, pending: Vec<Pending>) -> Result<Builder, String> {
+fn compact(
+    mut root: json::Root,
+    appearance: &Appearance,
+    pending: Vec<Pending>,
+) -> Result<Builder, String> {
     // Accessors referenced anywhere.
     let mut used = vec![false; root.accessors.len()];
     let mut mark = |a: &json::Index<json::Accessor>| {
@@ -477,7 +527,11 @@ fn compact(mut root: json::Root, appearance: &Appearance, pending: Vec<Pending>)
             p.attributes.values().for_each(&mut mark);
             p.indices.iter().for_each(&mut mark);
             for t in p.targets.iter().flatten() {
-                t.positions.iter().chain(&t.normals).chain(&t.tangents).for_each(&mut mark);
+                t.positions
+                    .iter()
+                    .chain(&t.normals)
+                    .chain(&t.tangents)
+                    .for_each(&mut mark);
             }
         }
     }
@@ -508,7 +562,11 @@ fn compact(mut root: json::Root, appearance: &Appearance, pending: Vec<Pending>)
             p.attributes.values_mut().for_each(remap);
             p.indices.iter_mut().for_each(remap);
             for t in p.targets.iter_mut().flatten() {
-                t.positions.iter_mut().chain(&mut t.normals).chain(&mut t.tangents).for_each(remap);
+                t.positions
+                    .iter_mut()
+                    .chain(&mut t.normals)
+                    .chain(&mut t.tangents)
+                    .for_each(remap);
             }
         }
     }
@@ -527,7 +585,9 @@ fn compact(mut root: json::Root, appearance: &Appearance, pending: Vec<Pending>)
     b.root = root;
     b.root.buffers.clear();
     let mut view_map: HashMap<usize, json::Index<json::buffer::View>> = HashMap::new();
-    let mut copy_view = |b: &mut Builder, v: usize| -> Result<json::Index<json::buffer::View>, String> {
+    let mut copy_view = |b: &mut Builder,
+                         v: usize|
+     -> Result<json::Index<json::buffer::View>, String> {
         if let Some(&n) = view_map.get(&v) {
             return Ok(n);
         }

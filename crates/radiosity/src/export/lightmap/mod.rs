@@ -67,6 +67,9 @@ pub const PADDING: u32 = 2;
 /// centroid, as a fraction of the way.
 const INSIDE: f64 = 1e-3;
 
+/// A file to write: its path and bytes.
+pub type StagedFile = (PathBuf, Vec<u8>);
+
 /// A lightmap bake to write.
 pub struct LightmapBake<'a> {
     /// The scene solved.
@@ -161,11 +164,16 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
             let positions = atlas::world_positions(use_);
             plan.triangles
                 .iter()
-                .map(|t| t.map(|v| Vec3::from(positions[plan.xref[v as usize] as usize]).as_dvec3()))
+                .map(|t| {
+                    t.map(|v| Vec3::from(positions[plan.xref[v as usize] as usize]).as_dvec3())
+                })
                 .collect()
         })
         .collect();
-    let flip: Vec<bool> = primitives.iter().map(|u| u.world.determinant() < 0.0).collect();
+    let flip: Vec<bool> = primitives
+        .iter()
+        .map(|u| u.world.determinant() < 0.0)
+        .collect();
     let uv: Vec<Vec<[[f32; 2]; 3]>> = layout
         .primitives
         .iter()
@@ -182,20 +190,25 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         bake.mesh,
         crate::sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
     );
+    // The value at a point facing along `n`; NaN where no element is found.
     let value = |p: DVec3, n: DVec3| {
-        locator.locate(p, n).map(|(corners, bary)| {
+        locator.locate(p, n).map_or(Vec3::NAN, |(corners, bary)| {
             corners
                 .iter()
                 .zip(bary)
                 .map(|(v, w)| bake.values[*v as usize] * w)
                 .sum::<DVec3>()
+                .as_vec3()
         })
     };
-    // Front and (for double-sided materials) back values of every texel.
-    let both: Vec<Option<(Option<DVec3>, Option<DVec3>)>> = claims
+    // Front and (for double-sided materials) back values of every texel;
+    // NaN: none.
+    let both: Vec<[Vec3; 2]> = claims
         .par_iter()
         .map(|claim| {
-            let c = (*claim)?;
+            let Some(c) = *claim else {
+                return [Vec3::NAN; 2];
+            };
             let corners = world[c.primitive as usize][c.triangle as usize];
             // A hair inside the triangle: a texel clamped onto an edge
             // shared with another surface in the same plane (a ceiling
@@ -211,42 +224,45 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
             if flip[c.primitive as usize] {
                 n = -n;
             }
-            let back = primitives[c.primitive as usize]
-                .double_sided
-                .then(|| value(p, -n))
-                .flatten();
-            Some((value(p, n), back))
+            let back = if primitives[c.primitive as usize].double_sided {
+                value(p, -n)
+            } else {
+                Vec3::NAN
+            };
+            [value(p, n), back]
         })
         .collect();
     // Each double-sided primitive shows its brighter side.
     let mut sums = vec![[0.0f64; 2]; primitives.len()];
     for (claim, pair) in claims.iter().zip(&both) {
-        if let (Some(c), Some((front, back))) = (claim, pair) {
+        if let Some(c) = claim {
             let s = &mut sums[c.primitive as usize];
-            s[0] += front.map_or(0.0, |v| v.element_sum());
-            s[1] += back.map_or(0.0, |v| v.element_sum());
+            for side in 0..2 {
+                if !pair[side].is_nan() {
+                    s[side] += f64::from(pair[side].element_sum());
+                }
+            }
         }
     }
     let back_side: Vec<bool> = sums.iter().map(|s| s[1] > s[0]).collect();
     let shown = claims.iter().filter(|c| c.is_some()).count();
-    let mut values: Vec<Option<DVec3>> = claims
+    let mut pixels: Vec<Vec3> = claims
         .iter()
         .zip(&both)
-        .map(|(claim, pair)| {
-            let (c, (front, back)) = (claim.as_ref()?, pair.as_ref()?);
-            if back_side[c.primitive as usize] {
-                *back
-            } else {
-                *front
-            }
+        .map(|(claim, pair)| match claim {
+            Some(c) => pair[usize::from(back_side[c.primitive as usize])],
+            None => Vec3::NAN,
         })
         .collect();
-    let missing = shown - values.iter().filter(|v| v.is_some()).count();
-    texels::dilate(&mut values, width, height, PADDING + 2);
-    let pixels = values
-        .into_iter()
-        .map(|v| v.unwrap_or(DVec3::ZERO).as_vec3())
-        .collect();
+    drop(both);
+    drop(claims);
+    let missing = shown - pixels.iter().filter(|v| !v.is_nan()).count();
+    texels::dilate(&mut pixels, width, height, PADDING + 2);
+    for p in &mut pixels {
+        if p.is_nan() {
+            *p = Vec3::ZERO;
+        }
+    }
     (pixels, shown, missing, back_side)
 }
 
@@ -256,10 +272,7 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
 /// # Errors
 /// If the charts cannot be laid out, the input's data is malformed, or
 /// encoding fails.
-pub fn bake(
-    bake: &LightmapBake<'_>,
-    path: &Path,
-) -> io::Result<(Vec<(PathBuf, Vec<u8>)>, LightmapReport)> {
+pub fn bake(bake: &LightmapBake<'_>, path: &Path) -> io::Result<(Vec<StagedFile>, LightmapReport)> {
     let start = Instant::now();
     let layout = atlas::layout(&bake.appearance.primitives, &bake.settings)
         .map_err(|e| io::Error::other(format!("lightmap layout: {e}")))?;
@@ -327,6 +340,35 @@ pub fn bake(
     Ok((files, report))
 }
 
+/// Lays out `TEXCOORD_1` for `appearance` and writes the rewritten
+/// document as `.glb` bytes with a black lightmap, without a solution: the
+/// document a bake writes around its texels, for checking the rewrite on
+/// any input (the `lightmap` fuzz target).
+///
+/// # Errors
+/// As [`bake`]: the layout fails or the input's data is malformed.
+pub fn rewrite_blank(
+    appearance: &Appearance,
+    settings: &AtlasSettings,
+) -> Result<(Layout, Vec<u8>), String> {
+    let layout = atlas::layout(&appearance.primitives, settings)?;
+    let pixels = vec![0u8; 3 * layout.width as usize * layout.height as usize];
+    let mut png = Vec::new();
+    crate::export::write_png(&mut png, layout.width, layout.height, &pixels)
+        .map_err(|e| e.to_string())?;
+    let image = document::LightmapImage {
+        png,
+        mode: BakeMode::Lit,
+        back_side: vec![false; appearance.primitives.len()],
+    };
+    let (mut b, _) = document::rewrite(appearance, &layout, &image)?;
+    b.root.extensions_used = extension_name_list(&b.root);
+    let mut files = b
+        .finish(Path::new("blank.glb"))
+        .map_err(|e| e.to_string())?;
+    Ok((layout, files.swap_remove(0).1))
+}
+
 /// Puts the bake's camera node in the default scene (made of the root
 /// nodes when the document has none), its camera first of the document's,
 /// and the metadata in the scene's extras.
@@ -365,7 +407,11 @@ fn add_to_default_scene(
         root.cameras.insert(0, ours);
         for (n, node) in root.nodes.iter_mut().enumerate() {
             if let Some(c) = &mut node.camera {
-                *c = json::Index::new(if n == camera.value() { 0 } else { c.value() as u32 + 1 });
+                *c = json::Index::new(if n == camera.value() {
+                    0
+                } else {
+                    c.value() as u32 + 1
+                });
             }
         }
     }

@@ -27,7 +27,12 @@ pub const REACH: f64 = std::f64::consts::SQRT_2 + 1e-3;
 /// Calls `f` with the index of every texel of a `width x height` image whose
 /// centre lies inside the triangle `corners` (texel units, `(0, 0)` the
 /// image's top-left corner).
-pub fn for_texels_inside(corners: &[[f64; 2]; 3], width: u32, height: u32, mut f: impl FnMut(usize)) {
+pub fn for_texels_inside(
+    corners: &[[f64; 2]; 3],
+    width: u32,
+    height: u32,
+    mut f: impl FnMut(usize),
+) {
     reach_texels(corners, width, height, 0.0, |texel, _, distance| {
         if distance == 0.0 {
             f(texel);
@@ -132,10 +137,12 @@ impl Locator {
                 Some((p, n, t.corners))
             })
             .collect();
-        let (lo, hi) = triangles.iter().flat_map(|t| t.0).fold(
-            (DVec3::INFINITY, DVec3::NEG_INFINITY),
-            |(lo, hi), p| (lo.min(p), hi.max(p)),
-        );
+        let (lo, hi) = triangles
+            .iter()
+            .flat_map(|t| t.0)
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p), hi.max(p))
+            });
         let n = triangles.len().max(1) as f64;
         let extent = (hi - lo).max(DVec3::splat(tolerance.max(1e-9)));
         // About two cells per triangle, none thinner than the tolerance.
@@ -276,43 +283,38 @@ pub fn claims(width: u32, height: u32, uv_triangles: &[Vec<[[f32; 2]; 3]>]) -> V
     out
 }
 
-/// Fills empty texels next to filled ones with the mean of their filled
-/// neighbours (8-connected), `passes` times: the padding around charts, so
-/// that filtering and mipmaps near a chart's edge read its own light.
-pub fn dilate(values: &mut [Option<DVec3>], width: u32, height: u32, passes: u32) {
+/// Fills empty texels (NaN) next to filled ones with the mean of their
+/// filled neighbours (8-connected), `passes` times: the padding around
+/// charts, so that filtering and mipmaps near a chart's edge read its own
+/// light.
+pub fn dilate(values: &mut [glam::Vec3], width: u32, height: u32, passes: u32) {
     let (w, h) = (width as usize, height as usize);
     for _ in 0..passes {
-        let before: Vec<bool> = values.iter().map(Option::is_some).collect();
-        let fills: Vec<(usize, DVec3)> = (0..w * h)
+        let fills: Vec<(usize, glam::Vec3)> = (0..w * h)
             .into_par_iter()
-            .filter(|&i| !before[i])
+            .filter(|&i| values[i].is_nan())
             .filter_map(|i| {
                 let (x, y) = (i % w, i / w);
-                let mut sum = DVec3::ZERO;
-                let mut n = 0;
-                for dy in -1i64..=1 {
-                    for dx in -1i64..=1 {
-                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                            continue;
-                        }
-                        let j = ny as usize * w + nx as usize;
-                        if before[j]
-                            && let Some(v) = values[j]
-                        {
+                let mut sum = glam::Vec3::ZERO;
+                let mut n = 0u32;
+                for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                    for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                        let v = values[ny * w + nx];
+                        if !v.is_nan() {
                             sum += v;
                             n += 1;
                         }
                     }
                 }
-                (n > 0).then(|| (i, sum / f64::from(n)))
+                (n > 0).then(|| (i, sum / n as f32))
             })
             .collect();
         if fills.is_empty() {
             break;
         }
+        // Written after the pass: a pass reads only what the one before left.
         for (i, v) in fills {
-            values[i] = Some(v);
+            values[i] = v;
         }
     }
 }
