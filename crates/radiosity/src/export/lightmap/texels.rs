@@ -208,14 +208,14 @@ impl Locator {
     /// of the nearest point, if one lies within the tolerance.
     #[must_use]
     pub fn locate(&self, p: DVec3, normal: DVec3) -> Option<([u32; 3], [f64; 3])> {
+        // Clamped: a point on the far side of the bounds (a wall at the
+        // scene's largest x) falls in the last cell, where its triangles
+        // are; a point farther out finds none within the tolerance.
         let c = ((p - self.lo) / self.cell).floor();
-        if c.min_element() < 0.0 {
+        if !c.is_finite() {
             return None;
         }
-        let c = [c.x as usize, c.y as usize, c.z as usize];
-        if (0..3).any(|k| c[k] >= self.dims[k]) {
-            return None;
-        }
+        let c: [usize; 3] = [0, 1, 2].map(|k| (c[k].max(0.0) as usize).min(self.dims[k] - 1));
         let k = (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0];
         let mut best: Option<([u32; 3], [f64; 3], f64)> = None;
         for &i in &self.items[self.start[k] as usize..self.start[k + 1] as usize] {
@@ -324,12 +324,76 @@ mod tests {
     use super::*;
 
     #[test]
-    fn inside_texels_of_a_half_square() {
-        // The lower-left half of an 8 x 8 image: texel centres strictly
-        // below the diagonal x = y, plus those on it.
+    fn inside_texels_of_a_corner_triangle() {
+        // Centres (x + 0.5, y + 0.5) with x + y + 1 <= 8.2: x + y <= 7.
         let mut n = 0;
-        for_texels_inside(&[[0.0, 0.0], [8.0, 8.0], [0.0, 8.0]], 8, 8, |_| n += 1);
+        for_texels_inside(&[[0.0, 0.0], [8.2, 0.0], [0.0, 8.2]], 8, 8, |_| n += 1);
         assert_eq!(n, 36);
+    }
+
+    #[test]
+    fn points_on_the_far_bounds_are_found() {
+        use crate::mesh::{Mesh, MeshSettings};
+        use crate::scene::Surface;
+        // A unit square facing +z at the far end of the scene's bounds.
+        let square = Surface::new(
+            vec![
+                DVec3::new(0.0, 0.0, 1.0),
+                DVec3::new(1.0, 0.0, 1.0),
+                DVec3::new(1.0, 1.0, 1.0),
+                DVec3::new(0.0, 1.0, 1.0),
+            ],
+            DVec3::splat(0.5),
+            DVec3::ZERO,
+            0,
+        )
+        .unwrap();
+        let floor = Surface::new(
+            vec![
+                DVec3::ZERO,
+                DVec3::new(0.0, 1.0, 0.0),
+                DVec3::new(1.0, 1.0, 0.0),
+                DVec3::new(1.0, 0.0, 0.0),
+            ],
+            DVec3::splat(0.5),
+            DVec3::ZERO,
+            1,
+        )
+        .unwrap();
+        let settings = MeshSettings {
+            patch_size: 0.5,
+            element_size: 0.25,
+            ..MeshSettings::default()
+        };
+        let scene = crate::scene::Scene {
+            name: "test".into(),
+            surfaces: vec![square, floor],
+            lights: Vec::new(),
+            camera: None,
+            mesh_hint: None,
+            warnings: Vec::new(),
+        };
+        let mesh = Mesh::build(&scene, &settings).unwrap();
+        let locator = Locator::new(&mesh, 1e-6);
+        // On the bounds, and a hair outside them (round-off of a
+        // transformed position), within the tolerance.
+        for p in [
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(-1e-9, 0.5, 1.0),
+            DVec3::new(0.5, 1.0 + 1e-9, 1.0 + 1e-9),
+            DVec3::new(0.3, 0.7, 1.0),
+        ] {
+            assert!(locator.locate(p, DVec3::Z).is_some(), "{p}");
+            assert!(
+                locator.locate(p, -DVec3::Z).is_none(),
+                "{p}: nothing faces -z there"
+            );
+        }
+        assert!(
+            locator
+                .locate(DVec3::new(1.0, 1.0, 0.0), -DVec3::Z)
+                .is_some()
+        );
     }
 
     #[test]
