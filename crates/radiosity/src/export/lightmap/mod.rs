@@ -13,8 +13,8 @@
 //! picture's exposure (lit mode, shown by `KHR_materials_unlit`), or
 //! irradiance over pi times a recorded scale (irradiance mode, materials
 //! kept). The texture is 8-bit sRGB PNG inside the file; an OpenEXR copy of
-//! the same values before clamping and rounding is written beside it
-//! (`NAME.lightmap.exr`), for HDR pipelines.
+//! the same values before clamping and 8-bit rounding (half floats) is
+//! written beside it (`NAME.lightmap.exr`), for HDR pipelines.
 //!
 //! A scene read from OBJ or built in has no glTF document: its surfaces are
 //! first written as `export-scene` writes them ([`appearance_of_scene`]),
@@ -288,7 +288,7 @@ pub fn bake(bake: &LightmapBake<'_>, path: &Path) -> io::Result<(Vec<StagedFile>
     let mut png = Vec::new();
     crate::export::write_png(&mut png, image.width, image.height, &image.to_srgb8(1.0))?;
     let mut exr = io::Cursor::new(Vec::new());
-    crate::export::write_exr(&mut exr, &image)?;
+    write_exr(&mut exr, &image)?;
     let (mut b, texture) = document::rewrite(
         bake.appearance,
         &layout,
@@ -338,6 +338,25 @@ pub fn bake(bake: &LightmapBake<'_>, path: &Path) -> io::Result<(Vec<StagedFile>
         texel_seconds: start.elapsed().as_secs_f64(),
     };
     Ok((files, report))
+}
+
+/// Writes the lightmap as OpenEXR: RGB half floats (three significant
+/// digits, as engines store HDR lightmaps), PIZ-compressed.
+fn write_exr(out: &mut (impl io::Write + io::Seek), image: &crate::render::Image) -> io::Result<()> {
+    use exr::prelude::{Encoding, Image as ExrImage, SpecificChannels, Vec2, WritableImage, f16};
+    let width = image.width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = image.pixels[y * width + x];
+        (f16::from_f32(p.x), f16::from_f32(p.y), f16::from_f32(p.z))
+    });
+    ExrImage::from_encoded_channels(
+        (width, image.height as usize),
+        Encoding::SMALL_FAST_LOSSLESS,
+        channels,
+    )
+    .write()
+    .to_buffered(out)
+    .map_err(io::Error::other)
 }
 
 /// Lays out `TEXCOORD_1` for `appearance` and writes the rewritten
