@@ -390,6 +390,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "form_factor_thread_seconds",
             "gather_seconds",
             "hemicube_seconds",
+            "lightmap",
             "lights",
             "load_seconds",
             "mesh_seconds",

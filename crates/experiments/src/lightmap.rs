@@ -96,10 +96,10 @@ fn uniform(seed: u64) -> impl FnMut() -> f64 {
 fn sample(appearance: &scene::gltf::Appearance, n: usize) -> Vec<Sample> {
     let mut triangles = Vec::new();
     for (k, use_) in appearance.primitives.iter().enumerate() {
-        let world = lightmap::atlas::world_positions(use_);
+        let world = lightmap::atlas::world_points(use_);
         let flip = use_.world.determinant() < 0.0;
         for (t, tri) in use_.triangles.iter().enumerate() {
-            let c = tri.map(|v| glam::Vec3::from(world[v as usize]).as_dvec3());
+            let c = tri.map(|v| world[v as usize]);
             let cross = (c[1] - c[0]).cross(c[2] - c[0]);
             let area = 0.5 * cross.length();
             if area > 0.0 {

@@ -358,3 +358,87 @@ fn points_and_lines_are_kept_and_every_triangle_primitive_gets_uvs() {
         }
     }
 }
+
+/// The lamp room's `.glb` with `edit` applied to its JSON.
+fn edited_lamp_room(offset: DVec3, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let lamp_room = scene_of(vec![
+        quad(offset, 2.0 * DVec3::Z, 2.0 * DVec3::X, 0.8, 0.0, 0),
+        quad(
+            offset + DVec3::new(0.5, 1.0, 0.5),
+            DVec3::X,
+            DVec3::Z,
+            0.0,
+            20.0,
+            1,
+        ),
+    ]);
+    let files = radiosity::export::gltf::export_scene(&lamp_room, Path::new("one.glb")).unwrap();
+    let glb = gltf::binary::Glb::from_slice(&files[0].1).unwrap();
+    let mut json: serde_json::Value = serde_json::from_slice(&glb.json).unwrap();
+    edit(&mut json);
+    gltf::binary::Glb {
+        header: glb.header,
+        json: serde_json::to_vec(&json).unwrap().into(),
+        bin: glb.bin.clone(),
+    }
+    .to_vec()
+    .unwrap()
+}
+
+#[test]
+fn a_scene_far_from_the_origin_finds_every_texel() {
+    // 100 km away: single-precision world positions would be centimetres
+    // off; the texels' surface points are found in double precision.
+    let glb = edited_lamp_room(DVec3::new(1e5, 0.0, -1e5), |_| {});
+    let (scene, appearance) = load(&glb);
+    let (files, report) = bake(&scene, &appearance, 32.0, BakeMode::Lit);
+    assert_eq!(report.missing, 0, "{report:?}");
+    let (pixels, width, height) = exr_pixels(&files.last().unwrap().1);
+    let placed = primitives(&files[0].1);
+    let (_, uv, indices) = &placed[0];
+    let centre: DVec2 = indices[..3]
+        .iter()
+        .map(|&i| DVec2::from(uv[i as usize].map(f64::from)))
+        .sum::<DVec2>()
+        / 3.0;
+    assert!(sample(&pixels, width, height, centre).x > 0.1);
+}
+
+#[test]
+fn an_attribute_the_loader_does_not_read_is_carried_over_without_trusting_its_count() {
+    // A custom attribute with no data and a count of 10^11: zeros, of
+    // which only the vertices drawn are read.
+    let glb = edited_lamp_room(DVec3::ZERO, |json| {
+        let accessors = json["accessors"].as_array_mut().unwrap();
+        accessors.push(serde_json::json!({ "componentType": 5126, "count": 100_000_000_000u64, "type": "SCALAR" }));
+        let index = accessors.len() - 1;
+        json["meshes"][0]["primitives"][0]["attributes"]["_WEIGHT"] = serde_json::json!(index);
+    });
+    let (scene, appearance) = load(&glb);
+    let (files, _) = bake(&scene, &appearance, 32.0, BakeMode::Irradiance);
+    let written = gltf::Gltf::from_slice(&files[0].1).unwrap();
+    let primitive = written
+        .meshes()
+        .next()
+        .unwrap()
+        .primitives()
+        .next()
+        .unwrap();
+    let custom = primitive
+        .attributes()
+        .find(|(s, _)| *s == gltf::Semantic::Extras("WEIGHT".into()))
+        .map(|(_, a)| a)
+        .expect("the custom attribute is kept");
+    let positions = primitive.get(&gltf::Semantic::Positions).unwrap();
+    assert_eq!(custom.count(), positions.count());
+}
+
+#[test]
+fn instancing_and_compression_extensions_are_refused_before_the_solve() {
+    let glb = edited_lamp_room(DVec3::ZERO, |json| {
+        json["extensionsUsed"] = serde_json::json!(["EXT_mesh_gpu_instancing"]);
+    });
+    let (_, appearance) = load(&glb);
+    let message = lightmap::check_input(&appearance).unwrap_err();
+    assert!(message.contains("EXT_mesh_gpu_instancing"), "{message}");
+}

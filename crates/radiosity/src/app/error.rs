@@ -76,6 +76,14 @@ pub enum Error {
         max = crate::export::lightmap::MAX_MAX_SIZE
     )]
     LightmapSize(u32),
+    /// An input a lightmap bake cannot rewrite.
+    #[error("{path}: --bake-target lightmap: {message}")]
+    LightmapInput {
+        /// The scene file.
+        path: String,
+        /// What stands in the way.
+        message: String,
+    },
     /// `--max-sensors 0`.
     #[error("--max-sensors must be at least 1")]
     NoSensors,

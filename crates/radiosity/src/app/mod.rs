@@ -40,6 +40,15 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     };
     let load_start = Instant::now();
     let loaded = scene::load_with(&job.scene, &job.load)?;
+    // What a lightmap bake cannot rewrite is said before the solve.
+    if let (Some(bake), Some(appearance)) = (&job.bake, &loaded.appearance)
+        && bake.target == BakeTarget::Lightmap
+    {
+        export::lightmap::check_input(appearance).map_err(|message| Error::LightmapInput {
+            path: job.scene.clone(),
+            message,
+        })?;
+    }
     let mut scene = loaded.scene;
     if job.settings.merge_coplanar {
         scene::merge::merge_coplanar(&mut scene.surfaces);
@@ -265,7 +274,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         threads,
         accel_statistics: solver.accel_statistics(),
         written: Vec::new(),
-        warnings: scene.warnings.iter().cloned().chain(enclosed).collect(),
+        warnings: scene
+            .warnings
+            .iter()
+            .cloned()
+            .chain(enclosed)
+            .chain(lightmap_report.iter().flat_map(|r| r.warnings.clone()))
+            .collect(),
         peak_memory_bytes: None,
         memory_estimate,
         lights: outcome::LightPower::of(&scene, solver.light_power()),

@@ -57,27 +57,20 @@ pub struct PrimitiveLayout {
 
 /// World positions of a placed primitive's vertices.
 #[must_use]
-pub fn world_positions(primitive: &PrimitiveUse) -> Vec<[f32; 3]> {
+pub fn world_points(primitive: &PrimitiveUse) -> Vec<DVec3> {
     primitive
         .positions
         .iter()
-        .map(|p| {
-            let w = primitive.world.transform_point3(DVec3::new(
-                f64::from(p[0]),
-                f64::from(p[1]),
-                f64::from(p[2]),
-            ));
-            [w.x as f32, w.y as f32, w.z as f32]
-        })
+        .map(|p| primitive.world.transform_point3(DVec3::from(*p)))
         .collect()
 }
 
 /// World area of a placed primitive's triangles, square metres.
-fn world_area(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> f64 {
+fn world_area(positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
     triangles
         .iter()
         .map(|t| {
-            let [a, b, c] = t.map(|i| glam::Vec3::from(positions[i as usize]).as_dvec3());
+            let [a, b, c] = t.map(|i| positions[i as usize]);
             0.5 * (b - a).cross(c - a).length()
         })
         .sum()
@@ -101,10 +94,12 @@ fn input_uvs_usable(primitives: &[PrimitiveUse], size: u32) -> bool {
             return false;
         }
     }
+    // Texel centres strictly inside two triangles: charts overlapping,
+    // within a primitive or between two.
     let mut owner = vec![u32::MAX; size as usize * size as usize];
-    for (k, p) in primitives.iter().enumerate() {
-        let uv = p.uv1.as_deref().unwrap_or_default();
-        let mut clash = false;
+    let mut triangle = 0u32;
+    for p in primitives {
+        let uv = p.uv1.as_deref().map_or(&[][..], Vec::as_slice);
         for t in &p.triangles {
             let corners = t.map(|i| {
                 let c = uv[i as usize];
@@ -113,16 +108,15 @@ fn input_uvs_usable(primitives: &[PrimitiveUse], size: u32) -> bool {
                     f64::from(c[1]) * f64::from(size),
                 ]
             });
-            super::texels::for_texels_inside(&corners, size, size, |texel| {
-                let o = &mut owner[texel];
-                if *o != u32::MAX && *o != k as u32 {
-                    clash = true;
-                }
-                *o = k as u32;
+            let mut clash = false;
+            super::texels::for_texels_strictly_inside(&corners, size, size, |texel| {
+                clash |= owner[texel] != u32::MAX;
+                owner[texel] = triangle;
             });
-        }
-        if clash {
-            return false;
+            if clash {
+                return false;
+            }
+            triangle += 1;
         }
     }
     true
@@ -133,7 +127,22 @@ fn input_uvs_usable(primitives: &[PrimitiveUse], size: u32) -> bool {
 /// # Errors
 /// When the unwrapper fails (a message naming the problem).
 pub fn layout(primitives: &[PrimitiveUse], settings: &AtlasSettings) -> Result<Layout, String> {
-    let world: Vec<Vec<[f32; 3]>> = primitives.iter().map(world_positions).collect();
+    let world: Vec<Vec<DVec3>> = primitives.iter().map(world_points).collect();
+    // The unwrapper works in single precision: positions relative to the
+    // scene's lowest corner, so a scene far from the origin keeps its
+    // detail.
+    let origin = world
+        .iter()
+        .flatten()
+        .fold(DVec3::INFINITY, |a, p| a.min(*p));
+    let relative: Vec<Vec<[f32; 3]>> = world
+        .iter()
+        .map(|w| {
+            w.iter()
+                .map(|p| (*p - origin).as_vec3().to_array())
+                .collect()
+        })
+        .collect();
     let area: f64 = world
         .iter()
         .zip(primitives)
@@ -146,7 +155,7 @@ pub fn layout(primitives: &[PrimitiveUse], settings: &AtlasSettings) -> Result<L
         let uv_area: f64 = primitives
             .iter()
             .map(|p| {
-                let uv = p.uv1.as_deref().unwrap_or_default();
+                let uv = p.uv1.as_deref().map_or(&[][..], Vec::as_slice);
                 p.triangles
                     .iter()
                     .map(|t| {
@@ -159,7 +168,8 @@ pub fn layout(primitives: &[PrimitiveUse], settings: &AtlasSettings) -> Result<L
         if uv_area > 0.0 {
             let side = (settings.density * (area / uv_area).sqrt())
                 .ceil()
-                .clamp(16.0, max) as u32;
+                .min(max)
+                .max(1.0) as u32;
             if input_uvs_usable(primitives, side) {
                 return Ok(Layout {
                     width: side,
@@ -171,7 +181,7 @@ pub fn layout(primitives: &[PrimitiveUse], settings: &AtlasSettings) -> Result<L
                         .iter()
                         .map(|p| PrimitiveLayout {
                             xref: (0..p.positions.len() as u32).collect(),
-                            uv: p.uv1.clone().unwrap_or_default(),
+                            uv: p.uv1.as_deref().cloned().unwrap_or_default(),
                             triangles: p.triangles.clone(),
                         })
                         .collect(),
@@ -185,10 +195,10 @@ pub fn layout(primitives: &[PrimitiveUse], settings: &AtlasSettings) -> Result<L
         .collect();
     let inputs: Vec<uvunwrap::MeshInput<'_>> = primitives
         .iter()
-        .zip(&world)
+        .zip(&relative)
         .zip(&flat)
         .map(|((p, w), indices)| uvunwrap::MeshInput {
-            existing_uvs: p.uv1.as_deref(),
+            existing_uvs: p.uv1.as_deref().map(Vec::as_slice),
             polygons: p.polygons.as_deref(),
             ..uvunwrap::MeshInput::new(w, indices)
         })

@@ -21,10 +21,16 @@ use super::atlas::Layout;
 use crate::export::gltf::{BakeMode, Builder};
 use crate::scene::gltf::Appearance;
 
-/// Bytes an accessor's elements take, one after another (strides removed,
-/// sparse substitutions applied, no buffer view: zeros), and the size of
-/// one element.
-fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8>, usize), String> {
+/// The first `needed` elements of an accessor, one after another (strides
+/// removed, sparse substitutions applied, no buffer view: zeros), and the
+/// size of one element. Only those elements are read or allocated, and
+/// every offset is checked, so a hostile count or offset is an error.
+fn dense(
+    root: &json::Root,
+    buffers: &[Vec<u8>],
+    index: usize,
+    needed: usize,
+) -> Result<(Vec<u8>, usize), String> {
     use json::accessor::Type;
     let what = format!("accessor {index}");
     let accessor = root
@@ -48,8 +54,16 @@ fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8
         }
     };
     let size = component.0.size() * components;
-    let count = accessor.count.0 as usize;
-    let bytes_of = |view: usize, offset: u64, stride: usize, n: usize| -> Result<Vec<u8>, String> {
+    let count = usize::try_from(accessor.count.0).unwrap_or(usize::MAX);
+    if count < needed {
+        return Err(format!(
+            "{what} has {count} elements, but its primitive uses {needed} vertices"
+        ));
+    }
+    let overflow = || format!("{what}: its offsets overflow");
+    // `n` elements of `size` bytes, `stride` apart, from `offset` into
+    // buffer view `view`.
+    let read = |view: usize, offset: u64, stride: usize, n: usize, size: usize| {
         let v = root
             .buffer_views
             .get(view)
@@ -57,14 +71,18 @@ fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8
         let buffer = buffers
             .get(v.buffer.value())
             .ok_or_else(|| format!("buffer view {view} refers to a missing buffer"))?;
-        let start = v.byte_offset.map_or(0, |o| o.0) + offset;
-        let end = v.byte_offset.map_or(0, |o| o.0) + v.byte_length.0;
+        let base = v.byte_offset.map_or(0, |o| o.0);
+        let start = base.checked_add(offset).ok_or_else(overflow)?;
+        let end = base.checked_add(v.byte_length.0).ok_or_else(overflow)?;
         let need = if n == 0 {
             0
         } else {
-            (n as u64 - 1) * stride as u64 + size as u64
+            (n as u64 - 1)
+                .checked_mul(stride as u64)
+                .and_then(|x| x.checked_add(size as u64))
+                .ok_or_else(overflow)?
         };
-        if start + need > end || end > buffer.len() as u64 {
+        if start.checked_add(need).is_none_or(|e| e > end) || end > buffer.len() as u64 {
             return Err(format!("{what} reads past the end of buffer view {view}"));
         }
         let mut out = Vec::with_capacity(n * size);
@@ -81,78 +99,59 @@ fn dense(root: &json::Root, buffers: &[Vec<u8>], index: usize) -> Result<(Vec<u8
                 .get(view.value())
                 .and_then(|v| v.byte_stride)
                 .map_or(size, |s| s.0);
-            bytes_of(
+            read(
                 view.value(),
                 accessor.byte_offset.map_or(0, |o| o.0),
                 stride,
-                count,
+                needed,
+                size,
             )?
         }
-        None => vec![0; count * size],
+        None => vec![0; needed * size],
     };
     if let Some(sparse) = &accessor.sparse {
-        let n = sparse.count.0 as usize;
+        let n = usize::try_from(sparse.count.0).unwrap_or(usize::MAX);
+        if n > count {
+            return Err(format!(
+                "{what}: more sparse values ({n}) than elements ({count})"
+            ));
+        }
         let Checked::Valid(index_type) = sparse.indices.component_type else {
             return Err(format!("{what}: sparse indices of an unknown type"));
         };
         let index_size = index_type.0.size();
-        let saved = (size, index_size);
         // Indices and values are tightly packed.
-        let indices = {
-            let v = sparse.indices.buffer_view.value();
-            let bytes = bytes_of_sized(
-                root,
-                buffers,
-                v,
-                sparse.indices.byte_offset.0,
-                index_size * n,
-            )
-            .ok_or_else(|| format!("{what}: its sparse indices lie outside their buffer view"))?;
-            bytes
-                .chunks_exact(index_size)
-                .map(|b| match index_size {
-                    1 => usize::from(b[0]),
-                    2 => usize::from(u16::from_le_bytes([b[0], b[1]])),
-                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
-                })
-                .collect::<Vec<_>>()
-        };
-        let values = bytes_of_sized(
-            root,
-            buffers,
+        let indices = read(
+            sparse.indices.buffer_view.value(),
+            sparse.indices.byte_offset.0,
+            index_size,
+            n,
+            index_size,
+        )?;
+        let values = read(
             sparse.values.buffer_view.value(),
             sparse.values.byte_offset.0,
-            saved.0 * n,
-        )
-        .ok_or_else(|| format!("{what}: its sparse values lie outside their buffer view"))?;
-        for (k, &i) in indices.iter().enumerate() {
+            size,
+            n,
+            size,
+        )?;
+        for (k, b) in indices.chunks_exact(index_size).enumerate() {
+            let i = match index_size {
+                1 => usize::from(b[0]),
+                2 => usize::from(u16::from_le_bytes([b[0], b[1]])),
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+            };
             if i >= count {
                 return Err(format!(
                     "{what}: sparse index {i} is past its count {count}"
                 ));
             }
-            out[i * size..(i + 1) * size].copy_from_slice(&values[k * size..(k + 1) * size]);
+            if i < needed {
+                out[i * size..(i + 1) * size].copy_from_slice(&values[k * size..(k + 1) * size]);
+            }
         }
     }
     Ok((out, size))
-}
-
-/// `length` bytes at `offset` in buffer view `view`, if they lie inside it.
-fn bytes_of_sized(
-    root: &json::Root,
-    buffers: &[Vec<u8>],
-    view: usize,
-    offset: u64,
-    length: usize,
-) -> Option<Vec<u8>> {
-    let v = root.buffer_views.get(view)?;
-    let buffer = buffers.get(v.buffer.value())?;
-    let base = v.byte_offset.map_or(0, |o| o.0);
-    if offset + length as u64 > v.byte_length.0 || base + v.byte_length.0 > buffer.len() as u64 {
-        return None;
-    }
-    let start = (base + offset) as usize;
-    Some(buffer[start..start + length].to_vec())
 }
 
 /// An accessor to add once the binary data is laid out: its JSON (buffer
@@ -219,7 +218,8 @@ fn gather(
     xref: &[u32],
     is_position: bool,
 ) -> Result<json::Index<json::Accessor>, String> {
-    let (bytes, size) = dense(root, &appearance.buffers, index)?;
+    let needed = xref.iter().max().map_or(0, |&v| v as usize + 1);
+    let (bytes, size) = dense(root, &appearance.buffers, index, needed)?;
     let count = bytes.len() / size.max(1);
     let mut out = Vec::with_capacity(xref.len() * size);
     for &v in xref {
@@ -303,9 +303,33 @@ pub fn rewrite(
         };
         lightmapped.push((mesh, use_.primitive));
     }
+    // Primitives with no triangle (fewer than three indices) draw nothing
+    // and are left as they are.
+    lightmapped = lightmapped
+        .into_iter()
+        .zip(&layout.primitives)
+        .map(|(at, plan)| {
+            if plan.triangles.is_empty() {
+                None
+            } else {
+                Some(at)
+            }
+        })
+        .map(|at| at.unwrap_or((usize::MAX, usize::MAX)))
+        .collect();
     for (k, (&(mesh, p), plan)) in lightmapped.iter().zip(&layout.primitives).enumerate() {
+        if mesh == usize::MAX {
+            continue;
+        }
         let source = root.meshes[mesh].primitives[p].clone();
         let mut primitive = source.clone();
+        if image.mode == BakeMode::Lit {
+            // The solve already took the vertex colours into the
+            // reflectance: an unlit material would multiply by them again.
+            primitive
+                .attributes
+                .retain(|semantic, _| !matches!(semantic, Checked::Valid(Semantic::Colors(_))));
+        }
         if image.back_side.get(k).copied().unwrap_or(false) {
             let mut extras: serde_json::Value = source
                 .extras
@@ -437,7 +461,12 @@ pub fn rewrite(
         extras: Default::default(),
     });
     if image.mode == BakeMode::Lit {
-        unlit_materials(&mut b.root, &lightmapped, texture);
+        let drawn: Vec<(usize, usize)> = lightmapped
+            .iter()
+            .copied()
+            .filter(|at| at.0 != usize::MAX)
+            .collect();
+        unlit_materials(&mut b.root, &drawn, texture);
     }
     Ok((b, texture))
 }
@@ -585,33 +614,35 @@ fn compact(
     b.root = root;
     b.root.buffers.clear();
     let mut view_map: HashMap<usize, json::Index<json::buffer::View>> = HashMap::new();
-    let mut copy_view = |b: &mut Builder,
-                         v: usize|
-     -> Result<json::Index<json::buffer::View>, String> {
-        if let Some(&n) = view_map.get(&v) {
-            return Ok(n);
-        }
-        let view = old_views
-            .get(v)
-            .ok_or_else(|| format!("buffer view {v} does not exist"))?;
-        let offset = view.byte_offset.map_or(0, |o| o.0);
-        let bytes = appearance
-            .buffers
-            .get(view.buffer.value())
-            .and_then(|buffer| buffer.get(offset as usize..(offset + view.byte_length.0) as usize))
-            .ok_or_else(|| format!("buffer view {v} lies outside its buffer"))?;
-        while b.bin.len() % 8 != (offset % 8) as usize {
-            b.bin.push(0);
-        }
-        let start = b.bin.len();
-        b.bin.extend_from_slice(bytes);
-        let mut copy = view.clone();
-        copy.buffer = json::Index::new(0);
-        copy.byte_offset = Some(USize64::from(start));
-        let n = b.root.push(copy);
-        view_map.insert(v, n);
-        Ok(n)
-    };
+    let mut copy_view =
+        |b: &mut Builder, v: usize| -> Result<json::Index<json::buffer::View>, String> {
+            if let Some(&n) = view_map.get(&v) {
+                return Ok(n);
+            }
+            let view = old_views
+                .get(v)
+                .ok_or_else(|| format!("buffer view {v} does not exist"))?;
+            let offset = view.byte_offset.map_or(0, |o| o.0);
+            let bytes = appearance
+                .buffers
+                .get(view.buffer.value())
+                .and_then(|buffer| {
+                    let end = offset.checked_add(view.byte_length.0)?;
+                    buffer.get(usize::try_from(offset).ok()?..usize::try_from(end).ok()?)
+                })
+                .ok_or_else(|| format!("buffer view {v} lies outside its buffer"))?;
+            while b.bin.len() % 8 != (offset % 8) as usize {
+                b.bin.push(0);
+            }
+            let start = b.bin.len();
+            b.bin.extend_from_slice(bytes);
+            let mut copy = view.clone();
+            copy.buffer = json::Index::new(0);
+            copy.byte_offset = Some(USize64::from(start));
+            let n = b.root.push(copy);
+            view_map.insert(v, n);
+            Ok(n)
+        };
     for a in &mut accessors {
         if let Some(v) = a.buffer_view {
             a.buffer_view = Some(copy_view(&mut b, v.value())?);

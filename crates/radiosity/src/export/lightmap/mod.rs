@@ -49,8 +49,8 @@ pub use atlas::{AtlasSettings, Layout};
 /// what engines default to for interiors).
 pub const DEFAULT_DENSITY: f64 = 32.0;
 
-/// Default `--lightmap-max-size`, texels a side: what every GPU that runs
-/// WebGL 2 can sample.
+/// Default `--lightmap-max-size`, texels a side: what nearly every GPU
+/// that runs WebGL 2 samples (the standard guarantees 2048).
 pub const DEFAULT_MAX_SIZE: u32 = 4096;
 
 /// Largest `--lightmap-density` accepted, texels per metre (a texel of a
@@ -109,8 +109,12 @@ pub struct LightmapReport {
     /// Texels showing a surface point.
     pub texels: usize,
     /// Of those, how many found no element of their surface (filled from
-    /// their neighbours).
+    /// their neighbours within a few texels, else black).
     pub missing: usize,
+    /// What the user should know: the density lowered to fit, texels
+    /// without a surface, materials whose `TEXCOORD_1` textures now read
+    /// the lightmap's coordinates.
+    pub warnings: Vec<String>,
     /// Seconds laying out the charts.
     pub layout_seconds: f64,
     /// Seconds computing the texels and encoding the files.
@@ -161,12 +165,10 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         .iter()
         .zip(&layout.primitives)
         .map(|(use_, plan)| {
-            let positions = atlas::world_positions(use_);
+            let positions = atlas::world_points(use_);
             plan.triangles
                 .iter()
-                .map(|t| {
-                    t.map(|v| Vec3::from(positions[plan.xref[v as usize] as usize]).as_dvec3())
-                })
+                .map(|t| t.map(|v| positions[plan.xref[v as usize] as usize]))
                 .collect()
         })
         .collect();
@@ -213,11 +215,9 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
             // A hair inside the triangle: a texel clamped onto an edge
             // shared with another surface in the same plane (a ceiling
             // around its lamp) takes its own surface's light.
-            let p = corners
-                .iter()
-                .zip(c.bary)
-                .map(|(q, w)| *q * (f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0))
-                .sum::<DVec3>();
+            let w = c.bary.map(|w| f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0);
+            let p =
+                corners[0] + (corners[1] - corners[0]) * w[1] + (corners[2] - corners[0]) * w[2];
             let mut n = (corners[1] - corners[0])
                 .cross(corners[2] - corners[0])
                 .normalize_or_zero();
@@ -323,10 +323,48 @@ pub fn bake(bake: &LightmapBake<'_>, path: &Path) -> io::Result<(Vec<StagedFile>
     let (lo, hi) = bake.scene.bounds();
     let camera = b.camera(&bake.camera, bake.aspect_ratio, 1e-3 * (hi - lo).length());
     add_to_default_scene(&mut b.root, camera, &metadata);
-    b.root.extensions_used = extension_name_list(&b.root);
+    list_extensions(&mut b.root);
     let mut files = b.finish(path)?;
     files.push((exr_path, exr.into_inner()));
+    let mut warnings = Vec::new();
+    if layout.density < 0.999 * bake.settings.density {
+        warnings.push(format!(
+            "lightmap: {:.1} texels per metre, not {}: the lightmap would exceed \
+             --lightmap-max-size {} (raise it, or lower --lightmap-density)",
+            layout.density, bake.settings.density, bake.settings.max_size
+        ));
+    }
+    if missing > 0 {
+        warnings.push(format!(
+            "lightmap: {missing} of {texels} texels found no element of their surface (a \
+             triangle the solve dropped as degenerate, or off its surface); they took their \
+             neighbours' value where one was within {} texels, else black",
+            PADDING + 2
+        ));
+    }
+    if layout.generated {
+        let json = &bake.appearance.json;
+        for m in &json.materials {
+            let p = &m.pbr_metallic_roughness;
+            let on_uv1 = [
+                p.base_color_texture.as_ref().map(|t| t.tex_coord),
+                p.metallic_roughness_texture.as_ref().map(|t| t.tex_coord),
+                m.normal_texture.as_ref().map(|t| t.tex_coord),
+                m.occlusion_texture.as_ref().map(|t| t.tex_coord),
+                m.emissive_texture.as_ref().map(|t| t.tex_coord),
+            ]
+            .contains(&Some(1));
+            if on_uv1 && bake.mode == BakeMode::Irradiance {
+                warnings.push(format!(
+                    "lightmap: material {} samples a texture on TEXCOORD_1, which now holds the \
+                     lightmap's coordinates",
+                    m.name.as_deref().unwrap_or("(unnamed)")
+                ));
+            }
+        }
+    }
     let report = LightmapReport {
+        warnings,
         width: layout.width,
         height: layout.height,
         density: layout.density,
@@ -340,9 +378,80 @@ pub fn bake(bake: &LightmapBake<'_>, path: &Path) -> io::Result<(Vec<StagedFile>
     Ok((files, report))
 }
 
+/// Extensions whose data the rewrite would renumber without knowing it:
+/// per-node instance attributes (accessors) and compressed vertex data
+/// (buffer views).
+const UNREWRITABLE: [&str; 4] = [
+    "EXT_mesh_gpu_instancing",
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+];
+
+/// Checks, before a solve, that a lightmap bake can rewrite `appearance`'s
+/// document: no extension in [`UNREWRITABLE`], float positions
+/// (quantised ones would need integer bounds). Returns what stands in the
+/// way.
+///
+/// # Errors
+/// The first problem found, naming the extension or the mesh.
+pub fn check_input(appearance: &Appearance) -> Result<(), String> {
+    let json = &appearance.json;
+    if let Some(name) = json
+        .extensions_used
+        .iter()
+        .find(|e| UNREWRITABLE.contains(&e.as_str()))
+    {
+        return Err(format!(
+            "the file uses {name}, whose data the lightmap rewrite cannot carry over; \
+             remove it (e.g. re-export without compression or instancing) or bake vertices"
+        ));
+    }
+    for p in &appearance.primitives {
+        let position = json
+            .meshes
+            .get(p.mesh)
+            .and_then(|m| m.primitives.get(p.primitive))
+            .and_then(|q| {
+                q.attributes.get(&json::validation::Checked::Valid(
+                    json::mesh::Semantic::Positions,
+                ))
+            });
+        let float = position
+            .and_then(|a| json.accessors.get(a.value()))
+            .is_some_and(|a| {
+                matches!(
+                    a.component_type,
+                    json::validation::Checked::Valid(json::accessor::GenericComponentType(
+                        json::accessor::ComponentType::F32
+                    ))
+                )
+            });
+        if !float {
+            return Err(format!(
+                "mesh {} primitive {}: positions are not floats (KHR_mesh_quantization); \
+                 re-export without quantisation or bake vertices",
+                p.mesh, p.primitive
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `extensionsUsed` from what the document holds, and `extensionsRequired`
+/// kept to those still used.
+fn list_extensions(root: &mut json::Root) {
+    root.extensions_used = extension_name_list(root);
+    let used = root.extensions_used.clone();
+    root.extensions_required.retain(|e| used.contains(e));
+}
+
 /// Writes the lightmap as OpenEXR: RGB half floats (three significant
 /// digits, as engines store HDR lightmaps), PIZ-compressed.
-fn write_exr(out: &mut (impl io::Write + io::Seek), image: &crate::render::Image) -> io::Result<()> {
+fn write_exr(
+    out: &mut (impl io::Write + io::Seek),
+    image: &crate::render::Image,
+) -> io::Result<()> {
     use exr::prelude::{Encoding, Image as ExrImage, SpecificChannels, Vec2, WritableImage, f16};
     let width = image.width as usize;
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {

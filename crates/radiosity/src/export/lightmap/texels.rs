@@ -6,8 +6,9 @@
 //! Rasterisation is conservative: a texel takes the triangle nearest to its
 //! centre within [`REACH`] texels, at the point of that triangle nearest to
 //! the centre, so every texel a bilinear lookup inside a chart reads holds a
-//! value of that chart's own surface; a pass of dilation then fills the
-//! padding around charts. The point is looked up among the element
+//! value of that chart's own surface (generated charts lie at least four
+//! texels apart; the input's own coordinates may leave less); passes of
+//! dilation then fill the padding around charts. The point is looked up among the element
 //! triangles lying in its triangle's plane and facing its way, never by
 //! distance alone, so no texel near a wall or a floor takes light from the
 //! other side of it: the two complaints bakers' users file most, seams and
@@ -36,6 +37,39 @@ pub fn for_texels_inside(
     reach_texels(corners, width, height, 0.0, |texel, _, distance| {
         if distance == 0.0 {
             f(texel);
+        }
+    });
+}
+
+/// Calls `f` with the index of every texel whose centre lies strictly
+/// inside the triangle `corners` (a centre on an edge shared by two
+/// triangles counts for neither).
+pub fn for_texels_strictly_inside(
+    corners: &[[f64; 2]; 3],
+    width: u32,
+    height: u32,
+    mut f: impl FnMut(usize),
+) {
+    let [a, b, c] = corners.map(DVec2::from);
+    let area = (b - a).perp_dot(c - a);
+    if area.abs() <= 1e-12 {
+        return;
+    }
+    let scale = 1e-9 * area.abs();
+    reach_texels(corners, width, height, 0.0, |texel, _, distance| {
+        if distance == 0.0 {
+            let p = DVec2::new(
+                (texel % width as usize) as f64 + 0.5,
+                (texel / width as usize) as f64 + 0.5,
+            );
+            let w = [
+                (c - b).perp_dot(p - b),
+                (a - c).perp_dot(p - c),
+                (b - a).perp_dot(p - a),
+            ];
+            if w.iter().all(|&w| w * area.signum() > scale) {
+                f(texel);
+            }
         }
     });
 }

@@ -122,13 +122,14 @@ pub struct PrimitiveUse {
     pub primitive: usize,
     /// The node's world transform.
     pub world: glam::DMat4,
-    /// Vertex positions, in the mesh's own frame.
-    pub positions: Vec<[f32; 3]>,
+    /// Vertex positions, in the mesh's own frame (widened as the
+    /// surfaces' are; shared by the primitives reading one accessor).
+    pub positions: std::sync::Arc<Vec<[f64; 3]>>,
     /// Its triangles (lists, strips and fans assembled), vertex indices in
     /// the primitive's winding.
     pub triangles: Vec<[u32; 3]>,
-    /// `TEXCOORD_1`, when the primitive has one.
-    pub uv1: Option<Vec<[f32; 2]>>,
+    /// `TEXCOORD_1`, when the primitive has one (shared likewise).
+    pub uv1: Option<std::sync::Arc<Vec<[f32; 2]>>>,
     /// Its material (`None`: the glTF default material).
     pub material: Option<usize>,
     /// Whether the material is double-sided (both faces lit in the solve).
@@ -195,6 +196,8 @@ pub fn load_slice(
         material_of: Vec::new(),
         uvs: Vec::new(),
         primitives: Vec::new(),
+        shared_positions: HashMap::new(),
+        shared_uv1: HashMap::new(),
         texcoord_sets: 0,
         faces: 0,
         triangles: 0,
@@ -238,6 +241,10 @@ struct Loader<'a> {
     material_of: Vec<Option<usize>>,
     uvs: Vec<Vec<Vec<[f64; 2]>>>,
     primitives: Vec<PrimitiveUse>,
+    /// Positions and `TEXCOORD_1` already converted for
+    /// [`PrimitiveUse`], by accessor (and vertex count).
+    shared_positions: HashMap<usize, std::sync::Arc<Vec<[f64; 3]>>>,
+    shared_uv1: HashMap<(usize, usize), std::sync::Arc<Vec<[f32; 2]>>>,
     texcoord_sets: usize,
     faces: u32,
     /// Triangles read so far, over every instance of every mesh: bounded

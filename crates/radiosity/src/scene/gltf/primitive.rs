@@ -190,29 +190,47 @@ impl Loader<'_> {
             } else {
                 triangles.iter().map(|t| t.to_vec()).collect()
             };
+            let shared_positions = std::sync::Arc::clone(
+                self.shared_positions
+                    .entry(position_accessor.value())
+                    .or_insert_with(|| {
+                        std::sync::Arc::new(
+                            (0..vertex_count)
+                                .map(|v| {
+                                    let x = positions.get(v);
+                                    [x[0], x[1], x[2]]
+                                })
+                                .collect(),
+                        )
+                    }),
+            );
+            let uv1_accessor = attribute(Semantic::TexCoords(1)).map(|a| a.value());
+            let shared_uv1 = match (uv1_accessor, uv_sets.get(1)) {
+                (Some(a), Some(d)) => Some(std::sync::Arc::clone(
+                    self.shared_uv1.entry((a, vertex_count)).or_insert_with(|| {
+                        std::sync::Arc::new(
+                            (0..vertex_count)
+                                .map(|v| {
+                                    let uv = d.get(v);
+                                    [uv[0] as f32, uv[1] as f32]
+                                })
+                                .collect(),
+                        )
+                    }),
+                )),
+                _ => None,
+            };
             self.primitives.push(super::PrimitiveUse {
                 node,
                 mesh: index,
                 primitive: p,
                 world,
-                positions: (0..vertex_count)
-                    .map(|v| {
-                        let x = positions.get(v);
-                        [x[0] as f32, x[1] as f32, x[2] as f32]
-                    })
-                    .collect(),
+                positions: shared_positions,
                 triangles: triangles
                     .iter()
                     .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
                     .collect(),
-                uv1: uv_sets.get(1).map(|d| {
-                    (0..vertex_count)
-                        .map(|v| {
-                            let uv = d.get(v);
-                            [uv[0] as f32, uv[1] as f32]
-                        })
-                        .collect()
-                }),
+                uv1: shared_uv1,
                 material: material_index,
                 double_sided: material.double_sided,
                 polygons: ngon.then(|| {
