@@ -26,7 +26,7 @@ use radiosity::scene::{self, LoadOptions};
 use radiosity::sensors::{self, SensorPoint};
 use radiosity::solver::Settings;
 
-use crate::validate::solve;
+use crate::validate::{solve, uniform};
 use crate::{Context, Error, Report, table};
 
 /// Points compared per scene.
@@ -78,18 +78,6 @@ pub struct Row {
     pub worst: f64,
     /// Seconds of the solve.
     pub solve_seconds: f64,
-}
-
-/// SplitMix64 uniform numbers in [0, 1) from a fixed seed.
-fn uniform(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed;
-    move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 /// `n` points uniform by area over the placed primitives' triangles.

@@ -292,6 +292,19 @@ pub fn solve_lit(
     })
 }
 
+/// Uniform numbers in [0, 1) by SplitMix64 from `seed`: the same sequence
+/// on every machine.
+pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// Sensor points `validate` scores per scene.
 pub const SENSOR_POINTS: usize = 300;
 
@@ -299,16 +312,9 @@ pub const SENSOR_POINTS: usize = 300;
 /// sequence for a given scene), each with its surface's normal and index.
 #[must_use]
 pub fn random_points(scene: &Scene, n: usize) -> Vec<(SensorPoint, usize)> {
-    // SplitMix64 from a fixed seed: the same points, so the same cached
-    // reference, on every run.
-    let mut state = 0x5EED_u64;
-    let mut unit = move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    // A fixed seed: the same points, so the same cached reference, on
+    // every run.
+    let mut unit = uniform(0x5EED);
     let mut triangles = Vec::new();
     for (index, surface) in scene.surfaces.iter().enumerate() {
         let v0 = surface.polygon[0];

@@ -238,10 +238,7 @@ fn no_light_leaks_under_a_thin_wall() {
 
 #[test]
 fn a_mesh_drawn_twice_gets_a_copy_with_its_own_texels() {
-    let lamp_room = scene_of(vec![
-        quad(DVec3::ZERO, 2.0 * DVec3::Z, 2.0 * DVec3::X, 0.8, 0.0, 0),
-        quad(DVec3::new(0.5, 1.0, 0.5), DVec3::X, DVec3::Z, 0.0, 20.0, 1),
-    ]);
+    let lamp_room = lamp_room(DVec3::ZERO);
     let files = radiosity::export::gltf::export_scene(&lamp_room, Path::new("one.glb")).unwrap();
     // A second node drawing mesh 0 five metres away.
     let glb = gltf::binary::Glb::from_slice(&files[0].1).unwrap();
@@ -301,10 +298,7 @@ fn a_mesh_drawn_twice_gets_a_copy_with_its_own_texels() {
 
 #[test]
 fn the_inputs_own_second_uv_set_is_kept() {
-    let lamp_room = scene_of(vec![
-        quad(DVec3::ZERO, 2.0 * DVec3::Z, 2.0 * DVec3::X, 0.8, 0.0, 0),
-        quad(DVec3::new(0.5, 1.0, 0.5), DVec3::X, DVec3::Z, 0.0, 20.0, 1),
-    ]);
+    let lamp_room = lamp_room(DVec3::ZERO);
     let (scene, appearance) = exported(&lamp_room);
     // An irradiance bake keeps the materials, so it can be read and baked again.
     let (first, _) = bake(&scene, &appearance, 32.0, BakeMode::Irradiance);
@@ -359,9 +353,9 @@ fn points_and_lines_are_kept_and_every_triangle_primitive_gets_uvs() {
     }
 }
 
-/// The lamp room's `.glb` with `edit` applied to its JSON.
-fn edited_lamp_room(offset: DVec3, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
-    let lamp_room = scene_of(vec![
+/// A 2 m floor at `offset` under a lamp a metre up.
+fn lamp_room(offset: DVec3) -> Scene {
+    scene_of(vec![
         quad(offset, 2.0 * DVec3::Z, 2.0 * DVec3::X, 0.8, 0.0, 0),
         quad(
             offset + DVec3::new(0.5, 1.0, 0.5),
@@ -371,8 +365,13 @@ fn edited_lamp_room(offset: DVec3, edit: impl FnOnce(&mut serde_json::Value)) ->
             20.0,
             1,
         ),
-    ]);
-    let files = radiosity::export::gltf::export_scene(&lamp_room, Path::new("one.glb")).unwrap();
+    ])
+}
+
+/// The lamp room's `.glb` with `edit` applied to its JSON.
+fn edited_lamp_room(offset: DVec3, edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let files =
+        radiosity::export::gltf::export_scene(&lamp_room(offset), Path::new("one.glb")).unwrap();
     let glb = gltf::binary::Glb::from_slice(&files[0].1).unwrap();
     let mut json: serde_json::Value = serde_json::from_slice(&glb.json).unwrap();
     edit(&mut json);

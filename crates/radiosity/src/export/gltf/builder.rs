@@ -263,6 +263,39 @@ fn extensions_in(value: &serde_json::Value, out: &mut BTreeSet<String>) {
     }
 }
 
+/// An unlit material (`KHR_materials_unlit`): the base colour shown as
+/// it is, from `texture` when given.
+pub(crate) fn unlit_material(
+    name: Option<String>,
+    texture: Option<json::texture::Info>,
+    double_sided: bool,
+) -> json::Material {
+    json::Material {
+        name,
+        double_sided,
+        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+            base_color_texture: texture,
+            metallic_factor: json::material::StrengthFactor(0.0),
+            roughness_factor: json::material::StrengthFactor(1.0),
+            ..Default::default()
+        },
+        extensions: Some(json::extensions::material::Material {
+            unlit: Some(json::extensions::material::Unlit {}),
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+/// `extras` read as a JSON object (empty when absent or not an object).
+pub(crate) fn extras_object(extras: &json::Extras) -> serde_json::Value {
+    extras
+        .as_ref()
+        .and_then(|raw| serde_json::from_str(raw.get()).ok())
+        .filter(serde_json::Value::is_object)
+        .unwrap_or_else(|| serde_json::json!({}))
+}
+
 /// Every extension the document uses, for `extensionsUsed`.
 pub(crate) fn extension_name_list(root: &json::Root) -> Vec<String> {
     let value = serde_json::to_value(root).unwrap_or_default();

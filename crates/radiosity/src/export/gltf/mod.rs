@@ -39,7 +39,9 @@ mod builder;
 
 use crate::scene::gltf::{Appearance, NGON_EXTENSION, interpolate_on_fan};
 use crate::scene::{Camera, Scene};
-pub(crate) use builder::{Builder, extension_name_list, primitive, raw_extras};
+pub(crate) use builder::{
+    Builder, extension_name_list, extras_object, primitive, raw_extras, unlit_material,
+};
 
 crate::choice::named_choice! {
     /// What `COLOR_0` of a bake holds.
@@ -295,19 +297,9 @@ pub fn bake(bake: &Bake<'_>, path: &Path) -> io::Result<Vec<(PathBuf, Vec<u8>)>>
 
     match (bake.mode, bake.appearance) {
         (BakeMode::Lit, _) => {
-            b.root.materials.push(json::Material {
-                name: Some("baked (unlit)".into()),
-                pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-                    metallic_factor: json::material::StrengthFactor(0.0),
-                    roughness_factor: json::material::StrengthFactor(1.0),
-                    ..Default::default()
-                },
-                extensions: Some(json::extensions::material::Material {
-                    unlit: Some(json::extensions::material::Unlit {}),
-                    ..Default::default()
-                }),
-                ..Default::default()
-            });
+            b.root
+                .materials
+                .push(unlit_material(Some("baked (unlit)".into()), None, false));
         }
         (BakeMode::Irradiance, Some(appearance)) => {
             copy_materials(&mut b, appearance);

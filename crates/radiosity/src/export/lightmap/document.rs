@@ -18,7 +18,7 @@ use gltf_json as json;
 use json::validation::{Checked, USize64};
 
 use super::atlas::Layout;
-use crate::export::gltf::{BakeMode, Builder};
+use crate::export::gltf::{BakeMode, Builder, extras_object, unlit_material};
 use crate::scene::gltf::Appearance;
 
 /// The first `needed` elements of an accessor, one after another (strides
@@ -305,20 +305,14 @@ pub fn rewrite(
     }
     // Primitives with no triangle (fewer than three indices) draw nothing
     // and are left as they are.
-    lightmapped = lightmapped
-        .into_iter()
-        .zip(&layout.primitives)
-        .map(|(at, plan)| {
-            if plan.triangles.is_empty() {
-                None
-            } else {
-                Some(at)
-            }
-        })
-        .map(|at| at.unwrap_or((usize::MAX, usize::MAX)))
-        .collect();
+    const NONE: (usize, usize) = (usize::MAX, usize::MAX);
+    for (at, plan) in lightmapped.iter_mut().zip(&layout.primitives) {
+        if plan.triangles.is_empty() {
+            *at = NONE;
+        }
+    }
     for (k, (&(mesh, p), plan)) in lightmapped.iter().zip(&layout.primitives).enumerate() {
-        if mesh == usize::MAX {
+        if (mesh, p) == NONE {
             continue;
         }
         let source = root.meshes[mesh].primitives[p].clone();
@@ -331,12 +325,7 @@ pub fn rewrite(
                 .retain(|semantic, _| !matches!(semantic, Checked::Valid(Semantic::Colors(_))));
         }
         if image.back_side.get(k).copied().unwrap_or(false) {
-            let mut extras: serde_json::Value = source
-                .extras
-                .as_ref()
-                .and_then(|raw| serde_json::from_str(raw.get()).ok())
-                .filter(serde_json::Value::is_object)
-                .unwrap_or_else(|| serde_json::json!({}));
+            let mut extras = extras_object(&source.extras);
             extras["radiosity"] = serde_json::json!({ "lightmap_side": "back" });
             primitive.extras = crate::export::gltf::raw_extras(&extras);
         }
@@ -464,7 +453,7 @@ pub fn rewrite(
         let drawn: Vec<(usize, usize)> = lightmapped
             .iter()
             .copied()
-            .filter(|at| at.0 != usize::MAX)
+            .filter(|&at| at != NONE)
             .collect();
         unlit_materials(&mut b.root, &drawn, texture);
     }
@@ -490,25 +479,14 @@ fn unlit_materials(
             }
         }
     }
-    let unlit = |name: Option<String>, double_sided: bool| json::Material {
-        name,
-        double_sided,
-        pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-            base_color_texture: Some(json::texture::Info {
-                index: texture,
-                tex_coord: 1,
-                extensions: None,
-                extras: Default::default(),
-            }),
-            metallic_factor: json::material::StrengthFactor(0.0),
-            roughness_factor: json::material::StrengthFactor(1.0),
-            ..Default::default()
-        },
-        extensions: Some(json::extensions::material::Material {
-            unlit: Some(json::extensions::material::Unlit {}),
-            ..Default::default()
-        }),
-        ..Default::default()
+    let unlit = |name: Option<String>, double_sided: bool| {
+        let lightmap = json::texture::Info {
+            index: texture,
+            tex_coord: 1,
+            extensions: None,
+            extras: Default::default(),
+        };
+        unlit_material(name, Some(lightmap), double_sided)
     };
     let mut replaced: HashMap<Option<usize>, usize> = HashMap::new();
     for &(m, p) in lightmapped {

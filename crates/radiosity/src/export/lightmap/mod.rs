@@ -38,7 +38,7 @@ use glam::{DVec3, Vec3};
 use gltf_json as json;
 use rayon::prelude::*;
 
-use crate::export::gltf::{BakeMode, extension_name_list, raw_extras};
+use crate::export::gltf::{BakeMode, extension_name_list, extras_object, raw_extras};
 use crate::mesh::Mesh;
 use crate::scene::gltf::Appearance;
 use crate::scene::{Camera, LoadOptions, Scene};
@@ -546,12 +546,7 @@ fn add_to_default_scene(
     root.scene = Some(json::Index::new(index as u32));
     let scene = &mut root.scenes[index];
     scene.nodes.push(camera);
-    let mut extras: serde_json::Value = scene
-        .extras
-        .as_ref()
-        .and_then(|raw| serde_json::from_str(raw.get()).ok())
-        .filter(serde_json::Value::is_object)
-        .unwrap_or_else(|| serde_json::json!({}));
+    let mut extras = extras_object(&scene.extras);
     extras["radiosity"] = metadata.clone();
     scene.extras = raw_extras(&extras);
 }
