@@ -124,6 +124,14 @@ impl app::Observer for ProgressDisplay {
     fn interrupt(&self) -> Option<Arc<AtomicBool>> {
         Some(Arc::clone(&self.interrupted))
     }
+
+    fn writing(&mut self, what: &str) {
+        if let Some(bar) = &self.bar {
+            bar.set_message(what.to_string());
+        } else if self.lines {
+            eprintln!("{what}");
+        }
+    }
 }
 
 /// The run's summary on standard output.

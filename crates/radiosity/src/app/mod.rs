@@ -205,6 +205,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                 export::gltf::bake(&bake, &bake_job.path).map_err(output)?
             }
             BakeTarget::Lightmap => {
+                observer.writing("baking the lightmap: charts, texels, files");
                 let (values, metadata) =
                     bake_values(&solver, bake_job.mode, &display, exposure, view.ambient);
                 let own;

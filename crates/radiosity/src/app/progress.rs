@@ -133,6 +133,10 @@ pub trait Observer {
     /// written from `solver`'s state: the last state a live view shows
     /// (the last [`Observer::shot`] cannot know it is the last).
     fn finished(&mut self, _solver: &Solver<'_>, _stop: StopReason) {}
+
+    /// An output that takes a while (a lightmap bake) is being written:
+    /// `what` says which.
+    fn writing(&mut self, _what: &str) {}
 }
 
 /// An observer that watches nothing.
