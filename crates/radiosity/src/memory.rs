@@ -16,7 +16,7 @@
 //! | mesh | [`ELEMENT`] an element, [`VERTEX`] a vertex, [`PATCH`] a patch (the structures with their vectors' growth slack) |
 //! | accelerator | [`ACCEL`] a surface, BVH or BSP alike |
 //! | solver | the method's own ([`crate::solver::Method::memory`]): per vertex (receiver, radiosity, irradiance; patch shooting keeps more per receiver), per element (adaptive shooting's unshot radiosity and cluster hierarchy), per surface (the prepared surfaces of the segment test), and lumps such as the hemicube pre-test's item buffers: [`SolverCosts`] |
-//! | last stage | the largest of: a shot's buffers ([`SHOT_VERTEX`] a vertex), the picture (samples at [`SAMPLE`], pixels at [`PIXEL`], [`SCREEN_ELEMENT`] an element projected), the default view's BVH ([`VIEW_SURFACE`] a surface, when the scene brings no camera), the glTF bake ([`BAKE_VERTEX`], [`BAKE_ELEMENT`]) |
+//! | last stage | the largest of: a shot's buffers ([`SHOT_VERTEX`] a vertex), the picture (samples at [`SAMPLE`], pixels at [`PIXEL`], [`SCREEN_ELEMENT`] an element projected), the default view's BVH ([`VIEW_SURFACE`] a surface, when the scene brings no camera), the glTF bake ([`BAKE_VERTEX`], [`BAKE_ELEMENT`]), a lightmap bake ([`LIGHTMAP_TEXEL`] a texel) |
 //!
 //! Everything but the last stage lives until the outputs are written, so
 //! the peak is their sum plus the largest last stage. On the shared scenes
@@ -56,6 +56,11 @@ pub const BAKE_VERTEX: f64 = 80.0;
 /// The glTF bake, per element (indices).
 pub const BAKE_ELEMENT: f64 = 48.0;
 
+/// Bytes a lightmap texel takes at the bake's peak: its claim (32), both
+/// sides' values (24), the value (12), the image (12) and the encoded PNG
+/// and EXR (about 10).
+pub const LIGHTMAP_TEXEL: f64 = 90.0;
+
 /// A solving method's own memory: per item, added to the shared parts of
 /// those items, and lumps of its own.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,6 +94,8 @@ pub struct Sizes {
     pub view: bool,
     /// Whether a glTF bake is written.
     pub bake: bool,
+    /// Texels of a lightmap bake (an upper bound); 0 for none.
+    pub lightmap_texels: u64,
 }
 
 /// One part of an estimate.
@@ -234,6 +241,14 @@ pub fn estimate(sizes: &Sizes, solver: SolverCosts) -> Estimate {
             count: 1,
             each: sizes.vertices as f64 * BAKE_VERTEX + sizes.elements as f64 * BAKE_ELEMENT,
             remedy: element_remedy,
+        });
+    }
+    if sizes.lightmap_texels > 0 {
+        last.push(Part {
+            name: "lightmap",
+            count: sizes.lightmap_texels,
+            each: LIGHTMAP_TEXEL,
+            remedy: "lower --lightmap-density or --lightmap-max-size",
         });
     }
     Estimate { kept, last }
@@ -490,6 +505,7 @@ mod tests {
             pixels: 0,
             view: false,
             bake: false,
+            lightmap_texels: 0,
         };
         let e = estimate(&sizes, Settings::adaptive().method.method().memory());
         // The shot's buffers are the largest last stage.

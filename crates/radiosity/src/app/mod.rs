@@ -328,6 +328,17 @@ fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
         pixels,
         view: drawn && !camera && scene.camera.is_none(),
         bake: job.bake.is_some(),
+        lightmap_texels: job
+            .bake
+            .as_ref()
+            .filter(|b| b.target == BakeTarget::Lightmap)
+            .map_or(0, |b| {
+                // The scene's area at the density, packed at half the
+                // space (well below uvunwrap's packing), within the size cap.
+                let area: f64 = scene.surfaces.iter().map(|s| s.area).sum();
+                let cap = u64::from(b.lightmap.max_size).pow(2);
+                ((2.0 * area * b.lightmap.density.powi(2)).min(cap as f64) as u64).min(cap)
+            }),
     }
 }
 
