@@ -1150,3 +1150,35 @@ fn lightmap_bake_writes_the_file_the_exr_and_its_statistics() {
     assert!(lightmap["texels"].as_u64().unwrap() > 100);
     assert_eq!(lightmap["missing"], 0);
 }
+
+/// A lightmap too large for `--max-memory` is refused before the solve,
+/// with the flags that shrink it; nothing is written.
+#[test]
+fn an_oversized_lightmap_is_refused_before_the_solve() {
+    let dir = tempfile::tempdir().unwrap();
+    let bake = dir.path().join("big.glb");
+    let out = run(&[
+        "render",
+        "cornell",
+        "-q",
+        "--output",
+        dir.path().join("big.png").to_str().unwrap(),
+        "--bake",
+        bake.to_str().unwrap(),
+        "--bake-target",
+        "lightmap",
+        "--lightmap-density",
+        "1000",
+        "--lightmap-max-size",
+        "16384",
+        "--max-memory",
+        "200M",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("lower --lightmap-density or --lightmap-max-size"),
+        "{stderr}"
+    );
+    assert!(!bake.exists());
+}
