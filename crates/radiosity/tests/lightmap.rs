@@ -441,3 +441,43 @@ fn instancing_and_compression_extensions_are_refused_before_the_solve() {
     let message = lightmap::check_input(&appearance).unwrap_err();
     assert!(message.contains("EXT_mesh_gpu_instancing"), "{message}");
 }
+
+#[test]
+fn an_unknown_extension_keeps_the_accessors_it_may_point_at() {
+    // An extension radiosity does not know, pointing at accessor 0 (the
+    // positions): every accessor and buffer view keeps its index.
+    let glb = edited_lamp_room(DVec3::ZERO, |json| {
+        json["extensionsUsed"] = serde_json::json!(["EXT_example"]);
+        json["nodes"][0]["extensions"] = serde_json::json!({ "EXT_example": { "accessor": 0 } });
+    });
+    let input = gltf::Gltf::from_slice(&glb).unwrap();
+    let (scene, appearance) = load(&glb);
+    let (files, _) = bake(&scene, &appearance, 32.0, BakeMode::Lit);
+    let output = gltf::Gltf::from_slice(&files[0].1).unwrap();
+    assert!(output.accessors().count() > input.accessors().count());
+    for (a, b) in input.accessors().zip(output.accessors()) {
+        assert_eq!(
+            (a.count(), a.data_type(), a.dimensions(), a.min(), a.max()),
+            (b.count(), b.data_type(), b.dimensions(), b.min(), b.max())
+        );
+    }
+    let read = |g: &gltf::Gltf, bytes: &[u8]| -> Vec<[f32; 3]> {
+        let blob = gltf::binary::Glb::from_slice(bytes)
+            .unwrap()
+            .bin
+            .unwrap()
+            .into_owned();
+        let accessor = g.accessors().next().unwrap();
+        let view = accessor.view().unwrap();
+        let start = view.offset() + accessor.offset();
+        blob[start..start + 12 * accessor.count()]
+            .chunks_exact(12)
+            .map(|c| [0, 4, 8].map(|k| f32::from_le_bytes(c[k..k + 4].try_into().unwrap())))
+            .collect()
+    };
+    assert_eq!(
+        read(&input, &glb),
+        read(&output, &files[0].1),
+        "the same data at accessor 0"
+    );
+}

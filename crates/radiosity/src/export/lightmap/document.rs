@@ -514,16 +514,42 @@ fn unlit_materials(
     }
 }
 
+/// Extensions known to hold no accessor, buffer view or buffer index
+/// (besides every `KHR_materials_*`): with only these, data nobody uses
+/// any more can be dropped and the rest renumbered.
+const NO_DATA_REFERENCES: [&str; 9] = [
+    "KHR_lights_punctual",
+    "KHR_texture_transform",
+    "KHR_texture_basisu",
+    "EXT_texture_webp",
+    "EXT_texture_avif",
+    "KHR_xmp_json_ld",
+    "KHR_animation_pointer",
+    "KHR_mesh_quantization",
+    crate::scene::gltf::NGON_EXTENSION,
+];
+
+/// Whether every extension the document holds is known to reference no
+/// vertex data (see [`NO_DATA_REFERENCES`]).
+fn only_known_extensions(root: &json::Root) -> bool {
+    crate::export::gltf::extension_name_list(root)
+        .iter()
+        .all(|e| e.starts_with("KHR_materials_") || NO_DATA_REFERENCES.contains(&e.as_str()))
+}
+
 /// Writes the binary data afresh (see the module documentation): the
 /// accessors still referenced, their buffer views' bytes, the images, and
-/// the pending accessors' bytes.
+/// the pending accessors' bytes. A document holding an extension not
+/// known to reference no data keeps every accessor and buffer view at its
+/// index, so what the extension points at stays valid.
 fn compact(
     mut root: json::Root,
     appearance: &Appearance,
     pending: Vec<Pending>,
 ) -> Result<Builder, String> {
+    let keep_all = !only_known_extensions(&root);
     // Accessors referenced anywhere.
-    let mut used = vec![false; root.accessors.len()];
+    let mut used = vec![keep_all; root.accessors.len()];
     let mut mark = |a: &json::Index<json::Accessor>| {
         if let Some(u) = used.get_mut(a.value()) {
             *u = true;
@@ -621,6 +647,11 @@ fn compact(
             view_map.insert(v, n);
             Ok(n)
         };
+    if keep_all {
+        for v in 0..old_views.len() {
+            copy_view(&mut b, v)?;
+        }
+    }
     for a in &mut accessors {
         if let Some(v) = a.buffer_view {
             a.buffer_view = Some(copy_view(&mut b, v.value())?);
