@@ -8,7 +8,7 @@ use anyhow::{Result, anyhow};
 
 use super::args::{OnOff, RenderArgs};
 use radiosity::app::{BakeJob, ImageJob, Job, SensorJob};
-use radiosity::export::lightmap::{self, AtlasSettings};
+use radiosity::export::lightmap::AtlasSettings;
 use radiosity::mesh::MAX_REFINE_LEVELS;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Limits};
@@ -111,7 +111,7 @@ impl RenderArgs {
                 lightmap: AtlasSettings {
                     density: self.lightmap_density,
                     max_size: self.lightmap_max_size,
-                    padding: lightmap::PADDING,
+                    ..AtlasSettings::default()
                 },
             }),
             ply: self.ply.clone(),

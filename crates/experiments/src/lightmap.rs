@@ -274,8 +274,7 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
         mode: BakeMode::Lit,
         settings: AtlasSettings {
             density: case.density,
-            max_size: lightmap::DEFAULT_MAX_SIZE,
-            padding: lightmap::PADDING,
+            ..AtlasSettings::default()
         },
         camera: radiosity::view::camera_or_framing(&solved.scene),
         aspect_ratio: 4.0 / 3.0,

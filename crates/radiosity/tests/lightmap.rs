@@ -42,8 +42,7 @@ fn bake(
         mode,
         settings: AtlasSettings {
             density,
-            max_size: lightmap::DEFAULT_MAX_SIZE,
-            padding: lightmap::PADDING,
+            ..AtlasSettings::default()
         },
         camera: Camera {
             eye: DVec3::new(1.0, 1.0, -3.0),

@@ -118,18 +118,8 @@ impl BakeJob {
             path,
             mode,
             target: BakeTarget::Vertices,
-            lightmap: default_lightmap(),
+            lightmap: AtlasSettings::default(),
         }
-    }
-}
-
-/// The default lightmap settings.
-#[must_use]
-pub fn default_lightmap() -> AtlasSettings {
-    AtlasSettings {
-        density: lightmap::DEFAULT_DENSITY,
-        max_size: lightmap::DEFAULT_MAX_SIZE,
-        padding: lightmap::PADDING,
     }
 }
 

@@ -337,7 +337,7 @@ fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
                 // space (well below uvunwrap's packing), within the size cap.
                 let area: f64 = scene.surfaces.iter().map(|s| s.area).sum();
                 let cap = u64::from(b.lightmap.max_size).pow(2);
-                ((2.0 * area * b.lightmap.density.powi(2)).min(cap as f64) as u64).min(cap)
+                (2.0 * area * b.lightmap.density.powi(2)).min(cap as f64) as u64
             }),
     }
 }

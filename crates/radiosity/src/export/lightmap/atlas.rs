@@ -23,6 +23,18 @@ pub struct AtlasSettings {
     pub padding: u32,
 }
 
+impl Default for AtlasSettings {
+    /// [`super::DEFAULT_DENSITY`], [`super::DEFAULT_MAX_SIZE`],
+    /// [`super::PADDING`].
+    fn default() -> AtlasSettings {
+        AtlasSettings {
+            density: super::DEFAULT_DENSITY,
+            max_size: super::DEFAULT_MAX_SIZE,
+            padding: super::PADDING,
+        }
+    }
+}
+
 /// The lightmap coordinates of every placed primitive.
 #[derive(Clone, Debug)]
 pub struct Layout {

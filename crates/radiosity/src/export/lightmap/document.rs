@@ -162,8 +162,8 @@ struct Pending {
     target: json::buffer::Target,
 }
 
-/// Adds an accessor of `count` elements of the same kind as `like` (or the
-/// given kind) to `root`, its bytes kept in `pending`.
+/// Adds an accessor of `count` elements of `kind` (component, type,
+/// normalized) to `root`, its bytes kept in `pending`.
 fn push_accessor(
     root: &mut json::Root,
     pending: &mut Vec<Pending>,
@@ -218,17 +218,12 @@ fn gather(
     xref: &[u32],
     is_position: bool,
 ) -> Result<json::Index<json::Accessor>, String> {
+    // `dense` reads (and checks) every element up to the largest asked.
     let needed = xref.iter().max().map_or(0, |&v| v as usize + 1);
     let (bytes, size) = dense(root, &appearance.buffers, index, needed)?;
-    let count = bytes.len() / size.max(1);
     let mut out = Vec::with_capacity(xref.len() * size);
     for &v in xref {
         let v = v as usize;
-        if v >= count {
-            return Err(format!(
-                "accessor {index} has {count} elements, vertex {v} asked"
-            ));
-        }
         out.extend_from_slice(&bytes[v * size..(v + 1) * size]);
     }
     let source = &root.accessors[index];
@@ -239,15 +234,11 @@ fn gather(
     let normalized = source.normalized;
     let components = size / component.0.size();
     // Bounds are required on POSITION and must match the data exactly;
-    // they are recomputed for float data and left out otherwise.
+    // they are recomputed for float data (positions are floats:
+    // `check_input`) and left out otherwise.
     let float = component.0 == json::accessor::ComponentType::F32;
     let bounds =
         (float && (is_position || source.min.is_some())).then(|| float_bounds(&out, components));
-    if is_position && !float {
-        return Err(format!(
-            "accessor {index}: quantised positions cannot be given lightmap coordinates here"
-        ));
-    }
     Ok(push_accessor(
         root,
         pending,
@@ -289,7 +280,12 @@ pub fn rewrite(
     let mut drawn: HashMap<usize, usize> = HashMap::new();
     let mut copies: HashMap<(usize, usize), usize> = HashMap::new();
     let mut lightmapped: Vec<(usize, usize)> = Vec::new();
-    for use_ in &appearance.primitives {
+    for (use_, plan) in appearance.primitives.iter().zip(&layout.primitives) {
+        // Primitives with no triangle (fewer than three indices) draw
+        // nothing and are left as they are.
+        if plan.triangles.is_empty() {
+            continue;
+        }
         let first = *drawn.entry(use_.mesh).or_insert(use_.node);
         let mesh = if first == use_.node {
             use_.mesh
@@ -303,18 +299,11 @@ pub fn rewrite(
         };
         lightmapped.push((mesh, use_.primitive));
     }
-    // Primitives with no triangle (fewer than three indices) draw nothing
-    // and are left as they are.
-    const NONE: (usize, usize) = (usize::MAX, usize::MAX);
-    for (at, plan) in lightmapped.iter_mut().zip(&layout.primitives) {
-        if plan.triangles.is_empty() {
-            *at = NONE;
-        }
-    }
-    for (k, (&(mesh, p), plan)) in lightmapped.iter().zip(&layout.primitives).enumerate() {
-        if (mesh, p) == NONE {
-            continue;
-        }
+    let placed = appearance.primitives.iter().zip(&layout.primitives);
+    let drawn = placed
+        .enumerate()
+        .filter(|(_, (_, plan))| !plan.triangles.is_empty());
+    for ((k, (_, plan)), &(mesh, p)) in drawn.zip(&lightmapped) {
         let source = root.meshes[mesh].primitives[p].clone();
         let mut primitive = source.clone();
         if image.mode == BakeMode::Lit {
@@ -345,23 +334,26 @@ pub fn rewrite(
                 )?;
                 primitive.attributes.insert(semantic.clone(), new);
             }
-            if let Some(targets) = &source.targets {
-                let mut out = targets.clone();
-                for (t, target) in targets.iter().enumerate() {
-                    let gathered =
-                        |root: &mut json::Root,
-                         pending: &mut Vec<Pending>,
-                         a: Option<json::Index<json::Accessor>>| {
-                            a.map(|a| {
-                                gather(root, appearance, pending, a.value(), &plan.xref, false)
-                            })
-                            .transpose()
-                        };
-                    out[t].positions = gathered(&mut root, &mut pending, target.positions)?;
-                    out[t].normals = gathered(&mut root, &mut pending, target.normals)?;
-                    out[t].tangents = gathered(&mut root, &mut pending, target.tangents)?;
+            if let Some(targets) = &mut primitive.targets {
+                for target in targets {
+                    for slot in [
+                        &mut target.positions,
+                        &mut target.normals,
+                        &mut target.tangents,
+                    ] {
+                        if let Some(a) = *slot {
+                            let gathered = gather(
+                                &mut root,
+                                appearance,
+                                &mut pending,
+                                a.value(),
+                                &plan.xref,
+                                false,
+                            )?;
+                            *slot = Some(gathered);
+                        }
+                    }
                 }
-                primitive.targets = Some(out);
             }
             let uv: Vec<u8> = plan
                 .uv
@@ -450,12 +442,7 @@ pub fn rewrite(
         extras: Default::default(),
     });
     if image.mode == BakeMode::Lit {
-        let drawn: Vec<(usize, usize)> = lightmapped
-            .iter()
-            .copied()
-            .filter(|&at| at != NONE)
-            .collect();
-        unlit_materials(&mut b.root, &drawn, texture);
+        unlit_materials(&mut b.root, &lightmapped, texture);
     }
     Ok((b, texture))
 }

@@ -160,21 +160,30 @@ pub fn appearance_of_scene(scene: &Scene) -> io::Result<Appearance> {
 fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize, Vec<bool>) {
     let (width, height) = (layout.width, layout.height);
     let primitives = &bake.appearance.primitives;
-    // World corners and front normal of every output triangle.
-    let world: Vec<Vec<[DVec3; 3]>> = primitives
+    // World corners and front normal of every output triangle (a negative
+    // determinant reverses the winding, as the loader does). Only the
+    // corners are transformed: primitives may share one large accessor.
+    let world: Vec<Vec<([DVec3; 3], DVec3)>> = primitives
         .iter()
         .zip(&layout.primitives)
         .map(|(use_, plan)| {
-            let positions = atlas::world_points(use_);
+            let side = if use_.world.determinant() < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
             plan.triangles
                 .iter()
-                .map(|t| t.map(|v| positions[plan.xref[v as usize] as usize]))
+                .map(|t| {
+                    let c = t.map(|v| {
+                        let p = use_.positions[plan.xref[v as usize] as usize];
+                        use_.world.transform_point3(DVec3::from(p))
+                    });
+                    let n = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
+                    (c, side * n)
+                })
                 .collect()
         })
-        .collect();
-    let flip: Vec<bool> = primitives
-        .iter()
-        .map(|u| u.world.determinant() < 0.0)
         .collect();
     let uv: Vec<Vec<[[f32; 2]; 3]>> = layout
         .primitives
@@ -211,19 +220,13 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
             let Some(c) = *claim else {
                 return [Vec3::NAN; 2];
             };
-            let corners = world[c.primitive as usize][c.triangle as usize];
+            let (corners, n) = world[c.primitive as usize][c.triangle as usize];
             // A hair inside the triangle: a texel clamped onto an edge
             // shared with another surface in the same plane (a ceiling
             // around its lamp) takes its own surface's light.
             let w = c.bary.map(|w| f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0);
             let p =
                 corners[0] + (corners[1] - corners[0]) * w[1] + (corners[2] - corners[0]) * w[2];
-            let mut n = (corners[1] - corners[0])
-                .cross(corners[2] - corners[0])
-                .normalize_or_zero();
-            if flip[c.primitive as usize] {
-                n = -n;
-            }
             let back = if primitives[c.primitive as usize].double_sided {
                 value(p, -n)
             } else {
@@ -273,22 +276,23 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
 /// If the charts cannot be laid out, the input's data is malformed, or
 /// encoding fails.
 pub fn bake(bake: &LightmapBake<'_>, path: &Path) -> io::Result<(Vec<StagedFile>, LightmapReport)> {
+    check_input(bake.appearance).map_err(io::Error::other)?;
     let start = Instant::now();
     let layout = atlas::layout(&bake.appearance.primitives, &bake.settings)
         .map_err(|e| io::Error::other(format!("lightmap layout: {e}")))?;
     let layout_time = start.elapsed();
     let start = Instant::now();
     let (pixels, texels, missing, back_side) = texel_values(bake, &layout);
-    let image = crate::render::Image {
-        width: layout.width,
-        height: layout.height,
-        coverage: vec![1.0; pixels.len()],
-        pixels,
-    };
+    let (width, height) = (layout.width, layout.height);
+    let srgb: Vec<u8> = pixels
+        .iter()
+        .flat_map(|p| p.to_array().map(crate::render::srgb8))
+        .collect();
     let mut png = Vec::new();
-    crate::export::write_png(&mut png, image.width, image.height, &image.to_srgb8(1.0))?;
+    crate::export::write_png(&mut png, width, height, &srgb)?;
+    drop(srgb);
     let mut exr = io::Cursor::new(Vec::new());
-    write_exr(&mut exr, &image)?;
+    write_exr(&mut exr, width, &pixels)?;
     let (mut b, texture) = document::rewrite(
         bake.appearance,
         &layout,
@@ -448,18 +452,15 @@ fn list_extensions(root: &mut json::Root) {
 
 /// Writes the lightmap as OpenEXR: RGB half floats (three significant
 /// digits, as engines store HDR lightmaps), PIZ-compressed.
-fn write_exr(
-    out: &mut (impl io::Write + io::Seek),
-    image: &crate::render::Image,
-) -> io::Result<()> {
+fn write_exr(out: &mut (impl io::Write + io::Seek), width: u32, pixels: &[Vec3]) -> io::Result<()> {
     use exr::prelude::{Encoding, Image as ExrImage, SpecificChannels, Vec2, WritableImage, f16};
-    let width = image.width as usize;
+    let width = width as usize;
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let p = image.pixels[y * width + x];
+        let p = pixels[y * width + x];
         (f16::from_f32(p.x), f16::from_f32(p.y), f16::from_f32(p.z))
     });
     ExrImage::from_encoded_channels(
-        (width, image.height as usize),
+        (width, pixels.len() / width.max(1)),
         Encoding::SMALL_FAST_LOSSLESS,
         channels,
     )

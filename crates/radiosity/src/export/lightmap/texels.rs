@@ -145,8 +145,7 @@ fn nearest_on_triangle(p: DVec2, a: DVec2, b: DVec2, c: DVec2, area: f64) -> ([f
 /// The element mesh's conforming triangles, indexed by a uniform grid, for
 /// finding the triangle under a surface point.
 pub struct Locator {
-    /// Per triangle: corner positions, unit normal, corner vertices.
-    triangles: Vec<([DVec3; 3], DVec3, [u32; 3])>,
+    triangles: Vec<Flat>,
     lo: DVec3,
     cell: f64,
     dims: [usize; 3],
@@ -157,23 +156,56 @@ pub struct Locator {
     tolerance: f64,
 }
 
+/// An element triangle in its own plane, set up once for the many points
+/// looked up in it.
+struct Flat {
+    /// Its first corner, the origin of `u` and `v`.
+    origin: DVec3,
+    /// Unit normal.
+    normal: DVec3,
+    /// Unit axes in its plane.
+    u: DVec3,
+    v: DVec3,
+    /// Corners in (`u`, `v`) coordinates.
+    corners: [DVec2; 3],
+    /// Doubled signed area in the plane.
+    area: f64,
+    /// Its mesh vertices.
+    vertices: [u32; 3],
+}
+
+impl Flat {
+    fn new(p: [DVec3; 3], vertices: [u32; 3]) -> Option<Flat> {
+        let normal = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize()?;
+        let u = (p[1] - p[0]).normalize();
+        let v = normal.cross(u);
+        let corners = p.map(|q| DVec2::new((q - p[0]).dot(u), (q - p[0]).dot(v)));
+        Some(Flat {
+            origin: p[0],
+            normal,
+            u,
+            v,
+            area: (corners[1] - corners[0]).perp_dot(corners[2] - corners[0]),
+            corners,
+            vertices,
+        })
+    }
+}
+
 impl Locator {
     /// Indexes `mesh`'s triangles; a point may lie `tolerance` metres off
     /// its triangle.
     #[must_use]
     pub fn new(mesh: &Mesh, tolerance: f64) -> Locator {
-        let triangles: Vec<([DVec3; 3], DVec3, [u32; 3])> = mesh
+        let position = |t: &[u32; 3]| t.map(|v| mesh.vertices[v as usize].position);
+        let triangles: Vec<Flat> = mesh
             .triangles()
             .into_iter()
-            .filter_map(|t| {
-                let p = t.corners.map(|v| mesh.vertices[v as usize].position);
-                let n = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize()?;
-                Some((p, n, t.corners))
-            })
+            .filter_map(|t| Flat::new(position(&t.corners), t.corners))
             .collect();
         let (lo, hi) = triangles
             .iter()
-            .flat_map(|t| t.0)
+            .flat_map(|t| position(&t.vertices))
             .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
                 (lo.min(p), hi.max(p))
             });
@@ -212,7 +244,7 @@ impl Locator {
             }
         };
         for t in &triangles {
-            visit(&t.0, &mut |k| count[k + 1] += 1);
+            visit(&position(&t.vertices), &mut |k| count[k + 1] += 1);
         }
         for k in 1..count.len() {
             count[k] += count[k - 1];
@@ -220,7 +252,7 @@ impl Locator {
         let start = count.clone();
         let mut items = vec![0u32; *count.last().unwrap_or(&0) as usize];
         for (i, t) in triangles.iter().enumerate() {
-            visit(&t.0, &mut |k| {
+            visit(&position(&t.vertices), &mut |k| {
                 items[count[k] as usize] = i as u32;
                 count[k] += 1;
             });
@@ -253,24 +285,22 @@ impl Locator {
         let k = (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0];
         let mut best: Option<([u32; 3], [f64; 3], f64)> = None;
         for &i in &self.items[self.start[k] as usize..self.start[k + 1] as usize] {
-            let (corners, n, vertices) = &self.triangles[i as usize];
-            if n.dot(normal) <= NORMAL_AGREEMENT {
+            let t = &self.triangles[i as usize];
+            if t.normal.dot(normal) <= NORMAL_AGREEMENT {
                 continue;
             }
-            let off_plane = (p - corners[0]).dot(*n);
+            let q = p - t.origin;
+            let off_plane = q.dot(t.normal);
             if off_plane.abs() > self.tolerance {
                 continue;
             }
             // Nearest point within the plane, in the triangle's own frame.
-            let u = (corners[1] - corners[0]).normalize();
-            let v = n.cross(u);
-            let flat = |q: DVec3| DVec2::new((q - corners[0]).dot(u), (q - corners[0]).dot(v));
-            let [a, b, cc] = corners.map(flat);
-            let area = (b - a).perp_dot(cc - a);
-            let (bary, d) = nearest_on_triangle(flat(p), a, b, cc, area);
+            let [a, b, c] = t.corners;
+            let (bary, d) =
+                nearest_on_triangle(DVec2::new(q.dot(t.u), q.dot(t.v)), a, b, c, t.area);
             let distance = d.hypot(off_plane);
             if distance <= self.tolerance && best.is_none_or(|(_, _, e)| distance < e) {
-                best = Some((*vertices, bary, distance));
+                best = Some((t.vertices, bary, distance));
             }
         }
         best.map(|(v, b, _)| (v, b))

@@ -130,8 +130,6 @@ pub struct PrimitiveUse {
     pub triangles: Vec<[u32; 3]>,
     /// `TEXCOORD_1`, when the primitive has one (shared likewise).
     pub uv1: Option<std::sync::Arc<Vec<[f32; 2]>>>,
-    /// Its material (`None`: the glTF default material).
-    pub material: Option<usize>,
     /// Whether the material is double-sided (both faces lit in the solve).
     pub double_sided: bool,
     /// For a primitive carrying `FB_ngon_encoding`, the polygon each

@@ -231,7 +231,6 @@ impl Loader<'_> {
                     .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
                     .collect(),
                 uv1: shared_uv1,
-                material: material_index,
                 double_sided: material.double_sided,
                 polygons: ngon.then(|| {
                     polygons
