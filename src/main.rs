@@ -197,6 +197,7 @@ fn serve(args: &ServeArgs) -> Result<()> {
             ambient: !args.render.no_ambient,
             exposure: args.render.exposure,
         },
+        &args.pause_at,
     )?;
     // The first Ctrl-C stops the solve and writes the outputs; a second
     // one gives up at once.

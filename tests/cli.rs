@@ -380,6 +380,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "base_elements",
             "bookkeeping_seconds",
             "coarse_shots",
+            "coarse_stop_reason",
             "cut_entries",
             "cut_evaluations",
             "cut_samples",
@@ -1181,4 +1182,49 @@ fn an_oversized_lightmap_is_refused_before_the_solve() {
         "{stderr}"
     );
     assert!(!bake.exists());
+}
+
+/// A `--time-limit` that cuts refinement's coarse pass short says so: in
+/// `--stats` (`coarse_stop_reason`), and in the summary, since the mesh
+/// then depends on how fast the machine was. A limit of a nanosecond runs
+/// out within the coarse pass's first shot on any machine; without a limit
+/// the pass stops by its own rules.
+#[test]
+fn a_coarse_pass_cut_by_the_time_limit_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let stats = |name: &str, extra: &[&str]| {
+        let path = dir.path().join(name);
+        let mut args = vec![
+            "render", "cornell", "--width", "16", "--height", "12", "--output",
+        ];
+        let picture = dir.path().join(format!("{name}.png"));
+        args.push(picture.to_str().unwrap());
+        args.extend(["--stats", path.to_str().unwrap()]);
+        args.extend(extra);
+        let out = run(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        (json, String::from_utf8_lossy(&out.stdout).into_owned())
+    };
+    let (cut, summary) = stats("cut.json", &["--time-limit", "1e-9"]);
+    assert_eq!(cut["coarse_stop_reason"], "time limit reached");
+    assert_eq!(cut["stop_reason"], "time limit reached");
+    assert!(summary.contains("the coarse pass ran out of its quarter of --time-limit"));
+    let (whole, summary) = stats("whole.json", &["--max-shots", "1"]);
+    let reason = whole["coarse_stop_reason"].as_str().unwrap();
+    assert!(
+        ["converged", "max-shots reached"].contains(&reason),
+        "{reason}"
+    );
+    assert!(!summary.contains("coarse pass ran out"), "{summary}");
+    let (unrefined, _) = stats(
+        "unrefined.json",
+        &["--refine-levels", "0", "--max-shots", "1"],
+    );
+    assert!(unrefined["coarse_stop_reason"].is_null());
 }

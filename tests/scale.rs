@@ -121,12 +121,29 @@ fn scale_on_the_builtin_scenes_measures_every_case() {
         });
         assert_eq!(!case.early.is_empty(), default, "{case:?}");
         for early in &case.early {
-            let (l1, unshot) = early.result.clone().unwrap();
-            assert!((0.0..1.0).contains(&l1), "{case:?}");
-            // A run that converged within its limit is the full run's
-            // solve, to the last bit (the solve is deterministic).
-            if unshot <= 0.01 && run.converged() {
-                assert_eq!(l1, 0.0, "{} after {} s", case.scene, early.seconds);
+            let name = format!("{} after {} s", case.scene, early.seconds);
+            let Some(stop) = early.stop_reason.as_deref() else {
+                panic!("{name}: the run failed: {early:?}");
+            };
+            let l1 = match &early.result {
+                Ok((l1, unshot)) => {
+                    assert!((0.0..1.0).contains(l1), "{name}: {early:?}");
+                    assert!((0.0..=1.0).contains(unshot), "{name}: {early:?}");
+                    *l1
+                }
+                // Only a coarse pass cut short by the limit makes another
+                // mesh than the full run's.
+                Err(message) => {
+                    assert!(early.coarse_pass_cut(), "{name}: {message}");
+                    continue;
+                }
+            };
+            // A run that converged within its limit, its coarse pass not
+            // cut short, is the full run's solve to the last bit (the solve
+            // is deterministic); how far a machine gets within a limit is
+            // not, so that is all that is compared.
+            if stop == "converged" && !early.coarse_pass_cut() && run.converged() {
+                assert_eq!(l1, 0.0, "{name}: {early:?}");
             }
         }
     }

@@ -17,12 +17,17 @@ use serde_json::Value;
 use tungstenite::Message;
 use tungstenite::client::IntoClientRequest;
 
-/// A solve of the Cornell box that takes far longer than any test waits
-/// (the default converges in under a second): the tests stop it.
-const LONG_SOLVE: [&str; 6] = ["--subsources", "4", "--converge", "1e-9", "--threads", "1"];
+/// A solve of the Cornell box thousands of shots long (1,863 to
+/// `--converge 1e-9`: a few seconds here, far less on a fast machine). A
+/// test that must find the solve still running when it acts holds it at a
+/// known shot with `--pause-at` (the tests below never depend on how fast
+/// the machine is); the others assert nothing that depends on whether it
+/// ended before they stopped it.
+const LONG_SOLVE: [&str; 4] = ["--converge", "1e-9", "--threads", "1"];
 
-/// Longest any wait in these tests may take.
-const PATIENCE: Duration = Duration::from_secs(60);
+/// Longest any wait in these tests may take: a safety net far above what
+/// any of them needs, even on one busy core.
+const PATIENCE: Duration = Duration::from_secs(300);
 
 /// A running `radiosity serve`, killed if the test fails before it exits.
 struct Served {
@@ -468,14 +473,7 @@ fn serves_no_path_from_the_disk() {
     }
     // The controls take no arguments and no file; other methods are refused.
     // (Vertex queries answer 503 while the scene is loading: wait for it.)
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
-    while served.get("/api/vertex/0").status == 503 {
-        assert!(
-            std::time::Instant::now() < deadline,
-            "the scene never loaded"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    served.wait_for("the scene", |s| s["phase"] != "loading");
     assert_eq!(served.get("/api/stop").status, 405);
     assert_eq!(served.get("/api/vertex/abc").status, 400);
     assert_eq!(served.get("/api/vertex/-1").status, 400);
@@ -534,12 +532,18 @@ fn refuses_other_hosts_and_origins() {
 
 /// The live feed: the scene, the mesh, then status and colour frames while
 /// the solve runs (unshot power falling, frames carrying only what
-/// changed); after Stop, the colours decoded from the frames are the
+/// changed, snapshots taken while solving a quarter second of solve time
+/// apart); after Stop, the colours decoded from the frames are the
 /// solver's radiosities as the vertex CSV has them, within RGBE's
 /// precision, and a client connecting after the end gets the same state.
+/// The solve is held before its first shot, at shot 300 (unshot power
+/// below 2%) and at each of the three after: what the client is sent there
+/// is the same on any machine.
 #[test]
 fn live_frames_decode_to_the_solvers_colours() {
-    let served = Served::start(&LONG_SOLVE);
+    let mut args = LONG_SOLVE.to_vec();
+    args.extend(["--pause-at", "0,300,301,302,303"]);
+    let served = Served::start(&args);
     let mut live = served.websocket();
     let (scene, mesh) = live.opening();
     let v = mesh.positions.len();
@@ -557,16 +561,15 @@ fn live_frames_decode_to_the_solvers_colours() {
     let mut colours = vec![[0u8; 4]; v];
     let mut seen_full = false;
     let mut partial_frames = 0;
+    // The unshot fraction of each frame's snapshot.
     let mut unshot = Vec::new();
     let mut last_seq = 0;
-    let mut first_frame: Option<Instant> = None;
-    let mut frames = 0u32;
-    // Solve time of each frame's snapshot, after the first shot's.
+    // Solve time of each snapshot taken while solving, after the first
+    // shot's.
     let mut snapshot_times = Vec::new();
-    // Watch until the unshot power is below 2% and at least one frame has
-    // carried only the changed vertices.
-    loop {
+    let mut watch = |live: &mut Live, until: u64| loop {
         let (status, frame) = live.update();
+        let framed = frame.is_some();
         if let Some(frame) = frame {
             assert!(frame.seq > last_seq, "snapshots go forward");
             last_seq = frame.seq;
@@ -582,35 +585,39 @@ fn live_frames_decode_to_the_solvers_colours() {
             for (i, c) in frame.vertices {
                 colours[i as usize] = c;
             }
-            first_frame.get_or_insert_with(Instant::now);
-            frames += 1;
-            if status["shots"].as_u64() > Some(1) {
+            if status["phase"] == "solving" && status["shots"].as_u64() > Some(1) {
                 snapshot_times.push(status["elapsed_seconds"].as_f64().unwrap());
             }
             unshot.push(status["unshot_fraction"].as_f64().unwrap());
         }
-        if partial_frames > 0 && *unshot.last().unwrap_or(&1.0) < 0.02 {
-            break;
-        }
         assert_ne!(
             status["phase"], "finished",
-            "the solve ended before the test stopped it"
+            "the solve ended before its hold"
         );
+        if framed && status["phase"] == "paused" && status["shots"].as_u64() == Some(until) {
+            return status;
+        }
+    };
+    let before = watch(&mut live, 0);
+    assert_eq!(before["unshot_fraction"], 1.0, "nothing shot yet");
+    assert_eq!(served.post("/api/resume").status, 200);
+    let at_300 = watch(&mut live, 300);
+    assert!(at_300["unshot_fraction"].as_f64().unwrap() < 0.02);
+    for shots in 301..=303 {
+        assert_eq!(served.post("/api/resume").status, 200);
+        watch(&mut live, shots);
     }
-    assert!(unshot.len() >= 3, "{unshot:?}");
-    assert!(unshot.last().unwrap() < &(0.5 * unshot[0]), "{unshot:?}");
-    // Throttled: snapshots are taken at least 250 ms of solving apart (the
-    // server's clock), and frames arrive no faster (this test's clock, with
-    // a second's slack for a late first read on a busy machine).
-    assert!(snapshot_times.len() >= 2);
+    assert!(partial_frames > 0, "one shot changes few vertices' colours");
+    assert!(unshot.len() >= 5, "{unshot:?}");
+    assert!(unshot.windows(2).all(|w| w[1] < w[0]), "{unshot:?}");
+    // Throttled: the snapshots taken while solving are at least 250 ms of
+    // solving apart (the server's own clock: how many there are depends on
+    // the machine's speed, their spacing does not).
     assert!(
-        snapshot_times.windows(2).all(|w| w[1] - w[0] >= 0.25),
+        snapshot_times
+            .windows(2)
+            .all(|w| w[1] - w[0] >= 0.25 - 1e-9),
         "{snapshot_times:?}"
-    );
-    let watched = first_frame.unwrap().elapsed();
-    assert!(
-        watched + Duration::from_secs(1) >= (frames - 1) * Duration::from_millis(250),
-        "{frames} frames in {watched:?}"
     );
 
     assert_eq!(served.post("/api/stop").status, 200);
@@ -647,7 +654,11 @@ fn live_frames_decode_to_the_solvers_colours() {
     }
     let stats = read_json(&served.path("out.json"));
     assert_eq!(stats["stop_reason"], "stopped");
-    assert!(stats["unshot_fraction"].as_f64().unwrap() <= *unshot.last().unwrap());
+    assert_eq!(stats["shots"], 303, "stopped where it was held");
+    assert_eq!(
+        stats["unshot_fraction"].as_f64().unwrap(),
+        *unshot.last().unwrap()
+    );
     assert_png(&served.path("out.png"), 64, 48);
 
     // The picker reports the solver's value to full precision.
@@ -701,41 +712,56 @@ fn live_frames_decode_to_the_solvers_colours() {
     assert!(status.success(), "{status}");
 }
 
-/// Pause holds the solve (no shot, no time counted) until resume.
+/// Pause holds the solve until resume; the page's pause and a hold of
+/// `--pause-at` are the same pause; stop while paused ends the solve with
+/// no shot after the pause. (Held at shot 3, and at shot 1,000 so that the
+/// solve is still there, paused, however fast the machine.)
 #[test]
 fn pause_holds_the_solve_until_resume() {
-    let served = Served::start(&LONG_SOLVE);
-    served.wait_for("a first shot", |s| s["shots"].as_u64() > Some(0));
+    let mut args = LONG_SOLVE.to_vec();
+    args.extend(["--pause-at", "3,1000"]);
+    let served = Served::start(&args);
+    let held = served.wait_for("the hold", |s| s["phase"] == "paused");
+    assert_eq!(held["shots"], 3);
+    assert_eq!(held["pause_requested"], false);
+    // Pressing pause while paused changes nothing.
+    assert_eq!(served.post("/api/pause").status, 200);
+    let still = served.status();
+    assert_eq!(still["phase"], "paused");
+    assert_eq!(still["pause_requested"], false);
+    assert_eq!(still["shots"], 3);
+    assert_eq!(still["seq"], held["seq"]);
+    served.post("/api/resume");
+    served.wait_for("shots after resume", |s| s["shots"].as_u64() > Some(3));
+    // The page's pause, taken after the current shot (or the hold at 1,000
+    // first).
     let r = served.post("/api/pause");
     assert_eq!(r.status, 200);
     let paused = served.wait_for("the pause", |s| s["phase"] == "paused");
     assert_eq!(paused["pause_requested"], false);
-    std::thread::sleep(Duration::from_millis(800));
-    let still = served.status();
-    assert_eq!(still["phase"], "paused");
-    assert_eq!(still["shots"], paused["shots"]);
-    assert_eq!(still["elapsed_seconds"], paused["elapsed_seconds"]);
-    served.post("/api/resume");
     let shots = paused["shots"].as_u64().unwrap();
-    served.wait_for("shots after resume", |s| s["shots"].as_u64() > Some(shots));
-    // Stop while paused also ends the solve.
-    served.post("/api/pause");
-    served.wait_for("the pause", |s| s["phase"] == "paused");
+    assert!((4..=1000).contains(&shots), "{paused}");
     served.post("/api/stop");
     let end = served.wait_finished();
     assert_eq!(end["stop_reason"], "stopped");
+    assert_eq!(end["shots"], shots, "no shot after the pause");
     let stats = read_json(&served.path("out.json"));
-    assert_eq!(stats["shots"], end["shots"]);
+    assert_eq!(stats["shots"], shots);
+    assert_eq!(stats["stop_reason"], "stopped");
 }
 
 /// Ctrl-C during the solve stops it, writes every output from the state
-/// reached, closes the live connections and exits with status 0.
+/// reached, closes the live connections and exits with status 0. (Held at
+/// shot 3 by `--pause-at`, so the solve is still there whatever the
+/// machine's speed.)
 #[test]
 fn ctrl_c_during_the_solve_writes_the_outputs_and_exits() {
-    let served = Served::start(&LONG_SOLVE);
+    let mut args = LONG_SOLVE.to_vec();
+    args.extend(["--pause-at", "3"]);
+    let served = Served::start(&args);
     let mut live = served.websocket();
     let (scene, _) = live.opening();
-    served.wait_for("a few shots", |s| s["shots"].as_u64() >= Some(3));
+    served.wait_for("the hold", |s| s["phase"] == "paused");
     let out = served.path("out.csv");
     let stats = served.path("out.json");
     let picture = served.path("out.png");
@@ -753,7 +779,7 @@ fn ctrl_c_during_the_solve_writes_the_outputs_and_exits() {
     assert!(status.success(), "{status}: {stderr}");
     let json = read_json(&stats);
     assert_eq!(json["stop_reason"], "stopped");
-    assert!(json["shots"].as_u64().unwrap() >= 3);
+    assert_eq!(json["shots"], 3);
     assert_eq!(
         read_csv(&out).len() as u64,
         scene["vertices"].as_u64().unwrap()
@@ -772,7 +798,6 @@ fn serves_the_final_state_until_ctrl_c() {
     assert_eq!(end["stop_reason"], "max-shots reached");
     assert_eq!(end["shots"], 3);
     assert_eq!(read_json(&served.path("out.json"))["shots"], 3);
-    std::thread::sleep(Duration::from_millis(300));
     let mut live = served.websocket();
     live.opening();
     let (status, frame) = live.update();

@@ -69,6 +69,12 @@ pub struct ServeArgs {
     /// machine is on.
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1")]
     pub host: IpAddr,
+
+    /// Pause the solve by itself once it has made this many shots (0:
+    /// before the first), as the pause button does; a list pauses at each
+    /// (9,48,72: the states of the paper's Figure 5.1). Resume goes on.
+    #[arg(long, value_name = "SHOTS", value_delimiter = ',')]
+    pub pause_at: Vec<u64>,
 }
 
 #[derive(Parser, Debug)]

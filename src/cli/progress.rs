@@ -147,6 +147,18 @@ pub fn print_summary(o: &Outcome) {
             c.refined_elements, c.base_elements, c.coarse_shots
         );
     }
+    match c.coarse_stop_reason {
+        Some("time limit reached") => println!(
+            "the coarse pass ran out of its quarter of --time-limit after {} shots: the mesh \
+             depends on how fast this machine was",
+            c.coarse_shots
+        ),
+        Some("stopped") => println!(
+            "the coarse pass was stopped after {} shots: the base mesh was kept",
+            c.coarse_shots
+        ),
+        _ => {}
+    }
     if !o.lights.is_empty() {
         let lumens: f64 = o.lights.iter().map(|l| l.lumens).sum();
         println!(

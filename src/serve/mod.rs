@@ -9,14 +9,17 @@
 //! from the state reached), the ambient term on or off, an exposure slider,
 //! and a picker that shows one vertex's radiosity. Pause and stop take
 //! effect when the current shot ends (a shot of a large scene can take a
-//! while on a small machine).
+//! while on a small machine). `--pause-at 9,48,72` also pauses the solve
+//! by itself after those many shots (0: before the first), as the pause
+//! button would, to look at the states the paper's Figure 5.1 shows, or
+//! to hold a solve at a known shot for a test; resume goes on to the next.
 //!
 //! # Threads
 //! The solve runs on the caller's thread through [`radiosity::app::run`] with
 //! the [`Server::observer`], at full speed whether or not a page is open:
 //! after a shot it copies the vertex radiosities into shared state at most
-//! every [`SNAPSHOT_INTERVAL`] (250 ms) and never waits on the network; it
-//! blocks only while paused. The server (axum on a one-thread tokio
+//! every [`SNAPSHOT_INTERVAL`] (250 ms) of solve time, and whenever it
+//! pauses, and never waits on the network; it blocks only while paused. The server (axum on a one-thread tokio
 //! runtime) feeds every client from the latest snapshot; a client that
 //! connects late gets the current state, a slow one gets fewer frames, and
 //! closing the page does not stop the solve. Once the solve has ended
@@ -162,7 +165,9 @@ pub struct Server {
 impl Server {
     /// Binds `address` (port 0: any free port) and starts serving; the
     /// page shows "loading" until [`Server::observer`] is told the mesh.
-    pub fn start(address: SocketAddr, display: Display) -> Result<Server, Error> {
+    /// The solve pauses by itself once it has made each of `pause_at`
+    /// shots (0: before the first).
+    pub fn start(address: SocketAddr, display: Display, pause_at: &[u64]) -> Result<Server, Error> {
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("radiosity-serve")
@@ -176,7 +181,7 @@ impl Server {
         let local = listener
             .local_addr()
             .map_err(|source| Error::Bind { address, source })?;
-        let shared = Arc::new(state::Shared::new(display));
+        let shared = Arc::new(state::Shared::new(display, pause_at));
         let router = http::router(shared.clone(), local);
         let mut closing = shared.closing();
         let serving = runtime.spawn(async move {

@@ -1,8 +1,9 @@
 //! What the solve thread and the web server share: the scene sent to every
 //! client, the latest snapshot of the solution, the status line, and the
-//! page's controls (pause, stop). The solve thread writes a snapshot at
-//! most every [`SNAPSHOT_INTERVAL`] and never waits for the network; it
-//! blocks only while paused.
+//! page's controls (pause, stop) and the shot counts at which the solve
+//! holds by itself (`--pause-at`). The solve thread writes a snapshot at
+//! most every [`SNAPSHOT_INTERVAL`] of solving, and whenever it pauses; it
+//! never waits for the network and blocks only while paused.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
@@ -20,9 +21,10 @@ use radiosity::scene::{Camera, Scene};
 use radiosity::solver::{Flow, Solver, StopReason};
 use radiosity::view;
 
-/// Shortest time between two snapshots of the solution: clients are sent
-/// at most this many updates, and copying the radiosities costs the solve
-/// thread a copy of one vector this often.
+/// Shortest solve time (pauses excluded) between two snapshots of the
+/// solution taken while it runs: clients are sent at most this many
+/// updates, and copying the radiosities costs the solve thread a copy of
+/// one vector this often. A pause always takes one.
 pub const SNAPSHOT_INTERVAL: Duration = Duration::from_millis(250);
 
 /// Where the run is.
@@ -134,6 +136,9 @@ struct Inner {
     snapshot: Option<Arc<Snapshot>>,
     status: Status,
     paused: bool,
+    /// Shot counts at which the solve pauses by itself, ascending; each is
+    /// removed once reached.
+    holds: Vec<u64>,
 }
 
 /// State shared by the solve thread, the server's tasks and the Ctrl-C
@@ -155,8 +160,13 @@ pub struct Shared {
 }
 
 impl Shared {
-    /// Fresh state: loading, nothing to show yet.
-    pub fn new(display: Display) -> Shared {
+    /// Fresh state: loading, nothing to show yet. The solve pauses by
+    /// itself once it has made each of `pause_at` shots (0: before the
+    /// first), as if the page's pause had been pressed then.
+    pub fn new(display: Display, pause_at: &[u64]) -> Shared {
+        let mut holds = pause_at.to_vec();
+        holds.sort_unstable();
+        holds.dedup();
         Shared {
             display,
             scene: OnceLock::new(),
@@ -177,6 +187,7 @@ impl Shared {
                     written: Vec::new(),
                 },
                 paused: false,
+                holds,
             }),
             resume: Condvar::new(),
             pause_flag: AtomicBool::new(false),
@@ -220,12 +231,18 @@ impl Shared {
         self.closing.subscribe()
     }
 
-    /// Holds the solve after its current shot.
+    /// Holds the solve after its current shot. A pause that comes after a
+    /// resume the solve thread has not taken up yet (its phase still says
+    /// paused) keeps it paused.
     pub fn pause(&self) {
         let mut inner = self.lock();
-        if matches!(inner.status.phase, Phase::Loading | Phase::Solving) {
+        let running = matches!(
+            inner.status.phase,
+            Phase::Loading | Phase::Solving | Phase::Paused
+        );
+        if running && !inner.paused {
             inner.paused = true;
-            inner.status.pause_requested = true;
+            inner.status.pause_requested = inner.status.phase != Phase::Paused;
             self.pause_flag.store(true, Ordering::SeqCst);
         }
         drop(inner);
@@ -362,6 +379,18 @@ impl Shared {
         self.notify();
     }
 
+    /// Pauses the solve if it has reached a hold of `--pause-at` with
+    /// `shots` shots (every hold at or below `shots` is then used up).
+    fn hold_at(&self, shots: u64) {
+        let mut inner = self.lock();
+        let reached = inner.holds.partition_point(|&h| h <= shots);
+        if reached > 0 {
+            inner.holds.drain(..reached);
+            inner.paused = true;
+            self.pause_flag.store(true, Ordering::SeqCst);
+        }
+    }
+
     /// Blocks the solve thread while paused; true if it should stop.
     fn wait_while_paused(&self) -> bool {
         let mut inner = self.lock();
@@ -395,12 +424,36 @@ pub fn initial_ambient(scene: &Scene, mesh: &Mesh) -> DVec3 {
     (unshot / area) / (DVec3::ONE - rho / area)
 }
 
+/// When the solve thread takes a snapshot while the solve runs: after the
+/// first shot, then once [`SNAPSHOT_INTERVAL`] of solve time (pauses
+/// excluded) has passed since the last snapshot, whatever took it. Two
+/// snapshots taken while solving are therefore at least the interval of
+/// solve time apart, which the status's `elapsed_seconds` shows.
+#[derive(Clone, Copy, Debug, Default)]
+struct Throttle {
+    /// Solve time of the last snapshot.
+    last: Option<Duration>,
+}
+
+impl Throttle {
+    /// Whether a snapshot is due at solve time `active`.
+    fn due(&self, active: Duration) -> bool {
+        self.last
+            .is_none_or(|last| active.saturating_sub(last) >= SNAPSHOT_INTERVAL)
+    }
+
+    /// A snapshot was taken at solve time `active`.
+    fn taken(&mut self, active: Duration) {
+        self.last = Some(active);
+    }
+}
+
 /// The [`Observer`] that feeds the live view from the solve thread.
 pub struct LiveObserver {
     shared: Arc<Shared>,
     solve_start: Instant,
     paused_total: Duration,
-    last_publish: Option<Instant>,
+    throttle: Throttle,
     /// Active solve time and rays at the last snapshot, for rays/s.
     last_rays: (Duration, u64),
     rays_per_second: f64,
@@ -413,7 +466,7 @@ impl LiveObserver {
             shared,
             solve_start: Instant::now(),
             paused_total: Duration::ZERO,
-            last_publish: None,
+            throttle: Throttle::default(),
             last_rays: (Duration::ZERO, 0),
             rays_per_second: 0.0,
         }
@@ -452,7 +505,7 @@ impl LiveObserver {
                     status.stop_reason = Some(stop.describe());
                 }
             });
-        self.last_publish = Some(Instant::now());
+        self.throttle.taken(active);
     }
 }
 
@@ -467,10 +520,21 @@ impl Observer for LiveObserver {
             .iter()
             .map(|v| scene.surfaces[v.surface as usize].emission)
             .collect();
+        // A hold at shot 0, or a pause pressed while loading, holds the
+        // solve before its first shot.
+        self.shared.hold_at(0);
+        let held = self.shared.pause_flag.load(Ordering::SeqCst);
         self.shared
             .publish(radiosity, initial_ambient(scene, mesh), |status| {
-                status.phase = Phase::Solving;
+                status.phase = if held { Phase::Paused } else { Phase::Solving };
+                if held {
+                    status.pause_requested = false;
+                }
             });
+        // A stop while held is seen by the solve before its first shot.
+        if held && !self.shared.wait_while_paused() {
+            self.shared.set_phase(Phase::Solving);
+        }
         self.solve_start = Instant::now();
     }
 
@@ -482,6 +546,7 @@ impl Observer for LiveObserver {
         if self.shared.stop_flag.load(Ordering::SeqCst) {
             return Flow::Stop;
         }
+        self.shared.hold_at(solver.stats().shots);
         if self.shared.pause_flag.load(Ordering::SeqCst) {
             self.publish(solver, Phase::Paused, None);
             let paused_at = Instant::now();
@@ -493,10 +558,7 @@ impl Observer for LiveObserver {
             self.shared.set_phase(Phase::Solving);
             return Flow::Continue;
         }
-        if self
-            .last_publish
-            .is_none_or(|t| t.elapsed() >= SNAPSHOT_INTERVAL)
-        {
+        if self.throttle.due(self.active_time()) {
             self.publish(solver, Phase::Solving, None);
         }
         Flow::Continue
@@ -512,6 +574,90 @@ mod tests {
     use super::*;
     use radiosity::mesh::MeshSettings;
     use radiosity::solver::Settings;
+
+    /// Snapshots while solving: the first shot's, then one once the
+    /// interval of solve time has passed since the last, whatever took it.
+    #[test]
+    fn snapshots_are_an_interval_of_solve_time_apart() {
+        let ms = Duration::from_millis;
+        let mut throttle = Throttle::default();
+        assert!(throttle.due(Duration::ZERO), "the first shot's");
+        throttle.taken(ms(40));
+        assert!(!throttle.due(ms(40)));
+        assert!(!throttle.due(ms(40) + SNAPSHOT_INTERVAL - Duration::from_nanos(1)));
+        assert!(throttle.due(ms(40) + SNAPSHOT_INTERVAL));
+        // A pause's snapshot (taken whenever the pause comes) starts the
+        // interval again.
+        throttle.taken(ms(100));
+        assert!(!throttle.due(ms(300)));
+        assert!(throttle.due(ms(350)));
+        // Solve time never runs backwards, but a clock read before the last
+        // snapshot is not due.
+        assert!(!throttle.due(ms(10)));
+    }
+
+    /// Holds of `--pause-at` pause the solve once, at the first shot count
+    /// at or past them, in any order given.
+    #[test]
+    fn holds_pause_once_at_their_shot_counts() {
+        let display = Display {
+            camera: None,
+            ambient: true,
+            exposure: 0.0,
+        };
+        let shared = Shared::new(display, &[5, 0, 9, 5]);
+        let paused = |shared: &Shared| shared.pause_flag.load(Ordering::SeqCst);
+        shared.hold_at(0);
+        assert!(paused(&shared));
+        shared.resume();
+        for shots in 1..5 {
+            shared.hold_at(shots);
+            assert!(!paused(&shared), "{shots}");
+        }
+        shared.hold_at(5);
+        assert!(paused(&shared));
+        shared.resume();
+        // A count past a hold not asked at it still pauses.
+        shared.hold_at(12);
+        assert!(paused(&shared));
+        shared.resume();
+        shared.hold_at(13);
+        assert!(!paused(&shared), "every hold used up");
+        assert!(shared.lock().holds.is_empty());
+    }
+
+    /// A pause right after a resume, before the solve thread has woken,
+    /// keeps the solve paused; pressing pause while paused changes nothing.
+    #[test]
+    fn a_pause_right_after_resume_is_not_lost() {
+        let display = Display {
+            camera: None,
+            ambient: true,
+            exposure: 0.0,
+        };
+        let shared = Shared::new(display, &[]);
+        shared.set_phase(Phase::Solving);
+        shared.pause();
+        assert!(shared.current().0.pause_requested);
+        // The solve thread takes the pause.
+        shared.set_phase(Phase::Paused);
+        assert!(!shared.current().0.pause_requested);
+        shared.pause();
+        assert!(!shared.current().0.pause_requested, "already paused");
+        shared.resume();
+        assert!(!shared.pause_flag.load(Ordering::SeqCst));
+        // Pause again before the solve thread has run: its phase still
+        // says paused, and the solve must stay held.
+        shared.pause();
+        assert!(shared.pause_flag.load(Ordering::SeqCst));
+        assert!(shared.lock().paused);
+        assert!(!shared.current().0.pause_requested);
+        // Once writing, pause does nothing.
+        shared.resume();
+        shared.set_phase(Phase::Writing);
+        shared.pause();
+        assert!(!shared.pause_flag.load(Ordering::SeqCst));
+    }
 
     /// The ambient term shown before the first shot is the solver's own at
     /// the start.

@@ -133,6 +133,7 @@ function measureKey() {
 }
 
 let drawPending = false;
+let draws = 0;
 function draw() {
   if (drawPending) return;
   drawPending = true;
@@ -142,6 +143,10 @@ function draw() {
     material.uniforms.scale.value = (keyScale ?? 1) * 2 ** ev;
     material.uniforms.ambientOn.value = $('ambient').checked ? 1 : 0;
     renderer.render(scene, camera);
+    // Counted once drawn with the controls as they are now, so that a
+    // test can wait for a change to reach the canvas.
+    draws += 1;
+    document.body.dataset.draws = String(draws);
     if (undrawn !== null) {
       // Counted once drawn, so that a test reading the count sees the
       // frame on the canvas.
@@ -256,7 +261,13 @@ function showExposure() {
 
 const rgb = (a, digits = 4) => a.map((x) => x.toPrecision(digits)).join(', ');
 
+// Vertex queries asked and the one shown: an answer that arrives after a
+// later query's is dropped, so the panel never goes back to older values.
+let picksAsked = 0;
 async function pickVertex(index) {
+  picksAsked += 1;
+  const asked = picksAsked;
+  document.body.dataset.picksAsked = String(asked);
   let v;
   try {
     const response = await fetch(`/api/vertex/${index}`);
@@ -265,7 +276,7 @@ async function pickVertex(index) {
   } catch {
     return; // the server has gone
   }
-  if (picked !== index) return;
+  if (picked !== index || asked !== picksAsked) return;
   $('picked').hidden = false;
   $('picked-index').textContent = String(v.index);
   $('picked-surface').textContent = String(v.surface);
@@ -274,6 +285,7 @@ async function pickVertex(index) {
   $('picked-rho').textContent = rgb(v.reflectance, 3);
   marker.position.fromArray(v.position);
   marker.visible = true;
+  document.body.dataset.pickShown = String(asked);
   draw();
 }
 

@@ -29,7 +29,7 @@ import { spawn } from 'node:child_process';
 import { readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
-import { BIN, CHROMIUM_ARGS, decodePng, radiosity, tempDir } from './helpers.mjs';
+import { BIN, CHROMIUM_ARGS, PATIENCE, decodePng, radiosity, tempDir } from './helpers.mjs';
 
 const WIDTH = 400;
 const HEIGHT = 400;
@@ -55,13 +55,22 @@ function serve(file) {
   const server = spawn(BIN, ['view', file, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
   return new Promise((resolve, reject) => {
     let out = '';
+    const guard = setTimeout(() => {
+      server.kill();
+      reject(new Error(`radiosity view printed no address in ${PATIENCE / 1000} s`));
+    }, PATIENCE);
     server.stdout.on('data', (chunk) => {
       out += chunk;
       const m = out.match(/http:\/\/127\.0\.0\.1:\d+\/\S*/);
-      if (m) resolve([m[0], server]);
+      if (m) {
+        clearTimeout(guard);
+        resolve([m[0], server]);
+      }
     });
-    server.on('exit', (code) => reject(new Error(`radiosity view exited (${code}): ${out}`)));
-    setTimeout(() => { server.kill(); reject(new Error('radiosity view printed no address in 10 s')); }, 10000);
+    server.on('exit', (code) => {
+      clearTimeout(guard);
+      reject(new Error(`radiosity view exited (${code}): ${out}`));
+    });
   });
 }
 
@@ -86,11 +95,12 @@ try {
     let shot;
     try {
       const page = await browser.newPage({ viewport: { width: WIDTH, height: HEIGHT }, deviceScaleFactor: 1 });
+      page.setDefaultTimeout(PATIENCE);
       const logs = [];
       page.on('console', (m) => logs.push(m.text()));
       page.on('pageerror', (e) => logs.push(String(e)));
       await page.goto(`${url}&ui=0`);
-      await page.waitForFunction(() => window.viewer, null, { timeout: 60000 });
+      await page.waitForFunction(() => window.viewer, null, { timeout: PATIENCE });
       const state = await page.evaluate(() => window.viewer);
       if (!state.ready) throw new Error(`${name}: the viewer failed: ${state.error}\n${logs.join('\n')}`);
       if (state.mode !== mode) throw new Error(`the bake's mode is ${state.mode}, expected ${mode}`);

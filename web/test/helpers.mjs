@@ -10,6 +10,12 @@ import { inflateSync } from 'node:zlib';
 export const BIN = process.env.RADIOSITY_BIN;
 if (!BIN) throw new Error('RADIOSITY_BIN is not set (run through .ci/web-tests)');
 
+/** Longest any one wait of the web tests may take, ms: a safety net far
+ * above what any of them needs, even on one busy core. No test waits for
+ * time to pass: each waits for an event (a line printed, a frame drawn, a
+ * value shown) and fails only if it never comes. */
+export const PATIENCE = 300_000;
+
 /** A fresh temporary folder. */
 export function tempDir(prefix) {
   return mkdtempSync(join(tmpdir(), `radiosity-${prefix}-`));

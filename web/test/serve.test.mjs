@@ -9,14 +9,14 @@
 // The default preset converges the Cornell box in well under a second, too
 // fast to watch. Here the paper's method (--preset wong-tsang93, one patch
 // a shot, as in its Figure 5.1), elements half the default size (four times
-// the vertices), 8 x 8 subsources (seven times the work a shot) and one
-// solver thread (the other core draws the page) make a shot take a few
-// tenths of a second, and --converge 1e-9 puts the
-// end many minutes away: the page sees the first shots one update at a
-// time and dozens of updates before the test presses Stop, however slow
-// the machine. Nothing slows the solver artificially. --no-ambient makes
-// the page start without the ambient term, so the picture shows B itself
-// brightening.
+// the vertices) and 8 x 8 subsources make a shot take about a tenth of a
+// second here, and --converge 1e-9 puts the end thousands of shots away.
+// Nothing in the test depends on how fast the machine is: --pause-at holds
+// the solve at shots 1, 8, 16 and 40 (the unshot fraction there is the
+// same on any machine), the test acts while it is held or before the next
+// hold, and it waits for events the page marks (a frame drawn, a vertex
+// shown) rather than for time to pass. --no-ambient makes the page start
+// without the ambient term, so the picture shows B itself brightening.
 
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
@@ -25,13 +25,14 @@ import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { createInterface } from 'node:readline';
 import { chromium } from 'playwright-core';
+import { PATIENCE } from './helpers.mjs';
 
 const bin = process.env.RADIOSITY_BIN;
 const executablePath = process.env.CHROMIUM;
 assert.ok(bin, 'RADIOSITY_BIN is not set');
 assert.ok(executablePath, 'CHROMIUM is not set');
 
-const WAIT = 90_000; // longest wait for one condition, ms
+const WAIT = PATIENCE; // longest wait for one condition, ms
 let browser;
 const dir = mkdtempSync(join(tmpdir(), 'radiosity-serve-'));
 const out = { png: join(dir, 'box.png'), csv: join(dir, 'box.csv'), json: join(dir, 'box.json') };
@@ -48,6 +49,7 @@ browser = await chromium.launch({
 const server = spawn(bin, [
   'serve', 'cornell', '--port', '0', '--no-ambient', '--preset', 'wong-tsang93',
   '--element-size', '0.012', '--subsources', '8', '--converge', '1e-9', '--threads', '1',
+  '--pause-at', '1,8,16,40',
   '--output', out.png, '--vertices', out.csv, '--stats', out.json,
   '--width', '200', '--height', '150',
 ], { stdio: ['ignore', 'pipe', 'inherit'] });
@@ -56,7 +58,7 @@ const guard = setTimeout(() => {
   console.error('serve.test: timed out');
   server.kill('SIGKILL');
   process.exit(1);
-}, 6 * WAIT);
+}, 4 * WAIT);
 
 try {
   const url = await new Promise((resolve, reject) => {
@@ -72,6 +74,7 @@ try {
   server.stdout.resume();
 
   const page = await browser.newPage({ viewport: { width: 1000, height: 640 } });
+  page.setDefaultTimeout(WAIT);
   const problems = [];
   page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
   page.on('console', (m) => { if (m.type() === 'error') problems.push(`console: ${m.text()}`); });
@@ -109,12 +112,15 @@ try {
   const waitFor = (what, fn, arg) => page.waitForFunction(fn, arg, { timeout: WAIT })
     .catch((e) => { throw new Error(`waiting for ${what}: ${e.message}`); });
 
-  // Pauses the solve and waits until the page has drawn the paused state;
-  // returns its update count, unshot fraction shown and brightness.
-  async function pauseAndSample() {
-    await page.click('#pause');
-    await waitFor('the pause', () => document.getElementById('phase').textContent === 'paused'
-      && document.body.dataset.seq === document.body.dataset.status);
+  const draws = () => page.evaluate(() => Number(document.body.dataset.draws ?? 0));
+
+  // Waits until the page has drawn the solve held at `shots` by
+  // --pause-at; returns its update count, unshot fraction shown and
+  // brightness.
+  async function held(shots) {
+    await waitFor(`the hold at shot ${shots}`, (n) => document.getElementById('phase').textContent === 'paused'
+      && Number(document.getElementById('shots').textContent.replace(/[^0-9]/g, '')) === n
+      && document.body.dataset.seq === document.body.dataset.status, shots);
     assert.equal(await text('pause'), 'Resume');
     return { updates: await updates(), unshot: await unshotShown(), luma: await brightness() };
   }
@@ -126,47 +132,48 @@ try {
       (n) => Number(document.getElementById('shots').textContent.replace(/[^0-9]/g, '')) > n, shots);
   }
 
+  // Changes a control and waits until the canvas has been drawn since.
+  async function redrawn(change) {
+    const before = await draws();
+    await change();
+    await waitFor('a redraw', (n) => Number(document.body.dataset.draws ?? 0) > n, before);
+  }
+
   await page.goto(url);
   await waitFor('a first update', () => Number(document.body.dataset.updates ?? 0) >= 1);
   assert.match(await text('scene-name'), /^cornell: [0-9,]+ vertices$/);
   assert.equal(await page.isChecked('#ambient'), false, '--no-ambient starts with the ambient term off');
 
-  // An early update and one two or more updates later, with the unshot
-  // power well down; the solve is held while the screenshots are taken.
-  const first = await pauseAndSample();
+  // The first shot, and two holds later (two more updates at least), with
+  // the unshot power well down.
+  const first = await held(1);
   await resume();
-  await waitFor('two more updates and less unshot power', ([n, u]) => {
-    const t = document.getElementById('unshot').textContent;
-    return Number(document.body.dataset.updates) >= n + 2 && Number.parseFloat(t) / 100 <= 0.5 * u;
-  }, [first.updates, first.unshot]);
-  const later = await pauseAndSample();
+  await held(8);
+  await resume();
+  const later = await held(16);
   console.log(`update ${first.updates}: unshot ${first.unshot}, luma ${first.luma.toFixed(1)}; ` +
     `update ${later.updates}: unshot ${later.unshot}, luma ${later.luma.toFixed(1)}`);
   assert.ok(later.updates >= first.updates + 2);
-  assert.ok(later.unshot < first.unshot, 'the unshot fraction shown fell');
+  assert.ok(later.unshot <= 0.5 * first.unshot, 'the unshot fraction shown fell');
   assert.ok(later.luma > 1.05 * first.luma, 'the canvas brightened');
 
-  // Paused: no shot.
-  const shots = await count('shots');
-  await page.waitForTimeout(1500);
-  assert.equal(await count('shots'), shots, 'no shot while paused');
-
-  // While paused (the picture holds still): the ambient term adds light
+  // While held (the picture holds still): the ambient term adds light
   // that is not shot yet, and a stop of exposure brightens.
   const off = later.luma;
-  await page.check('#ambient');
-  await page.waitForTimeout(300);
+  await redrawn(() => page.check('#ambient'));
   const on = await brightness();
   assert.ok(on > 1.02 * off, `ambient on ${on} vs off ${off}`);
-  await page.uncheck('#ambient');
-  await page.locator('#exposure').fill('1');
+  await redrawn(() => page.uncheck('#ambient'));
+  await redrawn(() => page.locator('#exposure').fill('1'));
   assert.equal(await text('exposure-value'), '+1.0 EV');
-  await page.waitForTimeout(300);
   const brighter = await brightness();
   assert.ok(brighter > 1.1 * off, `+1 EV ${brighter} vs ${off}`);
   await page.locator('#exposure').fill('0');
   console.log(`paused: luma ${off.toFixed(1)}, with the ambient term ${on.toFixed(1)}, ` +
     `at +1 EV ${brighter.toFixed(1)}`);
+  // No shot while paused, through all of that.
+  assert.equal(await count('shots'), 16, 'no shot while paused');
+  assert.equal(await text('phase'), 'paused');
   await resume();
 
   // The picker while the solve runs (and the README's picture).
@@ -176,8 +183,7 @@ try {
   await waitFor('the picked vertex', () => !document.getElementById('picked').hidden);
   assert.match(await text('picked-radiosity'), /^[0-9.e+-]+, [0-9.e+-]+, [0-9.e+-]+$/);
   if (process.env.SERVE_SCREENSHOT) {
-    await page.check('#ambient');
-    await page.waitForTimeout(600);
+    await redrawn(() => page.check('#ambient'));
     await page.screenshot({ path: process.env.SERVE_SCREENSHOT });
     await page.uncheck('#ambient');
   }
@@ -191,9 +197,14 @@ try {
   assert.ok(await page.isDisabled('#pause'));
 
   // The picker, now on the final state: the vertex nearest the click,
-  // with the solver's value.
+  // with the solver's value (once the page shows the answer to this
+  // click's query).
+  const asked = await page.evaluate(() => Number(document.body.dataset.picksAsked ?? 0));
   await page.mouse.click(...centre);
-  await page.waitForTimeout(500);
+  await waitFor('the picked vertex on the final state', (n) => {
+    const shown = Number(document.body.dataset.pickShown ?? 0);
+    return shown > n && shown === Number(document.body.dataset.picksAsked);
+  }, asked);
   const index = Number(await text('picked-index'));
   const shown = (await text('picked-radiosity')).split(', ').map(Number);
 

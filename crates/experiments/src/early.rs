@@ -20,8 +20,24 @@ pub struct Early {
     /// `--time-limit` of the run, seconds.
     pub seconds: u64,
     /// The L1 error of its vertex radiosity against the final state, and
-    /// the unshot fraction it had reached; or why it could not be measured.
+    /// the unshot fraction it had reached; or why it could not be measured
+    /// (another mesh: its coarse pass was cut short by the limit).
     pub result: Result<(f64, f64), String>,
+    /// Why its solve stopped (`None` when the run failed).
+    pub stop_reason: Option<String>,
+    /// Why its coarse pass stopped (`None` without one, or when the run
+    /// failed): "time limit reached" when the limit cut it short, so its
+    /// mesh is not the final state's.
+    pub coarse_stop_reason: Option<String>,
+}
+
+impl Early {
+    /// Whether the limit cut its coarse pass short (its mesh then depends
+    /// on how fast the machine was, and may not be the final state's).
+    #[must_use]
+    pub fn coarse_pass_cut(&self) -> bool {
+        self.coarse_stop_reason.as_deref() == Some("time limit reached")
+    }
 }
 
 /// Each vertex's radiosity (red, green and blue summed) from a vertices

@@ -55,10 +55,14 @@ pub struct ScaleScene {
 }
 
 impl ScaleScene {
-    /// The solve's time limit in seconds, shortened in quick mode.
+    /// The solve's time limit in seconds, shortened in quick mode for the
+    /// shared (large) scenes. The built-in scenes keep theirs: a safety net
+    /// far above the second or so they take, so what a quick run measures
+    /// (converged or not, the mesh its coarse pass found) does not depend
+    /// on how fast or busy the machine is.
     #[must_use]
     pub fn effective_time_limit(&self, quick: bool) -> u64 {
-        if quick {
+        if quick && self.spec.shared {
             self.time_limit.min(QUICK_TIME_LIMIT)
         } else {
             self.time_limit
@@ -121,7 +125,7 @@ pub fn builtin_scenes() -> Vec<ScaleScene> {
     SCENES.iter().filter(|s| !s.spec.shared).cloned().collect()
 }
 
-/// Time limit of every case in quick mode, seconds.
+/// Time limit of the shared scenes' cases in quick mode, seconds.
 const QUICK_TIME_LIMIT: u64 = 20;
 
 /// Quick mode meshes this many times coarser than the scene's suggestion.
@@ -202,6 +206,9 @@ pub struct Run {
     pub unshot_fraction: f64,
     /// Why the solve stopped (`converged`, `time limit reached`, ...).
     pub stop_reason: String,
+    /// Why receiver refinement's coarse pass stopped (`None` without one):
+    /// "time limit reached" when its share of the limit cut it short.
+    pub coarse_stop_reason: Option<String>,
     /// Shadow rays traced.
     pub rays: u64,
     /// Thread time spent tracing shadow rays, summed over threads, seconds.
@@ -257,6 +264,7 @@ impl Run {
                 .as_str()
                 .ok_or("the statistics have no stop_reason")?
                 .to_string(),
+            coarse_stop_reason: stats["coarse_stop_reason"].as_str().map(str::to_string),
             rays: count("rays_cast")?,
             ray_thread_seconds: number("ray_thread_seconds")?,
             form_factor_thread_seconds: number("form_factor_thread_seconds")?,
@@ -505,6 +513,13 @@ fn early_pictures(
         let early_stem = format!("{stem}-after-{seconds}s");
         let (_, run) = run_case(context, binary, source, &early_stem, args, seconds, true)?;
         let vertices = context.path(&format!("{early_stem}-vertices.csv"));
+        let (stop_reason, coarse_stop_reason) = match &run {
+            Ok(run) => (
+                Some(run.stop_reason.clone()),
+                run.coarse_stop_reason.clone(),
+            ),
+            Err(_) => (None, None),
+        };
         let result = run.and_then(|run| {
             let values = early::vertex_radiosity(&vertices)?;
             Ok((early::l1(&values, &final_state)?, run.unshot_fraction))
@@ -513,7 +528,12 @@ fn early_pictures(
             let _ = std::fs::remove_file(context.path(&format!("{early_stem}.{extension}")));
         }
         let _ = std::fs::remove_file(&vertices);
-        out.push(Early { seconds, result });
+        out.push(Early {
+            seconds,
+            result,
+            stop_reason,
+            coarse_stop_reason,
+        });
     }
     Ok(out)
 }

@@ -206,10 +206,30 @@ fn early_table(report: &mut Report, cases: &[Case]) {
             ];
             for seconds in EARLY_SECONDS {
                 row.push(match case.early.iter().find(|e| e.seconds == seconds) {
-                    Some(Early {
-                        result: Ok((l1, unshot)),
-                        ..
-                    }) => format!("{:.2}% ({:.0}% unshot)", 100.0 * l1, 100.0 * unshot),
+                    Some(
+                        early @ Early {
+                            result: Ok((l1, unshot)),
+                            ..
+                        },
+                    ) => format!(
+                        "{:.2}% ({:.0}% unshot{})",
+                        100.0 * l1,
+                        100.0 * unshot,
+                        if early.coarse_pass_cut() {
+                            "; coarse pass cut by the limit"
+                        } else {
+                            ""
+                        }
+                    ),
+                    Some(
+                        early @ Early {
+                            result: Err(message),
+                            ..
+                        },
+                    ) if early.coarse_pass_cut() => format!(
+                        "another mesh (coarse pass cut by the limit): {}",
+                        message.replace('|', "/")
+                    ),
                     Some(Early {
                         result: Err(message),
                         ..
@@ -224,7 +244,9 @@ fn early_table(report: &mut Report, cases: &[Case]) {
         "The picture early: each scene's default job again with `--time-limit` 2, 5 and 10 s, \
          its vertex radiosity's L1 error against the final state (the full run's: converged, \
          or where its time limit stopped it), and the unshot power it had left. A limit at or \
-         above the scene's own is not run (-).",
+         above the scene's own is not run (-). Refinement's coarse pass has a quarter of the \
+         limit: where that cut it short, the mesh is refined from less light (said so), or is \
+         another mesh altogether.",
     );
     report.body.push_str(&table(
         &[

@@ -110,6 +110,10 @@ pub struct Counts {
     pub refined_elements: usize,
     /// Shots of refinement's coarse pass (0 without refinement).
     pub coarse_shots: u64,
+    /// Why the coarse pass stopped ([`crate::solver::StopReason::describe`];
+    /// `None` without refinement). "time limit" says a `--time-limit` cut
+    /// it short, so the mesh depends on how fast the machine was.
+    pub coarse_stop_reason: Option<&'static str>,
 }
 
 impl Counts {
@@ -128,6 +132,7 @@ impl Counts {
             base_elements: mesh.elements.len(),
             refined_elements: 0,
             coarse_shots: 0,
+            coarse_stop_reason: None,
         }
     }
 }

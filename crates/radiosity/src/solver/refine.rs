@@ -48,6 +48,11 @@ pub struct Refined {
     pub split_elements: usize,
     /// Shots of the coarse pass (0 without refinement).
     pub coarse_shots: u64,
+    /// Why the coarse pass stopped (`None` without one): its own rules
+    /// (converged, its shot budget), or a time limit or an interrupt that
+    /// cut it short, after which the mesh is refined from (or, when
+    /// interrupted, is) what it had reached.
+    pub coarse_stop: Option<super::StopReason>,
     /// Seconds of the coarse pass and the split.
     pub seconds: f64,
 }
@@ -103,7 +108,7 @@ pub fn refine_base(
     let levels = settings.mesh.refine.refine_levels;
     let base_elements = base.elements.len();
     // The base mesh as it is, when nothing is refined.
-    let unrefined = |mut mesh: Mesh, coarse_shots: u64| {
+    let unrefined = |mut mesh: Mesh, coarse_shots: u64, coarse_stop| {
         if settings.mesh.conform {
             mesh.share_coplanar_edge_vertices();
         }
@@ -112,11 +117,12 @@ pub fn refine_base(
             base_elements,
             split_elements: 0,
             coarse_shots,
+            coarse_stop,
             seconds: start.elapsed().as_secs_f64(),
         })
     };
     if levels == 0 || base.elements.is_empty() {
-        return unrefined(base, 0);
+        return unrefined(base, 0, None);
     }
     let sources = scene.lights.len() as u64
         + base
@@ -143,7 +149,7 @@ pub fn refine_base(
     let coarse_shots = solver.stats().shots;
     if stop == super::StopReason::Stopped {
         drop(solver);
-        return unrefined(base, coarse_shots);
+        return unrefined(base, coarse_shots, Some(stop));
     }
     let centre_radiosity: Vec<DVec3> = centres
         .iter()
@@ -179,6 +185,7 @@ pub fn refine_base(
         base_elements,
         split_elements,
         coarse_shots,
+        coarse_stop: Some(stop),
         seconds: start.elapsed().as_secs_f64(),
     })
 }
