@@ -1186,9 +1186,10 @@ fn an_oversized_lightmap_is_refused_before_the_solve() {
 
 /// A `--time-limit` that cuts refinement's coarse pass short says so: in
 /// `--stats` (`coarse_stop_reason`), and in the summary, since the mesh
-/// then depends on how fast the machine was. A limit of a nanosecond runs
-/// out within the coarse pass's first shot on any machine; without a limit
-/// the pass stops by its own rules.
+/// then depends on how fast the machine was. The coarse pass has a quarter
+/// of the limit: a quarter of a nanosecond rounds to nothing, so it stops
+/// before its first shot on any machine. Without a limit the pass stops by
+/// its own rules.
 #[test]
 fn a_coarse_pass_cut_by_the_time_limit_says_so() {
     let dir = tempfile::tempdir().unwrap();
@@ -1213,6 +1214,7 @@ fn a_coarse_pass_cut_by_the_time_limit_says_so() {
     };
     let (cut, summary) = stats("cut.json", &["--time-limit", "1e-9"]);
     assert_eq!(cut["coarse_stop_reason"], "time limit reached");
+    assert_eq!(cut["coarse_shots"], 0);
     assert_eq!(cut["stop_reason"], "time limit reached");
     assert!(summary.contains("the coarse pass ran out of its quarter of --time-limit"));
     let (whole, summary) = stats("whole.json", &["--max-shots", "1"]);

@@ -125,24 +125,25 @@ fn scale_on_the_builtin_scenes_measures_every_case() {
             let Some(stop) = early.stop_reason.as_deref() else {
                 panic!("{name}: the run failed: {early:?}");
             };
+            // A coarse pass cut short by the limit makes another mesh than
+            // the full run's (its vertices, when as many, are not the same
+            // points): nothing to compare.
+            if early.coarse_pass_cut() {
+                continue;
+            }
             let l1 = match &early.result {
                 Ok((l1, unshot)) => {
                     assert!((0.0..1.0).contains(l1), "{name}: {early:?}");
                     assert!((0.0..=1.0).contains(unshot), "{name}: {early:?}");
                     *l1
                 }
-                // Only a coarse pass cut short by the limit makes another
-                // mesh than the full run's.
-                Err(message) => {
-                    assert!(early.coarse_pass_cut(), "{name}: {message}");
-                    continue;
-                }
+                Err(message) => panic!("{name}: {message}"),
             };
             // A run that converged within its limit, its coarse pass not
             // cut short, is the full run's solve to the last bit (the solve
             // is deterministic); how far a machine gets within a limit is
             // not, so that is all that is compared.
-            if stop == "converged" && !early.coarse_pass_cut() && run.converged() {
+            if stop == "converged" && run.converged() {
                 assert_eq!(l1, 0.0, "{name}: {early:?}");
             }
         }

@@ -71,8 +71,8 @@ pub struct ServeArgs {
     pub host: IpAddr,
 
     /// Pause the solve by itself once it has made this many shots (0:
-    /// before the first), as the pause button does; a list pauses at each
-    /// (9,48,72: the states of the paper's Figure 5.1). Resume goes on.
+    /// before the first), as the pause button does; a list (10,100,1000)
+    /// pauses at each. Resume goes on to the next.
     #[arg(long, value_name = "SHOTS", value_delimiter = ',')]
     pub pause_at: Vec<u64>,
 }

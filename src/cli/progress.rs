@@ -12,7 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use radiosity::app::{self, Outcome};
 use radiosity::mesh::Mesh;
 use radiosity::scene::Scene;
-use radiosity::solver::{Flow, Solver};
+use radiosity::solver::{Flow, Solver, StopReason};
 
 /// How often a progress line is printed when standard error is not a
 /// terminal (a log).
@@ -148,12 +148,12 @@ pub fn print_summary(o: &Outcome) {
         );
     }
     match c.coarse_stop_reason {
-        Some("time limit reached") => println!(
+        Some(StopReason::TimeLimit) => println!(
             "the coarse pass ran out of its quarter of --time-limit after {} shots: the mesh \
              depends on how fast this machine was",
             c.coarse_shots
         ),
-        Some("stopped") => println!(
+        Some(StopReason::Stopped) => println!(
             "the coarse pass was stopped after {} shots: the base mesh was kept",
             c.coarse_shots
         ),

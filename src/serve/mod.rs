@@ -7,20 +7,24 @@
 //! times a second while the solve runs, with the page's controls: pause and
 //! resume, stop (the outputs asked for on the command line are then written
 //! from the state reached), the ambient term on or off, an exposure slider,
-//! and a picker that shows one vertex's radiosity. Pause and stop take
-//! effect when the current shot ends (a shot of a large scene can take a
-//! while on a small machine). `--pause-at 9,48,72` also pauses the solve
-//! by itself after those many shots (0: before the first), as the pause
-//! button would, to look at the states the paper's Figure 5.1 shows, or
-//! to hold a solve at a known shot for a test; resume goes on to the next.
+//! and a picker that shows one vertex's radiosity. Pause takes effect when
+//! the current shot ends (a shot of a large scene can take a while on a
+//! small machine), or before the first shot when pressed while loading;
+//! stop abandons the current shot. `--pause-at 10,100` also pauses the
+//! solve by itself after those many shots (0: before the first), as the
+//! pause button would, to look at the solution at known points of its
+//! progress, or to hold a solve at a known shot for a test; resume goes on
+//! to the next. Time held paused counts neither in the page's solve time
+//! nor against `--time-limit`.
 //!
 //! # Threads
 //! The solve runs on the caller's thread through [`radiosity::app::run`] with
 //! the [`Server::observer`], at full speed whether or not a page is open:
 //! after a shot it copies the vertex radiosities into shared state at most
 //! every [`SNAPSHOT_INTERVAL`] (250 ms) of solve time, and whenever it
-//! pauses, and never waits on the network; it blocks only while paused. The server (axum on a one-thread tokio
-//! runtime) feeds every client from the latest snapshot; a client that
+//! pauses, and never waits on the network; it blocks only while paused.
+//! The server (axum on a one-thread tokio runtime) feeds every client from
+//! the latest snapshot; a client that
 //! connects late gets the current state, a slow one gets fewer frames, and
 //! closing the page does not stop the solve. Once the solve has ended
 //! (converged, stopped, or a limit reached) and the outputs are written,
@@ -28,7 +32,7 @@
 //!
 //! # Ctrl-C
 //! [`Handle::shutdown`] (the binary calls it on Ctrl-C, SIGTERM or SIGHUP):
-//! a solve still running stops after its current shot, the outputs are
+//! a solve still running stops (its current shot abandoned), the outputs are
 //! written from the state reached (as with the stop button: no work is
 //! lost, and nothing is half written), then the server closes its
 //! connections and the command exits with status 0. After the solve has

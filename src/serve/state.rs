@@ -372,8 +372,11 @@ impl Shared {
     fn set_phase(&self, phase: Phase) {
         let mut inner = self.lock();
         inner.status.phase = phase;
-        if phase == Phase::Paused {
-            inner.status.pause_requested = false;
+        match phase {
+            Phase::Paused => inner.status.pause_requested = false,
+            // A pause that came while the solve was waking up is pending.
+            Phase::Solving => inner.status.pause_requested = inner.paused,
+            _ => {}
         }
         drop(inner);
         self.notify();
@@ -652,6 +655,11 @@ mod tests {
         assert!(shared.pause_flag.load(Ordering::SeqCst));
         assert!(shared.lock().paused);
         assert!(!shared.current().0.pause_requested);
+        // The solve thread wakes (the resume it saw) with that pause
+        // pending: the status says so until the shot ends.
+        shared.set_phase(Phase::Solving);
+        assert!(shared.current().0.pause_requested);
+        assert!(shared.pause_flag.load(Ordering::SeqCst));
         // Once writing, pause does nothing.
         shared.resume();
         shared.set_phase(Phase::Writing);

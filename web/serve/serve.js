@@ -245,10 +245,11 @@ function onStatus(s) {
   }
 }
 
+// The answer's status is not shown: it can arrive after a newer one from
+// the live feed, which reports every change anyway.
 async function control(action) {
   try {
-    const response = await fetch(`/api/${action}`, { method: 'POST' });
-    if (response.ok) onStatus(await response.json());
+    await fetch(`/api/${action}`, { method: 'POST' });
   } catch {
     // The server has gone; the socket's close handler says so.
   }

@@ -36,7 +36,8 @@ impl Early {
     /// on how fast the machine was, and may not be the final state's).
     #[must_use]
     pub fn coarse_pass_cut(&self) -> bool {
-        self.coarse_stop_reason.as_deref() == Some("time limit reached")
+        self.coarse_stop_reason.as_deref()
+            == Some(radiosity::solver::StopReason::TimeLimit.describe())
     }
 }
 

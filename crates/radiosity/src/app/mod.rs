@@ -84,7 +84,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         base_elements: refined.base_elements,
         refined_elements: refined.split_elements,
         coarse_shots: refined.coarse_shots,
-        coarse_stop_reason: refined.coarse_stop.map(solver::StopReason::describe),
+        coarse_stop_reason: refined.coarse_stop,
         ..Counts::of(&scene, &mesh)
     };
     let memory_estimate = estimate(&mesh);

@@ -110,10 +110,23 @@ pub struct Counts {
     pub refined_elements: usize,
     /// Shots of refinement's coarse pass (0 without refinement).
     pub coarse_shots: u64,
-    /// Why the coarse pass stopped ([`crate::solver::StopReason::describe`];
-    /// `None` without refinement). "time limit" says a `--time-limit` cut
-    /// it short, so the mesh depends on how fast the machine was.
-    pub coarse_stop_reason: Option<&'static str>,
+    /// Why the coarse pass stopped (`None` without refinement), written as
+    /// [`StopReason::describe`] says it: "time limit reached" says a
+    /// `--time-limit` cut it short, so the mesh depends on how fast the
+    /// machine was.
+    #[serde(serialize_with = "describe_stop")]
+    pub coarse_stop_reason: Option<StopReason>,
+}
+
+/// A stop reason as its description, `null` for none.
+fn describe_stop<S: serde::Serializer>(
+    reason: &Option<StopReason>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    match reason {
+        Some(reason) => serializer.serialize_str(reason.describe()),
+        None => serializer.serialize_none(),
+    }
 }
 
 impl Counts {

@@ -471,10 +471,11 @@ impl<'a> Solver<'a> {
     /// Shoots until a stopping rule holds or `after_shot`, called after
     /// each shot, returns [`Flow::Stop`]. `--time-limit` counts from this
     /// call and, like an interrupt, is obeyed within a shot (which is then
-    /// abandoned).
+    /// abandoned). The time spent in `after_shot` (a live view held paused)
+    /// does not count against the limit.
     pub fn run(&mut self, mut after_shot: impl FnMut(&Solver<'_>) -> Flow) -> StopReason {
         let start = Instant::now();
-        let abort = Abort {
+        let mut abort = Abort {
             deadline: self.settings.time_limit.map(|limit| start + limit),
             flag: self.interrupt.clone(),
         };
@@ -488,7 +489,10 @@ impl<'a> Solver<'a> {
             if !self.shoot_unless(&abort) {
                 return abort.reason().unwrap_or(StopReason::Stopped);
             }
-            if after_shot(self) == Flow::Stop {
+            let called = Instant::now();
+            let flow = after_shot(self);
+            abort.postpone(called.elapsed());
+            if flow == Flow::Stop {
                 return StopReason::Stopped;
             }
         }
@@ -611,5 +615,38 @@ impl Abort {
     /// True when the shot must be abandoned.
     pub fn fired(&self) -> bool {
         self.reason().is_some()
+    }
+
+    /// Moves the deadline (if any) `by` later: time that is not the
+    /// solve's own.
+    fn postpone(&mut self, by: Duration) {
+        if let Some(deadline) = &mut self.deadline {
+            *deadline += by;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deadline passed fires; postponed by time that was not the solve's
+    /// own (a pause), it no longer does; an interrupt fires whatever the
+    /// deadline.
+    #[test]
+    fn a_postponed_deadline_leaves_out_the_time_given_back() {
+        let mut abort = Abort {
+            deadline: Some(Instant::now()),
+            flag: None,
+        };
+        assert_eq!(abort.reason(), Some(StopReason::TimeLimit));
+        abort.postpone(Duration::from_secs(3600));
+        assert_eq!(abort.reason(), None);
+        let flag = Arc::new(AtomicBool::new(true));
+        abort.flag = Some(flag);
+        assert_eq!(abort.reason(), Some(StopReason::Stopped));
+        let mut unlimited = Abort::default();
+        unlimited.postpone(Duration::from_secs(1));
+        assert_eq!(unlimited.reason(), None);
     }
 }
