@@ -1,0 +1,22 @@
+//! The GPU back end of progressive radiosity (Wallace, Elmquist & Haines,
+//! SIGGRAPH 1989; Wong & Tsang 1993), beyond the paper: the same queries the
+//! CPU answers, as WGSL compute kernels driven through wgpu, so that they
+//! run on any GPU (Vulkan, Metal, DX12) and, for the tests, on a software
+//! Vulkan adapter (Mesa's lavapipe).
+//!
+//! Modules, one concern each: [`adapter`] (choosing and opening a device,
+//! naming it), [`trace`] (shadow segments against the scene: a binary
+//! bounding-volume hierarchy over the surfaces' triangles, the very tree
+//! the CPU's BVH builds, walked by the `occluded` kernel in `trace.wgsl`
+//! with a watertight triangle test). The CPU implementation is the oracle
+//! every kernel is tested against.
+
+pub mod adapter;
+pub mod trace;
+
+pub use adapter::{DeviceChoice, Gpu, GpuError};
+
+/// The environment variable that makes the GPU tests require an adapter:
+/// set (to anything but `0`) they fail without one; unset they say they
+/// did not run. CI sets it, with Mesa's software Vulkan installed.
+pub const REQUIRE_ADAPTER: &str = "RADIOSITY_REQUIRE_GPU";

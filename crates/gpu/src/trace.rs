@@ -1,0 +1,396 @@
+//! Shadow segments on the GPU: the any-hit query of
+//! [`radiosity::accel::Occluder::occluded`] (design.md section 3, beyond
+//! the paper) for many segments at once. The scene's convex surfaces are
+//! cut into fans of triangles; the CPU's BVH build ([`FlatTree`], binned
+//! SAH, the very tree the CPU walks before it is widened) is made over
+//! their boxes; nodes and triangles, in leaf order, stay on the device; the
+//! `occluded` kernel of `trace.wgsl` walks the tree, one thread a segment,
+//! with a watertight triangle test (Woop, Benthin & Wald 2013).
+//!
+//! Coordinates are relative to the scene's centre, in `f32`: a segment's
+//! answer can differ from the CPU's `f64` test only where the segment
+//! grazes a surface (passes within about `f32` round-off of the scene's
+//! size from an edge, or has an end that close to the surface's plane).
+//! Boxes are padded by that much, so the walk itself never loses a
+//! triangle.
+//!
+//! Work is split into dispatches of at most [`DISPATCH_SEGMENTS`] segments
+//! (none runs long enough to trip a driver's watchdog), and into uploads
+//! that fit the adapter's largest storage binding.
+
+use std::sync::{Arc, Mutex};
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use radiosity::accel::bvh::{BvhSettings, FlatTree};
+use radiosity::scene::Surface;
+use wgpu::util::DeviceExt;
+
+use crate::{Gpu, GpuError};
+
+/// The most segments one dispatch traces.
+pub const DISPATCH_SEGMENTS: usize = 1 << 18;
+
+/// Threads of a workgroup (`@workgroup_size` in `trace.wgsl`).
+const WORKGROUP: u32 = 64;
+
+/// A BVH node as the kernel reads it (WGSL `Node`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuNode {
+    /// Low corner.
+    pub lo: [f32; 3],
+    /// Interior: right child. Leaf: first triangle.
+    pub link: u32,
+    /// High corner.
+    pub hi: [f32; 3],
+    /// Interior: `FLAT_INTERIOR` | axis. Leaf: triangle count.
+    pub kind: u32,
+}
+
+/// A triangle as the kernel reads it (WGSL `Triangle`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    /// First corner.
+    pub a: [f32; 3],
+    /// Its surface id ([`Surface::group`]).
+    pub group: u32,
+    /// Second corner.
+    pub b: [f32; 3],
+    /// Padding.
+    pub pad0: u32,
+    /// Third corner.
+    pub c: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// A segment as the kernel reads it (WGSL `Segment`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSegment {
+    /// Start.
+    pub p0: [f32; 3],
+    /// A surface id not to test.
+    pub skip0: u32,
+    /// End.
+    pub p1: [f32; 3],
+    /// Another surface id not to test.
+    pub skip1: u32,
+}
+
+/// Which segments a dispatch traces (WGSL `Dispatch`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDispatch {
+    /// The first.
+    pub first: u32,
+    /// How many.
+    pub count: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// A shadow segment: does a surface other than `skip`'s cross the open
+/// segment `from -> to`?
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// Start (world coordinates).
+    pub from: DVec3,
+    /// End.
+    pub to: DVec3,
+    /// Surface ids not to test (the source's and the receiver's).
+    pub skip: [u32; 2],
+}
+
+/// The scene's triangles and their BVH on the device, ready to trace.
+pub struct SceneTracer<'g> {
+    gpu: &'g Gpu,
+    origin: DVec3,
+    pipeline: wgpu::ComputePipeline,
+    nodes: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    triangle_count: usize,
+    /// Errors wgpu reports outside a scope (a lost device), kept instead of
+    /// panicking.
+    uncaptured: Arc<Mutex<Option<String>>>,
+}
+
+/// The triangles of `surfaces` (fans of each convex polygon) relative to
+/// `origin`, in `f32`.
+fn triangles(surfaces: &[Surface], origin: DVec3) -> Vec<GpuTriangle> {
+    let f = |p: DVec3| (p - origin).as_vec3().to_array();
+    surfaces
+        .iter()
+        .flat_map(|s| {
+            let p = &s.polygon;
+            (1..p.len().saturating_sub(1)).map(move |i| GpuTriangle {
+                a: f(p[0]),
+                group: s.group,
+                b: f(p[i]),
+                c: f(p[i + 1]),
+                ..GpuTriangle::default()
+            })
+        })
+        .collect()
+}
+
+/// The tree over `triangles` (boxes of their `f32` corners padded by
+/// `pad`), its nodes for the kernel, and the triangles in leaf order.
+fn tree(triangles: &[GpuTriangle], pad: f64) -> (Vec<GpuNode>, Vec<GpuTriangle>) {
+    let boxes: Vec<(DVec3, DVec3)> = triangles
+        .iter()
+        .map(|t| {
+            let corners = [t.a, t.b, t.c].map(|c| DVec3::from(c.map(f64::from)));
+            let lo = corners[0].min(corners[1]).min(corners[2]);
+            let hi = corners[0].max(corners[1]).max(corners[2]);
+            (lo - DVec3::splat(pad), hi + DVec3::splat(pad))
+        })
+        .collect();
+    let flat = FlatTree::build(&boxes, BvhSettings::sah());
+    let nodes = flat
+        .nodes
+        .iter()
+        .map(|n| GpuNode {
+            lo: n.min,
+            link: n.link,
+            hi: n.max,
+            kind: n.kind,
+        })
+        .collect();
+    let ordered = flat
+        .primitives
+        .iter()
+        .map(|&p| triangles[p as usize])
+        .collect();
+    (nodes, ordered)
+}
+
+impl<'g> SceneTracer<'g> {
+    /// Uploads `surfaces`' triangles and their BVH to `gpu`.
+    ///
+    /// # Errors
+    ///
+    /// When the device refuses the buffers or the kernel.
+    pub fn new(gpu: &'g Gpu, surfaces: &[Surface]) -> Result<SceneTracer<'g>, GpuError> {
+        let (lo, hi) = surfaces
+            .iter()
+            .flat_map(|s| s.polygon.iter())
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+                (lo.min(p), hi.max(p))
+            });
+        let origin = if lo.is_finite() && hi.is_finite() {
+            0.5 * (lo + hi)
+        } else {
+            DVec3::ZERO
+        };
+        let scale = if lo.is_finite() {
+            (hi - lo).max_element().max(f64::MIN_POSITIVE)
+        } else {
+            1.0
+        };
+        let triangles = triangles(surfaces, origin);
+        // A few f32 round-offs of the scene's size: the slab test's error.
+        let pad = 8.0 * f64::from(f32::EPSILON) * scale;
+        let (nodes, ordered) = tree(&triangles, pad);
+        let uncaptured = Arc::new(Mutex::new(None));
+        let sink = uncaptured.clone();
+        gpu.device
+            .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                if let Ok(mut slot) = sink.lock() {
+                    slot.get_or_insert_with(|| e.to_string());
+                }
+            }));
+        let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let module = gpu
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("trace.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(include_str!("trace.wgsl").into()),
+            });
+        let pipeline = gpu
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("occluded"),
+                layout: None,
+                module: &module,
+                entry_point: Some("occluded"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+        // An empty buffer cannot be bound: one unused element instead.
+        let nodes = storage(gpu, "nodes", &nonempty(nodes));
+        let triangle_buffer = storage(gpu, "triangles", &nonempty(ordered));
+        let out_of_memory = pollster::block_on(memory.pop());
+        let invalid = pollster::block_on(scope.pop());
+        if let Some(e) = out_of_memory.or(invalid) {
+            return Err(gpu.failed(e));
+        }
+        Ok(SceneTracer {
+            gpu,
+            origin,
+            pipeline,
+            nodes,
+            triangles: triangle_buffer,
+            triangle_count: triangles.len(),
+            uncaptured,
+        })
+    }
+
+    /// How many triangles the surfaces were cut into.
+    #[must_use]
+    pub fn triangle_count(&self) -> usize {
+        self.triangle_count
+    }
+
+    /// Whether each segment is blocked.
+    ///
+    /// # Errors
+    ///
+    /// When the device fails (lost, out of memory): the caller can go on
+    /// on the CPU.
+    pub fn occluded(&self, segments: &[Segment]) -> Result<Vec<bool>, GpuError> {
+        let mut blocked = Vec::with_capacity(segments.len());
+        if self.triangle_count == 0 || segments.is_empty() {
+            blocked.resize(segments.len(), false);
+            return Ok(blocked);
+        }
+        let limits = self.gpu.device.limits();
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size) as usize;
+        let per_upload = (binding / size_of::<GpuSegment>())
+            .clamp(1, 16 * DISPATCH_SEGMENTS)
+            .max(1);
+        for chunk in segments.chunks(per_upload) {
+            blocked.extend(self.occluded_chunk(chunk)?);
+        }
+        Ok(blocked)
+    }
+
+    /// [`SceneTracer::occluded`] for segments that fit one upload.
+    fn occluded_chunk(&self, segments: &[Segment]) -> Result<Vec<bool>, GpuError> {
+        let gpu = self.gpu;
+        let f = |p: DVec3| (p - self.origin).as_vec3().to_array();
+        let gpu_segments: Vec<GpuSegment> = segments
+            .iter()
+            .map(|s| GpuSegment {
+                p0: f(s.from),
+                skip0: s.skip[0],
+                p1: f(s.to),
+                skip1: s.skip[1],
+            })
+            .collect();
+        let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let segment_buffer = storage(gpu, "segments", &gpu_segments);
+        let bytes = (4 * segments.len()) as u64;
+        let results = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("blocked"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("blocked readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("occluded"),
+            });
+        for first in (0..segments.len()).step_by(DISPATCH_SEGMENTS) {
+            let count = DISPATCH_SEGMENTS.min(segments.len() - first);
+            let dispatch = GpuDispatch {
+                first: first as u32,
+                count: count as u32,
+                ..GpuDispatch::default()
+            };
+            let uniform = gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("dispatch"),
+                    contents: bytemuck::bytes_of(&dispatch),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+            let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("occluded"),
+                layout: &layout,
+                entries: &[
+                    entry(0, &self.nodes),
+                    entry(1, &self.triangles),
+                    entry(2, &segment_buffer),
+                    entry(3, &results),
+                    entry(4, &uniform),
+                ],
+            });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("occluded"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups((count as u32).div_ceil(WORKGROUP), 1, 1);
+        }
+        encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
+        gpu.queue.submit([encoder.finish()]);
+        let out_of_memory = pollster::block_on(memory.pop());
+        let invalid = pollster::block_on(scope.pop());
+        if let Some(e) = out_of_memory.or(invalid) {
+            return Err(gpu.failed(e));
+        }
+        let slice = readback.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sender.send(r);
+        });
+        gpu.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| gpu.failed(e))?;
+        match receiver.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(gpu.failed(e)),
+            Err(_) => return Err(gpu.failed("the readback was never mapped")),
+        }
+        if let Some(message) = self.uncaptured.lock().ok().and_then(|s| s.clone()) {
+            return Err(gpu.failed(message));
+        }
+        let view = slice.get_mapped_range().map_err(|e| gpu.failed(e))?;
+        let words: &[u32] = bytemuck::cast_slice(&view);
+        Ok(words.iter().map(|&w| w != 0).collect())
+    }
+}
+
+/// `items`, or one zeroed element when there are none.
+fn nonempty<T: Pod + Default>(mut items: Vec<T>) -> Vec<T> {
+    if items.is_empty() {
+        items.push(T::default());
+    }
+    items
+}
+
+/// A read-only storage buffer holding `items`.
+fn storage<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(items),
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+}
+
+/// Binding `binding` of the kernel's group to all of `buffer`.
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}

@@ -1,0 +1,178 @@
+// Shadow segments against the scene on the GPU: the any-hit query of the
+// CPU's `Occluder::occluded` (design.md section 3). One thread a segment
+// walks the binary BVH the CPU's build made (depth first: an interior
+// node's left child is the next node, its right child is `link`), and
+// tests the triangles of the leaves it reaches with the watertight test of
+// Woop, Benthin & Wald (2013, "Watertight ray/triangle intersection"):
+// a segment through an edge or a vertex shared by two triangles is found
+// by one of them, never slips between. Coordinates are relative to the
+// scene's centre, in f32. The Rust twins of these structs are in trace.rs,
+// checked against them by a test.
+
+struct Node {
+    lo: vec3<f32>,
+    // Interior: the right child. Leaf: its first triangle.
+    link: u32,
+    hi: vec3<f32>,
+    // Interior: INTERIOR | split axis. Leaf: its triangle count.
+    kind: u32,
+}
+
+struct Triangle {
+    a: vec3<f32>,
+    // The surface id (Surface::group) it belongs to.
+    group: u32,
+    b: vec3<f32>,
+    pad0: u32,
+    c: vec3<f32>,
+    pad1: u32,
+}
+
+struct Segment {
+    // Start and end (`from` and `to` are WGSL keywords).
+    p0: vec3<f32>,
+    skip0: u32,
+    p1: vec3<f32>,
+    skip1: u32,
+}
+
+struct Dispatch {
+    // The first segment of this dispatch, and how many it has.
+    first: u32,
+    count: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<storage, read> nodes: array<Node>;
+@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(2) var<storage, read> segments: array<Segment>;
+@group(0) @binding(3) var<storage, read_write> blocked: array<u32>;
+@group(0) @binding(4) var<uniform> dispatch: Dispatch;
+
+const INTERIOR: u32 = 0x80000000u;
+// The CPU's build bounds the depth by 64 (bvh::MAX_DEPTH).
+const STACK_SIZE: u32 = 64u;
+
+// Whether the segment origin + t d, 0 <= t <= 1, meets the box (`inv` is
+// 1 / d with no zero component).
+fn box_hit(lo: vec3<f32>, hi: vec3<f32>, origin: vec3<f32>, inv: vec3<f32>) -> bool {
+    let t0 = (lo - origin) * inv;
+    let t1 = (hi - origin) * inv;
+    let near = min(t0, t1);
+    let far = max(t0, t1);
+    let enter = max(max(near.x, near.y), max(near.z, 0.0));
+    let exit = min(min(far.x, far.y), min(far.z, 1.0));
+    return enter <= exit;
+}
+
+// The segment's frame for the watertight test: the axis of its largest
+// component (kz) and the two after it (kx, ky, swapped to keep the winding
+// when d[kz] < 0), and the shear that makes d point along kz.
+struct Frame {
+    k: vec3<u32>,
+    shear: vec3<f32>,
+}
+
+fn frame_of(d: vec3<f32>) -> Frame {
+    let a = abs(d);
+    var kz = 2u;
+    if (a.x >= a.y && a.x >= a.z) {
+        kz = 0u;
+    } else if (a.y >= a.z) {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    if (d[kz] < 0.0) {
+        let t = kx;
+        kx = ky;
+        ky = t;
+    }
+    return Frame(vec3<u32>(kx, ky, kz), vec3<f32>(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]));
+}
+
+// Whether the open segment origin + t d, 0 < t < 1, crosses the triangle
+// (its edges and corners included).
+fn crosses(t: Triangle, origin: vec3<f32>, f: Frame) -> bool {
+    let a = t.a - origin;
+    let b = t.b - origin;
+    let c = t.c - origin;
+    let ax = a[f.k.x] - f.shear.x * a[f.k.z];
+    let ay = a[f.k.y] - f.shear.y * a[f.k.z];
+    let bx = b[f.k.x] - f.shear.x * b[f.k.z];
+    let by = b[f.k.y] - f.shear.y * b[f.k.z];
+    let cx = c[f.k.x] - f.shear.x * c[f.k.z];
+    let cy = c[f.k.y] - f.shear.y * c[f.k.z];
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+        return false;
+    }
+    let det = u + v + w;
+    if (det == 0.0) {
+        return false;
+    }
+    let az = f.shear.z * a[f.k.z];
+    let bz = f.shear.z * b[f.k.z];
+    let cz = f.shear.z * c[f.k.z];
+    let t_scaled = u * az + v * bz + w * cz;
+    // 0 < t_scaled / det < 1, without the division.
+    if (det > 0.0) {
+        return t_scaled > 0.0 && t_scaled < det;
+    }
+    return t_scaled < 0.0 && t_scaled > det;
+}
+
+@compute @workgroup_size(64)
+fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= dispatch.count) {
+        return;
+    }
+    let i = dispatch.first + id.x;
+    let segment = segments[i];
+    let origin = segment.p0;
+    let d = segment.p1 - segment.p0;
+    // A point crosses nothing (the CPU's test: both ends on one side).
+    if (all(d == vec3<f32>(0.0))) {
+        blocked[i] = 0u;
+        return;
+    }
+    // No zero component: 1 / d stays finite, and 0 * it is 0, never NaN.
+    let tiny = vec3<f32>(1e-30);
+    let safe = select(tiny, d, abs(d) >= tiny);
+    let inv = 1.0 / safe;
+    let f = frame_of(d);
+    var stack: array<u32, STACK_SIZE>;
+    var depth = 0u;
+    var node = 0u;
+    var hit = 0u;
+    loop {
+        let n = nodes[node];
+        if (box_hit(n.lo, n.hi, origin, inv)) {
+            if ((n.kind & INTERIOR) != 0u) {
+                stack[depth] = n.link;
+                depth += 1u;
+                node += 1u;
+                continue;
+            }
+            for (var p = n.link; p < n.link + n.kind; p += 1u) {
+                let t = triangles[p];
+                if (t.group != segment.skip0 && t.group != segment.skip1 && crosses(t, origin, f)) {
+                    hit = 1u;
+                    break;
+                }
+            }
+            if (hit != 0u) {
+                break;
+            }
+        }
+        if (depth == 0u) {
+            break;
+        }
+        depth -= 1u;
+        node = stack[depth];
+    }
+    blocked[i] = hit;
+}

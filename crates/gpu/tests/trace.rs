@@ -1,0 +1,304 @@
+//! The GPU's shadow segments against the CPU: every buffer's Rust struct
+//! against its WGSL twin (sizes and offsets, from naga's reading of the
+//! shader), and the `occluded` kernel against the CPU's brute-force oracle
+//! on the built-in scenes: the same answer for every segment but those
+//! that graze a surface (whose CPU answer itself flips when the segment
+//! moves by a millionth of the scene), and exactly the right answer on a
+//! segment through the shared edge and the shared corner of two triangles.
+//!
+//! Without an adapter the agreement tests say they did not run, unless
+//! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
+//! installed): then they fail.
+
+use glam::DVec3;
+use radiosity::accel::Occluder;
+use radiosity::accel::brute::BruteForce;
+use radiosity::scene::Surface;
+use radiosity_gpu::trace::{GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment};
+use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
+
+/// A GPU adapter (software ones included), or `None` with a note when
+/// there is none and none is required.
+fn gpu() -> Option<Gpu> {
+    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
+    match Gpu::open(DeviceChoice::Gpu) {
+        Ok(gpu) => gpu,
+        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
+        Err(e) => {
+            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
+            None
+        }
+    }
+}
+
+/// Size and member offsets of the WGSL struct `name` in trace.wgsl.
+fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
+    let module = naga::front::wgsl::parse_str(include_str!("../src/trace.wgsl")).unwrap();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no struct {name} in trace.wgsl"));
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is not a struct");
+    };
+    assert_eq!(layouter[handle].size, *span);
+    (
+        *span,
+        members
+            .iter()
+            .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+            .collect(),
+    )
+}
+
+/// A struct's name, its Rust size and its members' Rust offsets.
+type RustLayout = (&'static str, usize, Vec<(&'static str, usize)>);
+
+#[test]
+fn buffer_structs_match_their_wgsl_twins() {
+    use std::mem::{offset_of, size_of};
+    let cases: [RustLayout; 4] = [
+        (
+            "Node",
+            size_of::<GpuNode>(),
+            vec![
+                ("lo", offset_of!(GpuNode, lo)),
+                ("link", offset_of!(GpuNode, link)),
+                ("hi", offset_of!(GpuNode, hi)),
+                ("kind", offset_of!(GpuNode, kind)),
+            ],
+        ),
+        (
+            "Triangle",
+            size_of::<GpuTriangle>(),
+            vec![
+                ("a", offset_of!(GpuTriangle, a)),
+                ("group", offset_of!(GpuTriangle, group)),
+                ("b", offset_of!(GpuTriangle, b)),
+                ("pad0", offset_of!(GpuTriangle, pad0)),
+                ("c", offset_of!(GpuTriangle, c)),
+                ("pad1", offset_of!(GpuTriangle, pad1)),
+            ],
+        ),
+        (
+            "Segment",
+            size_of::<GpuSegment>(),
+            vec![
+                ("p0", offset_of!(GpuSegment, p0)),
+                ("skip0", offset_of!(GpuSegment, skip0)),
+                ("p1", offset_of!(GpuSegment, p1)),
+                ("skip1", offset_of!(GpuSegment, skip1)),
+            ],
+        ),
+        (
+            "Dispatch",
+            size_of::<GpuDispatch>(),
+            vec![
+                ("first", offset_of!(GpuDispatch, first)),
+                ("count", offset_of!(GpuDispatch, count)),
+                ("pad0", offset_of!(GpuDispatch, pad0)),
+                ("pad1", offset_of!(GpuDispatch, pad1)),
+            ],
+        ),
+    ];
+    for (name, size, offsets) in cases {
+        let (span, members) = wgsl_layout(name);
+        assert_eq!(span as usize, size, "{name}: WGSL size vs Rust");
+        let rust: Vec<(String, u32)> = offsets
+            .iter()
+            .map(|(n, o)| ((*n).to_string(), *o as u32))
+            .collect();
+        assert_eq!(members, rust, "{name}: member names and offsets");
+    }
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): seeded, the same stream anywhere.
+struct Random(u64);
+
+impl Random {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+/// A random point on a random surface, a hair in front of it (as a vertex
+/// or a subsource is placed), and the surface's id.
+fn surface_point(surfaces: &[Surface], random: &mut Random, scale: f64) -> (DVec3, u32) {
+    let s = &surfaces[random.below(surfaces.len())];
+    let p = &s.polygon;
+    let i = 1 + random.below(p.len() - 2);
+    let (mut u, mut v) = (random.unit(), random.unit());
+    if u + v > 1.0 {
+        (u, v) = (1.0 - u, 1.0 - v);
+    }
+    let point = p[0] + u * (p[i] - p[0]) + v * (p[i + 1] - p[0]);
+    (point + 1e-6 * scale * s.normal, s.group)
+}
+
+/// Segments between random surface points (shadow segments as the solve
+/// casts them), and between random points of the scene's box.
+fn segments(surfaces: &[Surface], count: usize) -> Vec<Segment> {
+    let (lo, hi) = surfaces
+        .iter()
+        .flat_map(|s| s.polygon.iter())
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let scale = (hi - lo).max_element();
+    let mut random = Random(0x5eed);
+    (0..count)
+        .map(|k| {
+            if k % 4 == 3 {
+                let mut inside =
+                    || lo + (hi - lo) * DVec3::new(random.unit(), random.unit(), random.unit());
+                Segment {
+                    from: inside(),
+                    to: inside(),
+                    skip: [u32::MAX; 2],
+                }
+            } else {
+                let (from, a) = surface_point(surfaces, &mut random, scale);
+                let (to, b) = surface_point(surfaces, &mut random, scale);
+                Segment {
+                    from,
+                    to,
+                    skip: [a, b],
+                }
+            }
+        })
+        .collect()
+}
+
+/// Whether the CPU's answer for `segment` changes when its ends move by
+/// `distance` in any of a few directions: the segment grazes a surface.
+fn grazes(cpu: &BruteForce, segment: &Segment, distance: f64) -> bool {
+    let answer = cpu.occluded(segment.from, segment.to, segment.skip);
+    let directions = [
+        DVec3::X,
+        DVec3::Y,
+        DVec3::Z,
+        DVec3::NEG_X,
+        DVec3::NEG_Y,
+        DVec3::NEG_Z,
+    ];
+    directions.iter().any(|&a| {
+        directions.iter().any(|&b| {
+            cpu.occluded(
+                segment.from + distance * a,
+                segment.to + distance * b,
+                segment.skip,
+            ) != answer
+        })
+    })
+}
+
+/// On the built-in scenes, the GPU blocks exactly the segments the CPU's
+/// brute force does, but for grazing ones (at most one in a thousand).
+#[test]
+fn occluded_agrees_with_the_brute_force_oracle() {
+    let Some(gpu) = gpu() else { return };
+    eprintln!("adapter: {}", gpu.name());
+    for name in ["cornell", "room"] {
+        let scene = radiosity::scene::load(name).unwrap();
+        let surfaces = &scene.surfaces;
+        let tracer = SceneTracer::new(&gpu, surfaces).unwrap();
+        let cpu = BruteForce::new(surfaces);
+        let segments = segments(surfaces, 20_000);
+        let gpu_answers = tracer.occluded(&segments).unwrap();
+        assert_eq!(gpu_answers.len(), segments.len());
+        let (lo, hi) = scene.bounds();
+        let scale = (hi - lo).max_element();
+        let mut blocked = 0;
+        let mut differ = Vec::new();
+        for (segment, &answer) in segments.iter().zip(&gpu_answers) {
+            let expected = cpu.occluded(segment.from, segment.to, segment.skip);
+            blocked += usize::from(expected);
+            if answer != expected {
+                differ.push(*segment);
+            }
+        }
+        eprintln!(
+            "{name}: {} triangles, {} segments, {blocked} blocked, {} differ",
+            tracer.triangle_count(),
+            segments.len(),
+            differ.len()
+        );
+        // Both answers occur often: the comparison means something.
+        assert!(blocked > segments.len() / 10 && blocked < 9 * segments.len() / 10);
+        assert!(differ.len() * 1000 <= segments.len(), "{name}: {differ:?}");
+        for segment in &differ {
+            assert!(
+                grazes(&cpu, segment, 1e-6 * scale),
+                "{name}: the GPU and the CPU differ on a segment that grazes nothing: {segment:?}"
+            );
+        }
+    }
+}
+
+/// A square of two triangles: a segment through their shared edge, or
+/// through the corner they share, is blocked (watertight); one ending on
+/// the square's plane, or skipping its surface, is not; no triangles, or
+/// no segments, answer at once.
+#[test]
+fn shared_edges_and_corners_block() {
+    let Some(gpu) = gpu() else { return };
+    let square = Surface::new(
+        vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ],
+        DVec3::splat(0.5),
+        DVec3::ZERO,
+        0,
+    )
+    .unwrap();
+    let group = square.group;
+    let tracer = SceneTracer::new(&gpu, std::slice::from_ref(&square)).unwrap();
+    assert_eq!(tracer.triangle_count(), 2);
+    let through = |x: f64, y: f64| Segment {
+        from: DVec3::new(x, y, 1.0),
+        to: DVec3::new(x, y, -1.0),
+        skip: [u32::MAX; 2],
+    };
+    let diagonal: Vec<Segment> = (0..=16)
+        .map(|k| f64::from(k) / 16.0)
+        .map(|t| through(t, t))
+        .collect();
+    let mut cases = diagonal.clone();
+    cases.push(through(0.0, 0.0));
+    cases.push(through(1.0, 1.0));
+    cases.push(Segment {
+        from: DVec3::new(0.5, 0.5, 1.0),
+        to: DVec3::new(0.5, 0.5, 0.0),
+        skip: [u32::MAX; 2],
+    });
+    cases.push(Segment {
+        skip: [group, u32::MAX],
+        ..through(0.5, 0.25)
+    });
+    cases.push(through(1.5, 0.5));
+    let answers = tracer.occluded(&cases).unwrap();
+    let n = diagonal.len();
+    assert!(answers[..n].iter().all(|&b| b), "the diagonal: {answers:?}");
+    assert_eq!(&answers[n..], [true, true, false, false, false]);
+    assert!(tracer.occluded(&[]).unwrap().is_empty());
+    let empty = SceneTracer::new(&gpu, &[]).unwrap();
+    assert_eq!(empty.occluded(&cases[..2]).unwrap(), [false, false]);
+}
