@@ -122,6 +122,7 @@ fn experiment(args: &ExperimentArgs) -> Result<()> {
         scenes: args.scenes.clone(),
         embree_python: args.embree_python.clone(),
         reference: args.reference.clone(),
+        device: args.device.into(),
     };
     let written = pool(args.threads)?
         .install(|| experiments::run(&args.names, &context, |name| eprintln!("running {name}")))?;

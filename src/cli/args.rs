@@ -208,6 +208,33 @@ pub struct ExperimentArgs {
     /// environment is installed by its setup.sh.
     #[arg(long, value_name = "DIR")]
     pub reference: Option<PathBuf>,
+
+    /// The device beside the CPU: `rays` also traces its segments on the
+    /// GPU. auto: a real GPU, if there is one; gpu: any adapter, software
+    /// ones (lavapipe) included, an error without one; cpu: none.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    pub device: DeviceArg,
+}
+
+/// `--device`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DeviceArg {
+    /// A real GPU if there is one, else the CPU.
+    Auto,
+    /// The CPU only.
+    Cpu,
+    /// A GPU adapter, software ones included.
+    Gpu,
+}
+
+impl From<DeviceArg> for radiosity_gpu::DeviceChoice {
+    fn from(arg: DeviceArg) -> Self {
+        match arg {
+            DeviceArg::Auto => radiosity_gpu::DeviceChoice::Auto,
+            DeviceArg::Cpu => radiosity_gpu::DeviceChoice::Cpu,
+            DeviceArg::Gpu => radiosity_gpu::DeviceChoice::Gpu,
+        }
+    }
 }
 
 #[derive(Parser, Debug)]

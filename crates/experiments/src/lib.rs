@@ -63,6 +63,9 @@ pub struct Context {
     /// The Radiance reference harness's folder (`validate`,
     /// `accuracy-curve`); `None` looks for `../shared/reference`.
     pub reference: Option<PathBuf>,
+    /// The device beside the CPU (`rays`: its GPU column, when a GPU is
+    /// chosen).
+    pub device: radiosity_gpu::DeviceChoice,
 }
 
 impl Context {

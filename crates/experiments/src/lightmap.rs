@@ -539,6 +539,7 @@ mod tests {
             scenes: None,
             embree_python: None,
             reference: None,
+            device: radiosity_gpu::DeviceChoice::Cpu,
         };
         let case = cases(&context).unwrap().into_iter().next().unwrap();
         assert_eq!(case.name, "cornell");

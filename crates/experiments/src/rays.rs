@@ -19,6 +19,10 @@
 //! every segment (the brute-force oracle on an evenly spaced sample): the
 //! experiment fails otherwise.
 //!
+//! With `--device gpu` (or a real GPU under the default `auto`), [`gpu`]
+//! also traces every recorded segment on the GPU and reports its
+//! throughput beside the CPU's.
+//!
 //! Embree ([`embree`], `tools/embree_rays.py`) reads the same triangles
 //! (our convex surfaces fanned) and segments from a binary file and times
 //! `rtcOccluded1` over them with `tfar` the segment's length, between our
@@ -27,6 +31,7 @@
 //! segments; the agreement is reported.
 
 pub mod embree;
+pub mod gpu;
 
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -282,6 +287,8 @@ pub struct RaysScene {
     pub timed: usize,
     /// What the accelerators did on them.
     pub outcome: Outcome,
+    /// What the GPU did on every recorded segment, when one was used.
+    pub gpu: Option<gpu::GpuRun>,
 }
 
 /// What the `rays` experiment measures, and how.
@@ -297,6 +304,8 @@ pub struct Rays {
     pub folder: Option<PathBuf>,
     /// The Python that ran Embree, if any.
     pub embree_python: Option<PathBuf>,
+    /// The GPU adapter used, if any (name and backend).
+    pub adapter: Option<String>,
     /// One entry per scene, in the order given.
     pub scenes: Vec<RaysScene>,
 }
@@ -314,6 +323,8 @@ pub fn rays_compute(context: &Context, scenes: &[SceneSpec]) -> Result<Rays, Err
     } else {
         None
     };
+    let device = radiosity_gpu::Gpu::open(context.device)
+        .map_err(|e| Error::Experiment(format!("--device: {e}")))?;
     let mut measured = Vec::new();
     for spec in scenes {
         let path = match (&folder, spec.shared) {
@@ -327,12 +338,22 @@ pub fn rays_compute(context: &Context, scenes: &[SceneSpec]) -> Result<Rays, Err
         let segments = sample(&recorded, segment_budget(context.quick));
         drop(mesh);
         let outcome = measure(context, spec.name, &scene, &segments)?;
+        let gpu = match &device {
+            Some(device) => Some(gpu::measure(
+                device,
+                &scene,
+                &recorded,
+                context.repetitions(),
+            )?),
+            None => None,
+        };
         measured.push(RaysScene {
             name: spec.name,
             surfaces: scene.surfaces.len(),
             recorded: recorded.len(),
             timed: segments.len(),
             outcome,
+            gpu,
         });
     }
     Ok(Rays {
@@ -341,6 +362,7 @@ pub fn rays_compute(context: &Context, scenes: &[SceneSpec]) -> Result<Rays, Err
         thread_clock: thread_cpu_seconds().is_some(),
         folder,
         embree_python: context.embree_python.clone(),
+        adapter: device.as_ref().map(radiosity_gpu::Gpu::name),
         scenes: measured,
     })
 }
@@ -375,6 +397,12 @@ pub fn rays_report(data: &Rays) -> Report {
             Some(p) => format!("{} tools/embree_rays.py", p.display()),
             None => "not measured (give --embree-python PYTHON with embreex installed)".into(),
         },
+    );
+    report.setting(
+        "GPU",
+        data.adapter
+            .clone()
+            .unwrap_or_else(|| "none (--device gpu takes any adapter; auto, a real GPU)".into()),
     );
     let mut segment_rows = Vec::new();
     let mut time_rows = Vec::new();
@@ -494,6 +522,52 @@ pub fn rays_report(data: &Rays) -> Report {
         ],
         &build_rows,
     ));
+    if let Some(adapter) = &data.adapter {
+        let rows: Vec<Vec<String>> = data
+            .scenes
+            .iter()
+            .filter_map(|measured| {
+                let run = measured.gpu.as_ref()?;
+                let cpu_ns = measured.outcome.ours[2].per_ray();
+                let per_second = run.segments_per_second();
+                Some(vec![
+                    measured.name.to_string(),
+                    run.triangles.to_string(),
+                    run.segments.to_string(),
+                    format!(
+                        "{:.1}%",
+                        100.0 * run.blocked as f64 / run.segments.max(1) as f64
+                    ),
+                    format!("{:.3}", run.upload_seconds),
+                    format!("{:.1}", per_second / 1e6),
+                    format!("{:.1}", per_second * cpu_ns * 1e-9),
+                    format!("{} ({} not grazing)", run.differ, run.differ_not_grazing),
+                ])
+            })
+            .collect();
+        report.paragraph(&format!(
+            "On the GPU ({adapter}): every recorded segment at once, timed from the call to \
+             the answers (segments uploaded, traced by the occluded kernel, read back; median \
+             of the repetitions), the scene's tree and triangles uploaded once before. x one \
+             thread: its throughput over the CPU BVH's on one thread. Differ: segments it \
+             answered otherwise than the CPU's BVH (it works in f32), and of those the ones \
+             whose CPU answer holds when their ends move by a millionth of the scene's size \
+             (not grazing: a fault)."
+        ));
+        report.body.push_str(&table(
+            &[
+                "scene",
+                "triangles",
+                "segments",
+                "blocked",
+                "scene upload s",
+                "M segments/s",
+                "x one thread",
+                "differ",
+            ],
+            &rows,
+        ));
+    }
     report
 }
 

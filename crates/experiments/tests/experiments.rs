@@ -202,6 +202,50 @@ fn rays_on_the_room_tables_every_accelerator() {
     }
 }
 
+/// With a GPU (`--device gpu`), `rays` also traces every recorded segment
+/// on it: the GPU table, the adapter named, and no segment of the room
+/// answered otherwise than by the CPU but a few grazing ones. Without an adapter the test says it
+/// did not run, unless `RADIOSITY_REQUIRE_GPU` is set (as CI sets it).
+#[test]
+fn rays_on_the_gpu_agrees_with_the_cpu() {
+    use radiosity_experiments::rays::{self, SCENES};
+    use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
+    if let Err(e) = Gpu::open(DeviceChoice::Gpu) {
+        let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
+        assert!(!required, "{REQUIRE_ADAPTER} is set: {e}");
+        eprintln!("GPU test did not run: {e}");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let room = SCENES.iter().find(|s| s.name == "room").unwrap();
+    let context = Context {
+        device: DeviceChoice::Gpu,
+        ..context(dir.path())
+    };
+    let data = rays::rays_compute(&context, std::slice::from_ref(room)).unwrap();
+    let adapter = data.adapter.clone().expect("an adapter");
+    let run = data.scenes[0].gpu.clone().expect("the GPU's run");
+    assert_eq!(run.segments, data.scenes[0].recorded);
+    assert!(run.triangles >= data.scenes[0].surfaces);
+    // At most one in a thousand answered otherwise, each grazing.
+    assert!(run.differ * 1000 <= run.segments, "{run:?}");
+    assert_eq!(run.differ_not_grazing, 0, "{run:?}");
+    assert!(run.blocked > 0 && run.blocked < run.segments, "{run:?}");
+    assert!(run.segments_per_second() > 0.0);
+    let report = rays::rays_report(&data);
+    assert_table(
+        &report,
+        "| scene | triangles | segments | blocked | scene upload s | M segments/s |",
+    );
+    assert!(report.body.contains(&adapter), "{}", report.body);
+    // The CPU alone: no GPU table.
+    let cpu = rays::rays_report(&rays::Rays {
+        adapter: None,
+        ..data
+    });
+    assert!(!cpu.body.contains("M segments/s"));
+}
+
 /// The file `tools/embree_rays.py` reads: header, counts, triangles (a
 /// quad fans into two), segments, answers.
 #[test]

@@ -172,6 +172,7 @@ fn a_missing_python_environment_says_how_to_install_it() {
         scenes: None,
         embree_python: None,
         reference: None,
+        device: radiosity_gpu::DeviceChoice::Cpu,
     };
     let error = Harness::with_python(
         &context,

@@ -7,12 +7,16 @@
 //! `occluded` kernel of `trace.wgsl` walks the tree, one thread a segment,
 //! with a watertight triangle test (Woop, Benthin & Wald 2013).
 //!
-//! Coordinates are relative to the scene's centre, in `f32`: a segment's
-//! answer can differ from the CPU's `f64` test only where the segment
-//! grazes a surface (passes within about `f32` round-off of the scene's
-//! size from an edge, or has an end that close to the surface's plane).
-//! Boxes are padded by that much, so the walk itself never loses a
-//! triangle.
+//! Coordinates are relative to the scene's centre, each a pair of `f32`s
+//! (the nearest and its round-off), so the kernel's differences of points,
+//! where the triangle test starts, are as precise as `f32` allows relative
+//! to the points' distance rather than the scene's size: a receiver a hair
+//! off its surface stays on its side of a neighbour's plane. A segment's
+//! answer can still differ from the CPU's `f64` test where it grazes a
+//! surface (passes within about `f32` round-off of its length from an
+//! edge, or ends that close to the surface's plane). The tree's boxes, of
+//! the nearest `f32`s, are padded by a few round-offs of the scene's size,
+//! so the walk itself never loses a triangle.
 //!
 //! Work is split into dispatches of at most [`DISPATCH_SEGMENTS`] segments
 //! (none runs long enough to trip a driver's watchdog), and into uploads
@@ -64,6 +68,18 @@ pub struct GpuTriangle {
     pub c: [f32; 3],
     /// Padding.
     pub pad1: u32,
+    /// First corner's round-off: `a + a_lo` is the corner.
+    pub a_lo: [f32; 3],
+    /// Padding.
+    pub pad2: u32,
+    /// Second corner's round-off.
+    pub b_lo: [f32; 3],
+    /// Padding.
+    pub pad3: u32,
+    /// Third corner's round-off.
+    pub c_lo: [f32; 3],
+    /// Padding.
+    pub pad4: u32,
 }
 
 /// A segment as the kernel reads it (WGSL `Segment`).
@@ -78,6 +94,14 @@ pub struct GpuSegment {
     pub p1: [f32; 3],
     /// Another surface id not to test.
     pub skip1: u32,
+    /// Start's round-off.
+    pub p0_lo: [f32; 3],
+    /// Padding.
+    pub pad0: u32,
+    /// End's round-off.
+    pub p1_lo: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
 }
 
 /// Which segments a dispatch traces (WGSL `Dispatch`).
@@ -119,20 +143,34 @@ pub struct SceneTracer<'g> {
     uncaptured: Arc<Mutex<Option<String>>>,
 }
 
+/// `p - origin` as two `f32`s: the nearest, and what rounding it lost.
+fn split(p: DVec3, origin: DVec3) -> ([f32; 3], [f32; 3]) {
+    let r = p - origin;
+    let hi = r.as_vec3();
+    (hi.to_array(), (r - hi.as_dvec3()).as_vec3().to_array())
+}
+
 /// The triangles of `surfaces` (fans of each convex polygon) relative to
-/// `origin`, in `f32`.
+/// `origin`.
 fn triangles(surfaces: &[Surface], origin: DVec3) -> Vec<GpuTriangle> {
-    let f = |p: DVec3| (p - origin).as_vec3().to_array();
     surfaces
         .iter()
         .flat_map(|s| {
             let p = &s.polygon;
-            (1..p.len().saturating_sub(1)).map(move |i| GpuTriangle {
-                a: f(p[0]),
-                group: s.group,
-                b: f(p[i]),
-                c: f(p[i + 1]),
-                ..GpuTriangle::default()
+            (1..p.len().saturating_sub(1)).map(move |i| {
+                let (a, a_lo) = split(p[0], origin);
+                let (b, b_lo) = split(p[i], origin);
+                let (c, c_lo) = split(p[i + 1], origin);
+                GpuTriangle {
+                    a,
+                    group: s.group,
+                    b,
+                    c,
+                    a_lo,
+                    b_lo,
+                    c_lo,
+                    ..GpuTriangle::default()
+                }
             })
         })
         .collect()
@@ -275,14 +313,20 @@ impl<'g> SceneTracer<'g> {
     /// [`SceneTracer::occluded`] for segments that fit one upload.
     fn occluded_chunk(&self, segments: &[Segment]) -> Result<Vec<bool>, GpuError> {
         let gpu = self.gpu;
-        let f = |p: DVec3| (p - self.origin).as_vec3().to_array();
         let gpu_segments: Vec<GpuSegment> = segments
             .iter()
-            .map(|s| GpuSegment {
-                p0: f(s.from),
-                skip0: s.skip[0],
-                p1: f(s.to),
-                skip1: s.skip[1],
+            .map(|s| {
+                let (p0, p0_lo) = split(s.from, self.origin);
+                let (p1, p1_lo) = split(s.to, self.origin);
+                GpuSegment {
+                    p0,
+                    skip0: s.skip[0],
+                    p1,
+                    skip1: s.skip[1],
+                    p0_lo,
+                    p1_lo,
+                    ..GpuSegment::default()
+                }
             })
             .collect();
         let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -367,6 +411,32 @@ impl<'g> SceneTracer<'g> {
         let words: &[u32] = bytemuck::cast_slice(&view);
         Ok(words.iter().map(|&w| w != 0).collect())
     }
+}
+
+/// Whether the CPU's answer (`occluder`'s) for `segment` changes when its
+/// ends move by `distance` along any of the axes: the segment grazes a
+/// surface, and an answer in `f32` may differ from the CPU's in `f64`
+/// there. The test every difference between the back ends must pass.
+#[must_use]
+pub fn grazes(occluder: &dyn radiosity::accel::Occluder, segment: &Segment, distance: f64) -> bool {
+    let answer = occluder.occluded(segment.from, segment.to, segment.skip);
+    let directions = [
+        DVec3::X,
+        DVec3::Y,
+        DVec3::Z,
+        DVec3::NEG_X,
+        DVec3::NEG_Y,
+        DVec3::NEG_Z,
+    ];
+    directions.iter().any(|&a| {
+        directions.iter().any(|&b| {
+            occluder.occluded(
+                segment.from + distance * a,
+                segment.to + distance * b,
+                segment.skip,
+            ) != answer
+        })
+    })
 }
 
 /// `items`, or one zeroed element when there are none.

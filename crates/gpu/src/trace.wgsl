@@ -6,7 +6,7 @@
 // Woop, Benthin & Wald (2013, "Watertight ray/triangle intersection"):
 // a segment through an edge or a vertex shared by two triangles is found
 // by one of them, never slips between. Coordinates are relative to the
-// scene's centre, in f32. The Rust twins of these structs are in trace.rs,
+// scene's centre, each a pair of f32s. The Rust twins of these structs are in trace.rs,
 // checked against them by a test.
 
 struct Node {
@@ -18,6 +18,10 @@ struct Node {
     kind: u32,
 }
 
+// Each point is two f32s, hi + lo, the second the first's round-off: the
+// difference of two points is then accurate to f32's precision of their
+// distance, not of the scene's size (a receiver a hair off its surface
+// stays on its side of a neighbour's plane).
 struct Triangle {
     a: vec3<f32>,
     // The surface id (Surface::group) it belongs to.
@@ -26,6 +30,12 @@ struct Triangle {
     pad0: u32,
     c: vec3<f32>,
     pad1: u32,
+    a_lo: vec3<f32>,
+    pad2: u32,
+    b_lo: vec3<f32>,
+    pad3: u32,
+    c_lo: vec3<f32>,
+    pad4: u32,
 }
 
 struct Segment {
@@ -34,6 +44,10 @@ struct Segment {
     skip0: u32,
     p1: vec3<f32>,
     skip1: u32,
+    p0_lo: vec3<f32>,
+    pad0: u32,
+    p1_lo: vec3<f32>,
+    pad1: u32,
 }
 
 struct Dispatch {
@@ -92,12 +106,19 @@ fn frame_of(d: vec3<f32>) -> Frame {
     return Frame(vec3<u32>(kx, ky, kz), vec3<f32>(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]));
 }
 
+// hi + lo minus origin_hi + origin_lo: exact where the two are within a
+// factor of two of each other (Sterbenz), so as precise as f32 allows
+// relative to their distance.
+fn minus(hi: vec3<f32>, lo: vec3<f32>, origin_hi: vec3<f32>, origin_lo: vec3<f32>) -> vec3<f32> {
+    return (hi - origin_hi) + (lo - origin_lo);
+}
+
 // Whether the open segment origin + t d, 0 < t < 1, crosses the triangle
 // (its edges and corners included).
-fn crosses(t: Triangle, origin: vec3<f32>, f: Frame) -> bool {
-    let a = t.a - origin;
-    let b = t.b - origin;
-    let c = t.c - origin;
+fn crosses(t: Triangle, origin: vec3<f32>, origin_lo: vec3<f32>, f: Frame) -> bool {
+    let a = minus(t.a, t.a_lo, origin, origin_lo);
+    let b = minus(t.b, t.b_lo, origin, origin_lo);
+    let c = minus(t.c, t.c_lo, origin, origin_lo);
     let ax = a[f.k.x] - f.shear.x * a[f.k.z];
     let ay = a[f.k.y] - f.shear.y * a[f.k.z];
     let bx = b[f.k.x] - f.shear.x * b[f.k.z];
@@ -133,7 +154,7 @@ fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = dispatch.first + id.x;
     let segment = segments[i];
     let origin = segment.p0;
-    let d = segment.p1 - segment.p0;
+    let d = minus(segment.p1, segment.p1_lo, segment.p0, segment.p0_lo);
     // A point crosses nothing (the CPU's test: both ends on one side).
     if (all(d == vec3<f32>(0.0))) {
         blocked[i] = 0u;
@@ -159,7 +180,7 @@ fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             for (var p = n.link; p < n.link + n.kind; p += 1u) {
                 let t = triangles[p];
-                if (t.group != segment.skip0 && t.group != segment.skip1 && crosses(t, origin, f)) {
+                if (t.group != segment.skip0 && t.group != segment.skip1 && crosses(t, origin, segment.p0_lo, f)) {
                     hit = 1u;
                     break;
                 }

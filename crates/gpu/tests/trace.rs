@@ -14,7 +14,9 @@ use glam::DVec3;
 use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
 use radiosity::scene::Surface;
-use radiosity_gpu::trace::{GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment};
+use radiosity_gpu::trace::{
+    GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment, grazes,
+};
 use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
 
 /// A GPU adapter (software ones included), or `None` with a note when
@@ -81,6 +83,12 @@ fn buffer_structs_match_their_wgsl_twins() {
                 ("pad0", offset_of!(GpuTriangle, pad0)),
                 ("c", offset_of!(GpuTriangle, c)),
                 ("pad1", offset_of!(GpuTriangle, pad1)),
+                ("a_lo", offset_of!(GpuTriangle, a_lo)),
+                ("pad2", offset_of!(GpuTriangle, pad2)),
+                ("b_lo", offset_of!(GpuTriangle, b_lo)),
+                ("pad3", offset_of!(GpuTriangle, pad3)),
+                ("c_lo", offset_of!(GpuTriangle, c_lo)),
+                ("pad4", offset_of!(GpuTriangle, pad4)),
             ],
         ),
         (
@@ -91,6 +99,10 @@ fn buffer_structs_match_their_wgsl_twins() {
                 ("skip0", offset_of!(GpuSegment, skip0)),
                 ("p1", offset_of!(GpuSegment, p1)),
                 ("skip1", offset_of!(GpuSegment, skip1)),
+                ("p0_lo", offset_of!(GpuSegment, p0_lo)),
+                ("pad0", offset_of!(GpuSegment, pad0)),
+                ("p1_lo", offset_of!(GpuSegment, p1_lo)),
+                ("pad1", offset_of!(GpuSegment, pad1)),
             ],
         ),
         (
@@ -182,29 +194,6 @@ fn segments(surfaces: &[Surface], count: usize) -> Vec<Segment> {
             }
         })
         .collect()
-}
-
-/// Whether the CPU's answer for `segment` changes when its ends move by
-/// `distance` in any of a few directions: the segment grazes a surface.
-fn grazes(cpu: &BruteForce, segment: &Segment, distance: f64) -> bool {
-    let answer = cpu.occluded(segment.from, segment.to, segment.skip);
-    let directions = [
-        DVec3::X,
-        DVec3::Y,
-        DVec3::Z,
-        DVec3::NEG_X,
-        DVec3::NEG_Y,
-        DVec3::NEG_Z,
-    ];
-    directions.iter().any(|&a| {
-        directions.iter().any(|&b| {
-            cpu.occluded(
-                segment.from + distance * a,
-                segment.to + distance * b,
-                segment.skip,
-            ) != answer
-        })
-    })
 }
 
 /// On the built-in scenes, the GPU blocks exactly the segments the CPU's

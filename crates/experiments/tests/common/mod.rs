@@ -16,6 +16,7 @@ pub fn context(dir: &Path, command: &str) -> Context {
         scenes: None,
         embree_python: None,
         reference: None,
+        device: radiosity_gpu::DeviceChoice::Cpu,
     }
 }
 
