@@ -3,7 +3,8 @@
 // walks the binary BVH the CPU's build made (depth first: an interior
 // node's left child is the next node, its right child is `link`), and
 // tests the triangles of the leaves it reaches with the watertight test of
-// Woop, Benthin & Wald (2013, "Watertight ray/triangle intersection"):
+// Woop, Benthin & Wald (2013, "Watertight ray/triangle intersection"),
+// each half of the segment from its own end:
 // a segment through an edge or a vertex shared by two triangles is found
 // by one of them, never slips between. Coordinates are relative to the
 // scene's centre, each a pair of f32s. The Rust twins of these structs are in trace.rs,
@@ -36,6 +37,9 @@ struct Triangle {
     pad3: u32,
     c_lo: vec3<f32>,
     pad4: u32,
+    // The surface's unit normal (from its f64 plane).
+    normal: vec3<f32>,
+    pad5: u32,
 }
 
 struct Segment {
@@ -113,8 +117,12 @@ fn minus(hi: vec3<f32>, lo: vec3<f32>, origin_hi: vec3<f32>, origin_lo: vec3<f32
     return (hi - origin_hi) + (lo - origin_lo);
 }
 
-// Whether the open segment origin + t d, 0 < t < 1, crosses the triangle
-// (its edges and corners included).
+// Half segments overlap by this much of their length at the midpoint, so
+// that no crossing falls between them whatever the round-off of each.
+const OVERLAP: f32 = 1.0009765625;
+
+// Whether the half segment origin + t d, 0 < t <= OVERLAP, crosses the
+// triangle (its edges and corners included); `f` is d's frame.
 fn crosses(t: Triangle, origin: vec3<f32>, origin_lo: vec3<f32>, f: Frame) -> bool {
     let a = minus(t.a, t.a_lo, origin, origin_lo);
     let b = minus(t.b, t.b_lo, origin, origin_lo);
@@ -139,11 +147,11 @@ fn crosses(t: Triangle, origin: vec3<f32>, origin_lo: vec3<f32>, f: Frame) -> bo
     let bz = f.shear.z * b[f.k.z];
     let cz = f.shear.z * c[f.k.z];
     let t_scaled = u * az + v * bz + w * cz;
-    // 0 < t_scaled / det < 1, without the division.
+    // 0 < t_scaled / det <= OVERLAP, without the division.
     if (det > 0.0) {
-        return t_scaled > 0.0 && t_scaled < det;
+        return t_scaled > 0.0 && t_scaled <= det * OVERLAP;
     }
-    return t_scaled < 0.0 && t_scaled > det;
+    return t_scaled < 0.0 && t_scaled >= det * OVERLAP;
 }
 
 @compute @workgroup_size(64)
@@ -164,7 +172,12 @@ fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
     let tiny = vec3<f32>(1e-30);
     let safe = select(tiny, d, abs(d) >= tiny);
     let inv = 1.0 / safe;
-    let f = frame_of(d);
+    // Each half of the segment is tested from its own end, so the points
+    // near either end (a receiver a hair off its surface, beside a
+    // neighbour's plane) are resolved relative to that end.
+    let half = 0.5 * d;
+    let f0 = frame_of(half);
+    let f1 = frame_of(-half);
     var stack: array<u32, STACK_SIZE>;
     var depth = 0u;
     var node = 0u;
@@ -180,7 +193,17 @@ fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             for (var p = n.link; p < n.link + n.kind; p += 1u) {
                 let t = triangles[p];
-                if (t.group != segment.skip0 && t.group != segment.skip1 && crosses(t, origin, segment.p0_lo, f)) {
+                if (t.group == segment.skip0 || t.group == segment.skip1) {
+                    continue;
+                }
+                // The CPU's first rule: the ends strictly on either side of
+                // the surface's plane, each measured from a corner.
+                let e0 = dot(t.normal, minus(segment.p0, segment.p0_lo, t.a, t.a_lo));
+                let e1 = dot(t.normal, minus(segment.p1, segment.p1_lo, t.a, t.a_lo));
+                if (e0 == 0.0 || e1 == 0.0 || (e0 > 0.0) == (e1 > 0.0)) {
+                    continue;
+                }
+                if (crosses(t, origin, segment.p0_lo, f0) || crosses(t, segment.p1, segment.p1_lo, f1)) {
                     hit = 1u;
                     break;
                 }

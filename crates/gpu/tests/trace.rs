@@ -89,6 +89,8 @@ fn buffer_structs_match_their_wgsl_twins() {
                 ("pad3", offset_of!(GpuTriangle, pad3)),
                 ("c_lo", offset_of!(GpuTriangle, c_lo)),
                 ("pad4", offset_of!(GpuTriangle, pad4)),
+                ("normal", offset_of!(GpuTriangle, normal)),
+                ("pad5", offset_of!(GpuTriangle, pad5)),
             ],
         ),
         (
