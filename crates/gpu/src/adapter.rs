@@ -1,4 +1,6 @@
-//! Choosing and opening the device, the way wgpu's own examples do it:
+//! Choosing and opening the device the GPU back end runs on, beyond the
+//! paper (whose solver, Wallace et al. 1989 and Wong & Tsang 1993, ran on
+//! the CPU alone), the way wgpu's own examples do it:
 //! adapters are enumerated, never assumed; the one chosen is named in what
 //! a run reports; limits are asked of the adapter. `auto` takes a real GPU
 //! (discrete before integrated before virtual) and otherwise leaves the
