@@ -313,9 +313,7 @@ impl<'g> SceneTracer<'g> {
         let binding = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size) as usize;
-        let per_upload = (binding / size_of::<GpuSegment>())
-            .clamp(1, 16 * DISPATCH_SEGMENTS)
-            .max(1);
+        let per_upload = (binding / size_of::<GpuSegment>()).clamp(1, 16 * DISPATCH_SEGMENTS);
         for chunk in segments.chunks(per_upload) {
             blocked.extend(self.occluded_chunk(chunk)?);
         }

@@ -10,6 +10,10 @@
 //! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
 //! installed): then they fail.
 
+#[allow(dead_code)]
+#[path = "../../radiosity/tests/common/rng.rs"]
+mod rng;
+
 use glam::DVec3;
 use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
@@ -18,6 +22,7 @@ use radiosity_gpu::trace::{
     GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment, grazes,
 };
 use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
+use rng::Rng;
 
 /// A GPU adapter (software ones included), or `None` with a note when
 /// there is none and none is required.
@@ -129,30 +134,9 @@ fn buffer_structs_match_their_wgsl_twins() {
     }
 }
 
-/// SplitMix64 (Steele, Lea & Flood 2014): seeded, the same stream anywhere.
-struct Random(u64);
-
-impl Random {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-}
-
 /// A random point on a random surface, a hair in front of it (as a vertex
 /// or a subsource is placed), and the surface's id.
-fn surface_point(surfaces: &[Surface], random: &mut Random, scale: f64) -> (DVec3, u32) {
+fn surface_point(surfaces: &[Surface], random: &mut Rng, scale: f64) -> (DVec3, u32) {
     let s = &surfaces[random.below(surfaces.len())];
     let p = &s.polygon;
     let i = 1 + random.below(p.len() - 2);
@@ -174,7 +158,7 @@ fn segments(surfaces: &[Surface], count: usize) -> Vec<Segment> {
             (lo.min(p), hi.max(p))
         });
     let scale = (hi - lo).max_element();
-    let mut random = Random(0x5eed);
+    let mut random = Rng(0x5eed);
     (0..count)
         .map(|k| {
             if k % 4 == 3 {
