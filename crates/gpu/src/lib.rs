@@ -12,9 +12,11 @@
 //! every kernel is tested against.
 
 pub mod adapter;
+pub mod gather;
 pub mod trace;
 
 pub use adapter::{DeviceChoice, Gpu, GpuError};
+pub use gather::GpuBackend;
 
 /// The environment variable that makes the GPU tests require an adapter:
 /// set (to anything but `0`) they fail without one; unset they say they

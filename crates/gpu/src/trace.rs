@@ -155,7 +155,7 @@ pub struct SceneTracer<'g> {
 }
 
 /// `p - origin` as two `f32`s: the nearest, and what rounding it lost.
-fn split(p: DVec3, origin: DVec3) -> ([f32; 3], [f32; 3]) {
+pub(crate) fn split(p: DVec3, origin: DVec3) -> ([f32; 3], [f32; 3]) {
     let r = p - origin;
     let hi = r.as_vec3();
     (hi.to_array(), (r - hi.as_dvec3()).as_vec3().to_array())
@@ -163,7 +163,7 @@ fn split(p: DVec3, origin: DVec3) -> ([f32; 3], [f32; 3]) {
 
 /// The triangles of `surfaces` (fans of each convex polygon) relative to
 /// `origin`.
-fn triangles(surfaces: &[Surface], origin: DVec3) -> Vec<GpuTriangle> {
+pub(crate) fn triangles(surfaces: &[Surface], origin: DVec3) -> Vec<GpuTriangle> {
     surfaces
         .iter()
         .flat_map(|s| {
@@ -190,7 +190,7 @@ fn triangles(surfaces: &[Surface], origin: DVec3) -> Vec<GpuTriangle> {
 
 /// The tree over `triangles` (boxes of their `f32` corners padded by
 /// `pad`), its nodes for the kernel, and the triangles in leaf order.
-fn tree(triangles: &[GpuTriangle], pad: f64) -> (Vec<GpuNode>, Vec<GpuTriangle>) {
+pub(crate) fn tree(triangles: &[GpuTriangle], pad: f64) -> (Vec<GpuNode>, Vec<GpuTriangle>) {
     let boxes: Vec<(DVec3, DVec3)> = triangles
         .iter()
         .map(|t| {
@@ -219,6 +219,25 @@ fn tree(triangles: &[GpuTriangle], pad: f64) -> (Vec<GpuNode>, Vec<GpuTriangle>)
     (nodes, ordered)
 }
 
+/// The centre of the surfaces' box (the origin of the device's
+/// coordinates) and its largest side.
+pub(crate) fn centre_and_scale(surfaces: &[Surface]) -> (DVec3, f64) {
+    let (lo, hi) = surfaces
+        .iter()
+        .flat_map(|s| s.polygon.iter())
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    if lo.is_finite() && hi.is_finite() {
+        (
+            0.5 * (lo + hi),
+            (hi - lo).max_element().max(f64::MIN_POSITIVE),
+        )
+    } else {
+        (DVec3::ZERO, 1.0)
+    }
+}
+
 impl<'g> SceneTracer<'g> {
     /// Uploads `surfaces`' triangles and their BVH to `gpu`.
     ///
@@ -226,22 +245,7 @@ impl<'g> SceneTracer<'g> {
     ///
     /// When the device refuses the buffers or the kernel.
     pub fn new(gpu: &'g Gpu, surfaces: &[Surface]) -> Result<SceneTracer<'g>, GpuError> {
-        let (lo, hi) = surfaces
-            .iter()
-            .flat_map(|s| s.polygon.iter())
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
-                (lo.min(p), hi.max(p))
-            });
-        let origin = if lo.is_finite() && hi.is_finite() {
-            0.5 * (lo + hi)
-        } else {
-            DVec3::ZERO
-        };
-        let scale = if lo.is_finite() {
-            (hi - lo).max_element().max(f64::MIN_POSITIVE)
-        } else {
-            1.0
-        };
+        let (origin, scale) = centre_and_scale(surfaces);
         let triangles = triangles(surfaces, origin);
         // A few f32 round-offs of the scene's size: the slab test's error.
         let pad = 8.0 * f64::from(f32::EPSILON) * scale;
@@ -450,7 +454,7 @@ pub fn grazes(occluder: &dyn radiosity::accel::Occluder, segment: &Segment, dist
 }
 
 /// `items`, or one zeroed element when there are none.
-fn nonempty<T: Pod + Default>(mut items: Vec<T>) -> Vec<T> {
+pub(crate) fn nonempty<T: Pod + Default>(mut items: Vec<T>) -> Vec<T> {
     if items.is_empty() {
         items.push(T::default());
     }
@@ -458,7 +462,7 @@ fn nonempty<T: Pod + Default>(mut items: Vec<T>) -> Vec<T> {
 }
 
 /// A read-only storage buffer holding `items`.
-fn storage<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
+pub(crate) fn storage<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
     gpu.device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
@@ -468,7 +472,7 @@ fn storage<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buffer {
 }
 
 /// Binding `binding` of the kernel's group to all of `buffer`.
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: buffer.as_entire_binding(),

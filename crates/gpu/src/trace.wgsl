@@ -154,19 +154,15 @@ fn crosses(t: Triangle, origin: vec3<f32>, origin_lo: vec3<f32>, f: Frame) -> bo
     return t_scaled < 0.0 && t_scaled >= det * OVERLAP;
 }
 
-@compute @workgroup_size(64)
-fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= dispatch.count) {
-        return;
-    }
-    let i = dispatch.first + id.x;
-    let segment = segments[i];
-    let origin = segment.p0;
-    let d = minus(segment.p1, segment.p1_lo, segment.p0, segment.p0_lo);
+// Whether a surface other than those of `skip0` and `skip1` crosses the
+// open segment p0 -> p1 (each point hi + lo): the CPU's
+// `Occluder::occluded`.
+fn segment_blocked(p0: vec3<f32>, p0_lo: vec3<f32>, p1: vec3<f32>, p1_lo: vec3<f32>, skip0: u32, skip1: u32) -> bool {
+    let origin = p0;
+    let d = minus(p1, p1_lo, p0, p0_lo);
     // A point crosses nothing (the CPU's test: both ends on one side).
     if (all(d == vec3<f32>(0.0))) {
-        blocked[i] = 0u;
-        return;
+        return false;
     }
     // No zero component: 1 / d stays finite, and 0 * it is 0, never NaN.
     let tiny = vec3<f32>(1e-30);
@@ -181,7 +177,6 @@ fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
     var stack: array<u32, STACK_SIZE>;
     var depth = 0u;
     var node = 0u;
-    var hit = 0u;
     loop {
         let n = nodes[node];
         if (box_hit(n.lo, n.hi, origin, inv)) {
@@ -193,30 +188,36 @@ fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             for (var p = n.link; p < n.link + n.kind; p += 1u) {
                 let t = triangles[p];
-                if (t.group == segment.skip0 || t.group == segment.skip1) {
+                if (t.group == skip0 || t.group == skip1) {
                     continue;
                 }
                 // The CPU's first rule: the ends strictly on either side of
                 // the surface's plane, each measured from a corner.
-                let e0 = dot(t.normal, minus(segment.p0, segment.p0_lo, t.a, t.a_lo));
-                let e1 = dot(t.normal, minus(segment.p1, segment.p1_lo, t.a, t.a_lo));
+                let e0 = dot(t.normal, minus(p0, p0_lo, t.a, t.a_lo));
+                let e1 = dot(t.normal, minus(p1, p1_lo, t.a, t.a_lo));
                 if (e0 == 0.0 || e1 == 0.0 || (e0 > 0.0) == (e1 > 0.0)) {
                     continue;
                 }
-                if (crosses(t, origin, segment.p0_lo, f0) || crosses(t, segment.p1, segment.p1_lo, f1)) {
-                    hit = 1u;
-                    break;
+                if (crosses(t, origin, p0_lo, f0) || crosses(t, p1, p1_lo, f1)) {
+                    return true;
                 }
-            }
-            if (hit != 0u) {
-                break;
             }
         }
         if (depth == 0u) {
-            break;
+            return false;
         }
         depth -= 1u;
         node = stack[depth];
     }
-    blocked[i] = hit;
+    return false;
+}
+
+@compute @workgroup_size(64)
+fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= dispatch.count) {
+        return;
+    }
+    let i = dispatch.first + id.x;
+    let s = segments[i];
+    blocked[i] = select(0u, 1u, segment_blocked(s.p0, s.p0_lo, s.p1, s.p1_lo, s.skip0, s.skip1));
 }

@@ -104,6 +104,11 @@ pub trait Shooter: Send {
     /// method whose tolerances scale with the scene's emitted power counts
     /// it in. Nothing by default.
     fn light_received(&mut self, _power: DVec3) {}
+
+    /// Where its shots' transfers ran: the CPU by default.
+    fn device(&self) -> super::device::DeviceReport {
+        super::device::DeviceReport::default()
+    }
 }
 
 /// A parameter a method takes, as a front end offers it.

@@ -24,6 +24,7 @@
 
 pub mod adaptive;
 pub mod cuts;
+pub mod device;
 pub mod hierarchy;
 pub mod lights;
 pub mod method;
@@ -334,6 +335,14 @@ impl<'a> Solver<'a> {
             .into_iter()
             .find(|(n, _)| *n == name)
             .map(|(_, c)| c)
+    }
+
+    /// Where the shots' transfers ran: the device asked for, how many shots
+    /// ran on it, and why it stopped being used if it did. The lights'
+    /// shots ([`lights`]) run on the CPU.
+    #[must_use]
+    pub fn device_report(&self) -> device::DeviceReport {
+        self.shooter.device()
     }
 
     /// The method's own count called `name`; 0 if it keeps none.

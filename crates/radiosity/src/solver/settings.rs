@@ -8,6 +8,7 @@
 use std::time::Duration;
 
 use super::adaptive::AdaptiveSettings;
+use super::device::Device;
 use super::method::{self, MethodError, SetError, Value, Visibility};
 use super::patches::PatchSettings;
 use super::registry::{MethodSettings, Shooting};
@@ -46,6 +47,10 @@ pub struct Settings {
     /// Stop before a shot once the solve has run this long.
     #[serde(serialize_with = "optional_seconds")]
     pub time_limit: Option<Duration>,
+    /// Where the transfers run (`--device`): the CPU unless a back end is
+    /// given. Reported beside the settings, not among them.
+    #[serde(skip)]
+    pub device: Device,
 }
 
 /// A duration as a number of seconds, `null` for none.
@@ -84,6 +89,7 @@ impl Settings {
             max_shots: None,
             max_subsources: None,
             time_limit: None,
+            device: Device::cpu(),
         }
     }
 
@@ -213,6 +219,23 @@ impl Settings {
         {
             return Err(SettingsError::NeverStops);
         }
+        if let Some(backend) = self.device.get() {
+            let refused = if self.method.shooting() != Shooting::Adaptive {
+                Some(format!("--shooting {}", self.method.shooting()))
+            } else if self.accel != Accel::Bvh {
+                Some(format!("--accel {}", self.accel))
+            } else if self.form_factor != FormFactor::Analytic {
+                Some(format!("--form-factor {}", self.form_factor))
+            } else {
+                None
+            };
+            if let Some(setting) = refused {
+                return Err(SettingsError::Device {
+                    device: backend.name(),
+                    setting,
+                });
+            }
+        }
         Ok(())
     }
 }
@@ -237,6 +260,17 @@ pub enum SettingsError {
         "--converge 0 never stops by itself: give --max-shots, --max-subsources or --time-limit"
     )]
     NeverStops,
+    /// A setting the device does not run.
+    #[error(
+        "the GPU ({device}) runs the default method (adaptive shooting, the BVH, the analytic \
+         factor), not {setting}: use --device cpu (the paper's presets run on the CPU, in f64)"
+    )]
+    Device {
+        /// The device.
+        device: String,
+        /// The setting it refuses, as a flag.
+        setting: String,
+    },
 }
 
 crate::choice::named_choice! {

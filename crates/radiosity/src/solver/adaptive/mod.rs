@@ -45,9 +45,10 @@ use std::time::Instant;
 use glam::DVec3;
 
 use self::gather::{Counters, Gatherer};
+use super::device::{AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, DeviceReport, Gathered};
 use super::hierarchy::sources::Sources;
 pub use super::hierarchy::transfer::FAR_RATIO;
-use super::hierarchy::transfer::Transfer;
+use super::hierarchy::transfer::{Cost, Transfer};
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
     self, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
@@ -211,6 +212,11 @@ struct AdaptiveShooting {
     sources: Sources,
     /// What the shots so far did.
     counters: Counters,
+    /// The device the transfers run on, `None` for the CPU (or after it
+    /// failed).
+    device: Option<Box<dyn AdaptiveTransfers>>,
+    /// Where the shots ran.
+    report: DeviceReport,
 }
 
 impl AdaptiveShooting {
@@ -257,9 +263,66 @@ impl AdaptiveShooting {
             mean_radiosity: mean_radiosity.max(f64::MIN_POSITIVE),
             sources: Sources::default(),
             counters: Counters::default(),
+            device: None,
+            report: DeviceReport::default(),
         };
+        if let Some(backend) = settings.device.get() {
+            shooting.report.name = Some(backend.name());
+            let solve = AdaptiveSolve {
+                scene,
+                mesh,
+                hierarchy: &shooting.hierarchy,
+                receivers,
+                order: &shooting.receiver_tree.items,
+            };
+            match backend.adaptive(&solve) {
+                Ok(device) => shooting.device = Some(device),
+                Err(e) => shooting.report.fault = Some(e.0),
+            }
+        }
         shooting.total_shooter_power(mesh);
         shooting
+    }
+
+    /// Each receiver's negligible irradiance, in the receivers' order (as
+    /// [`AdaptiveShooting::receiver_negligible`] at the leaves).
+    fn negligible_per_receiver(&self, irradiance: &[DVec3]) -> Vec<f64> {
+        irradiance
+            .iter()
+            .map(|e| self.negligible * (luminance(*e) / self.mean_radiosity).max(1.0))
+            .collect()
+    }
+
+    /// The shot's transfers on the device, if there is one (a device
+    /// that fails is not asked again: the shot, and later ones, are made
+    /// on the CPU).
+    fn gather_on_device(&mut self, inputs: &ShotInputs<'_>, root: u32) -> OnDevice {
+        if self.device.is_none() {
+            return OnDevice::Cpu;
+        }
+        let negligible = self.negligible_per_receiver(inputs.irradiance);
+        let shot = AdaptiveShot {
+            root,
+            origin: self.hierarchy.tree.nodes[root as usize].centre,
+            sources: &self.sources,
+            unshot: &self.unshot,
+            negligible: &negligible,
+            abort: inputs.abort,
+        };
+        let result = self.device.as_mut().map(|d| d.gather(&shot));
+        match result {
+            Some(Ok(Some(gathered))) => {
+                self.report.device_shots += 1;
+                OnDevice::Gathered(gathered)
+            }
+            Some(Ok(None)) => OnDevice::Abandoned,
+            Some(Err(e)) => {
+                self.report.fault = Some(e.0);
+                self.device = None;
+                OnDevice::Cpu
+            }
+            None => OnDevice::Cpu,
+        }
     }
 
     fn total_shooter_power(&mut self, mesh: &Mesh) {
@@ -307,40 +370,25 @@ impl AdaptiveShooting {
     }
 }
 
-impl Shooter for AdaptiveShooting {
-    fn shooters(&self) -> usize {
-        self.hierarchy.shooters.len()
-    }
+/// What became of a shot's transfers on the device.
+enum OnDevice {
+    /// Made there.
+    Gathered(Gathered),
+    /// Abandoned there (the shot is abandoned).
+    Abandoned,
+    /// To be made on the CPU: no device, or one that just failed.
+    Cpu,
+}
 
-    fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
-        mesh.elements
-            .iter()
-            .zip(&self.unshot)
-            .map(|(e, u)| *u * e.area)
-            .sum()
-    }
-
-    /// One shot of the chosen node; its elements' unshot radiosity is
-    /// zeroed.
-    fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
-        let start = Instant::now();
-        let (scene, mesh) = (inputs.scene, inputs.mesh);
-        let root = self.choose_shooting_node();
-        self.sources
-            .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);
-        let mut power = DVec3::ZERO;
-        let mut elements = 0u64;
-        for &e in self.hierarchy.tree.items_of(root) {
-            power += self.unshot[e as usize] * mesh.elements[e as usize].area;
-            elements += 1;
-        }
+impl AdaptiveShooting {
+    /// The shot's transfers on the CPU: the receivers' tree refined
+    /// against the shooting node, in parallel; `None` when abandoned.
+    fn gather_on_cpu(&self, inputs: &ShotInputs<'_>, root: u32) -> Option<(Vec<DVec3>, Counters)> {
         let negligible = self.receiver_negligible(inputs.irradiance);
-
-        let gather_start = Instant::now();
         let gatherer = Gatherer {
             transfer: Transfer {
-                scene,
-                mesh,
+                scene: inputs.scene,
+                mesh: inputs.mesh,
                 hierarchy: &self.hierarchy,
                 unshot: &self.unshot,
                 sources: &self.sources,
@@ -368,6 +416,59 @@ impl Shooter for AdaptiveShooting {
         for (&r, e) in self.receiver_tree.items.iter().zip(gathered) {
             irradiance[r as usize] = e;
         }
+        Some((irradiance, counters))
+    }
+}
+
+impl Shooter for AdaptiveShooting {
+    fn shooters(&self) -> usize {
+        self.hierarchy.shooters.len()
+    }
+
+    fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
+        mesh.elements
+            .iter()
+            .zip(&self.unshot)
+            .map(|(e, u)| *u * e.area)
+            .sum()
+    }
+
+    /// One shot of the chosen node; its elements' unshot radiosity is
+    /// zeroed.
+    fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
+        let start = Instant::now();
+        let (scene, mesh) = (inputs.scene, inputs.mesh);
+        let root = self.choose_shooting_node();
+        self.sources
+            .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);
+        let mut power = DVec3::ZERO;
+        let mut elements = 0u64;
+        for &e in self.hierarchy.tree.items_of(root) {
+            power += self.unshot[e as usize] * mesh.elements[e as usize].area;
+            elements += 1;
+        }
+        let gather_start = Instant::now();
+        let mut on_device = true;
+        let (irradiance, counters) = match self.gather_on_device(inputs, root) {
+            OnDevice::Abandoned => return None,
+            OnDevice::Gathered(gathered) => {
+                let counters = Counters {
+                    cost: Cost {
+                        pairs: gathered.pairs,
+                        rays: gathered.rays,
+                        ..Cost::default()
+                    },
+                    walks: gathered.walks,
+                    node_visits: gathered.node_visits,
+                    element_sources: gathered.element_sources,
+                };
+                (gathered.irradiance, counters)
+            }
+            OnDevice::Cpu => {
+                on_device = false;
+                self.gather_on_cpu(inputs, root)?
+            }
+        };
         let gather_end = Instant::now();
 
         self.counters += counters;
@@ -376,9 +477,11 @@ impl Shooter for AdaptiveShooting {
         stats.rays_cast += cost.rays;
         stats.ray_time += cost.ray_time;
         stats.form_factor_time += cost.form_factor_time;
-        stats.pretest_time += (gather_end - gather_start)
-            .mul_f64(rayon::current_num_threads() as f64)
-            .saturating_sub(cost.ray_time + cost.form_factor_time);
+        if !on_device {
+            stats.pretest_time += (gather_end - gather_start)
+                .mul_f64(rayon::current_num_threads() as f64)
+                .saturating_sub(cost.ray_time + cost.form_factor_time);
+        }
         for &e in self.hierarchy.tree.items_of(root) {
             self.unshot[e as usize] = DVec3::ZERO;
         }
@@ -411,6 +514,10 @@ impl Shooter for AdaptiveShooting {
 
     fn counters(&self) -> Vec<(&'static str, Counter)> {
         self.counters.list()
+    }
+
+    fn device(&self) -> DeviceReport {
+        self.report.clone()
     }
 
     /// A light's power counts towards the mean radiosity the tolerance

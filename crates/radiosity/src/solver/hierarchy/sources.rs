@@ -18,22 +18,22 @@ use crate::scene::Scene;
 /// The sources of one shot: per node of the shooting subtree (indexed from
 /// its root), its power and bins.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Sources {
+pub struct Sources {
     /// Per node, children before parents.
-    pub(crate) nodes: Vec<NodeSource>,
+    pub nodes: Vec<NodeSource>,
     /// Their bins.
-    pub(crate) bins: Vec<Bin>,
+    pub bins: Vec<Bin>,
 }
 
 /// A node's unshot power, in bins by normal direction.
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct NodeSource {
+pub struct NodeSource {
     /// Total luminance power.
-    pub(crate) weight: f64,
+    pub weight: f64,
     /// First of its bins in [`Sources::bins`].
-    pub(crate) first_bin: u32,
+    pub first_bin: u32,
     /// Number of its bins.
-    pub(crate) bins: u8,
+    pub bins: u8,
 }
 
 /// Unshot power of elements whose normals share a dominant axis, with the
@@ -42,21 +42,21 @@ pub(crate) struct NodeSource {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Bin {
     /// Power per channel, `sum A_e dB_e`.
-    pub(crate) power: DVec3,
+    pub power: DVec3,
     /// Luminance of the power: the weight of the sums below.
-    pub(crate) weight: f64,
+    pub weight: f64,
     /// Weighted sum of normals.
-    pub(crate) normal: DVec3,
+    pub normal: DVec3,
     /// Weighted sum of element centroids, relative to the shooting node's
     /// centre (so the spread below loses no digits far from the origin).
-    pub(crate) position: DVec3,
+    pub position: DVec3,
     /// Weighted sum of the outer products of those offsets, each element's
     /// own second moment included.
-    pub(crate) moment: DMat3,
+    pub moment: DMat3,
     /// The element whose centroid the shadow rays start from.
-    pub(crate) representative: u32,
+    pub representative: u32,
     /// The dominant axis and sign of its normals (0..6).
-    pub(crate) axis: u8,
+    pub axis: u8,
 }
 
 impl Sources {
@@ -174,7 +174,7 @@ fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mu
 }
 
 /// `v v^T`.
-pub(crate) fn outer(v: DVec3) -> DMat3 {
+pub fn outer(v: DVec3) -> DMat3 {
     DMat3::from_cols(v * v.x, v * v.y, v * v.z)
 }
 

@@ -1,0 +1,672 @@
+// One shot of adaptive shooting on the GPU: the CPU's per-receiver walk of
+// the shooting node's subtree (radiosity::solver::adaptive, after the
+// adaptive source subdivision of Wallace, Elmquist & Haines 1989, section
+// 4), one thread a receiver, in the CPU's order and with its rules: a node
+// is accepted whole when what it can send is negligible, or far and either
+// dim or seen alike by four shadow rays; elements are the finest sources,
+// their exact factor by the paper's equation (2) (Baum et al.'s contour
+// integral) on the part in front of the receiver and a shadow ray from its
+// centre. Appended to trace.wgsl, whose `segment_blocked` answers the
+// rays. Every point is two f32s (hi + lo) relative to the scene's centre,
+// and every vector the kernel computes with is a difference taken from
+// the receiver (or the shot's centre), so its precision is f32's relative
+// to the distances involved, not to the scene's size. The Rust twins of
+// these structs are in gather.rs, checked against them by a test.
+
+// A node of the element tree.
+struct TreeNode {
+    centre: vec3<f32>,
+    radius: f32,
+    centre_lo: vec3<f32>,
+    // The second child; NONE for a leaf.
+    second: u32,
+    // The surface id all its elements share, or NONE.
+    group: u32,
+    // The surface of its first element (its plane, for a node of one id).
+    surface: u32,
+    // A leaf's element.
+    element: u32,
+    pad0: u32,
+}
+
+struct Surface {
+    normal: vec3<f32>,
+    group: u32,
+    corner: vec3<f32>,
+    pad0: u32,
+    corner_lo: vec3<f32>,
+    pad1: u32,
+}
+
+struct Element {
+    corners: array<vec4<f32>, 4>,
+    corners_lo: array<vec4<f32>, 4>,
+    centroid: vec3<f32>,
+    surface: u32,
+    centroid_lo: vec3<f32>,
+    // 3 or 4.
+    count: u32,
+    area: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+struct Receiver {
+    point: vec3<f32>,
+    group: u32,
+    point_lo: vec3<f32>,
+    pad0: u32,
+    normal: vec3<f32>,
+    pad1: u32,
+}
+
+// A node of the shooting subtree as a source (indexed from its root).
+struct NodeSource {
+    // Luminance of its unshot power.
+    weight: f32,
+    first_bin: u32,
+    bins: u32,
+    pad0: u32,
+    // A leaf's unshot radiosity.
+    unshot: vec3<f32>,
+    pad1: u32,
+}
+
+// A bin's point source: power, mean normal (unit, and the length of the
+// mean), power-weighted centre relative to the shot's centre, and the
+// covariance of its points.
+struct Bin {
+    power: vec3<f32>,
+    weight: f32,
+    normal: vec3<f32>,
+    length: f32,
+    centre: vec3<f32>,
+    representative: u32,
+    // xx, yy, zz.
+    diagonal: vec3<f32>,
+    axis: u32,
+    // xy, xz, yz.
+    off_diagonal: vec3<f32>,
+    pad0: u32,
+}
+
+struct Shot {
+    // The shooting node.
+    root: u32,
+    // The first receiver of this dispatch, and how many it has.
+    first: u32,
+    count: u32,
+    pad0: u32,
+    // The shooting node's centre: the bins' origin.
+    origin: vec3<f32>,
+    pad1: u32,
+    origin_lo: vec3<f32>,
+    pad2: u32,
+}
+
+struct Gathered {
+    irradiance: vec3<f32>,
+    pairs: u32,
+    rays: u32,
+    walks: u32,
+    visits: u32,
+    elements: u32,
+}
+
+@group(0) @binding(5) var<storage, read> tree: array<TreeNode>;
+@group(0) @binding(6) var<storage, read> surfaces: array<Surface>;
+@group(0) @binding(7) var<storage, read> elements: array<Element>;
+@group(0) @binding(8) var<storage, read> receivers: array<Receiver>;
+@group(0) @binding(9) var<storage, read> negligible: array<f32>;
+@group(0) @binding(10) var<storage, read> sources: array<NodeSource>;
+@group(0) @binding(11) var<storage, read> bins: array<Bin>;
+@group(0) @binding(12) var<storage, read_write> gathered: array<Gathered>;
+@group(0) @binding(13) var<uniform> shot: Shot;
+
+const NONE: u32 = 0xffffffffu;
+const PI: f32 = 3.14159265358979;
+const TAU: f32 = 6.28318530717959;
+// radiosity::solver::adaptive::{FAR_RATIO, FAR_FACTOR} and
+// hierarchy::transfer::QUADRATURE_RATIO.
+const FAR_RATIO: f32 = 3.0;
+const FAR_FACTOR: f32 = 30.0;
+const QUADRATURE_RATIO: f32 = 4.0;
+// accel::SEGMENT_EPSILON.
+const SEGMENT_EPSILON: f32 = 1e-6;
+// form_factor::analytic's DEGENERATE and ON_PLANE.
+const DEGENERATE: f32 = 1e-11;
+const ON_PLANE: f32 = 1e-12;
+// The host checks the element tree is shallower than this.
+const WALK_STACK: u32 = 64u;
+
+// What one receiver's walk counted.
+var<private> pairs: u32;
+var<private> rays: u32;
+var<private> visits: u32;
+var<private> element_sources: u32;
+
+fn luminance(rgb: vec3<f32>) -> f32 {
+    return 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z;
+}
+
+// a + b as hi + lo (Knuth's two-sum: lo is what rounding hi lost).
+fn two_sum(a: vec3<f32>, b: vec3<f32>) -> array<vec3<f32>, 2> {
+    let s = a + b;
+    let bb = s - a;
+    let err = (a - (s - bb)) + (b - bb);
+    return array<vec3<f32>, 2>(s, err);
+}
+
+// Whether the receiver sees the point `offset` from it: the CPU's shadow
+// ray from that point to the receiver, shortened at both ends.
+fn visible(offset: vec3<f32>, r: Receiver, group: u32) -> bool {
+    rays += 1u;
+    let a = two_sum(r.point, offset * (1.0 - SEGMENT_EPSILON));
+    let b = two_sum(r.point, offset * SEGMENT_EPSILON);
+    return !segment_blocked(a[0], a[1] + r.point_lo, b[0], b[1] + r.point_lo, group, r.group);
+}
+
+fn element_group(e: u32) -> u32 {
+    return surfaces[elements[e].surface].group;
+}
+
+// Whether the receiver sees the centre of element `e`.
+fn visible_from(e: u32, r: Receiver) -> bool {
+    let el = elements[e];
+    let offset = minus(el.centroid, el.centroid_lo, r.point, r.point_lo);
+    return visible(offset, r, surfaces[el.surface].group);
+}
+
+// `x` times the symmetric matrix of a bin's covariance.
+fn covariance_times(b: Bin, x: vec3<f32>) -> vec3<f32> {
+    let d = b.diagonal;
+    let o = b.off_diagonal;
+    return vec3<f32>(
+        d.x * x.x + o.x * x.y + o.y * x.z,
+        o.x * x.x + d.y * x.y + o.z * x.z,
+        o.y * x.x + o.z * x.y + d.z * x.z,
+    );
+}
+
+// hierarchy::sources::point_factor: irradiance per unit power of a bin
+// seen as a point, corrected to second order for its extent; `from_origin`
+// is the receiver less the shot's centre.
+fn point_factor(b: Bin, from_origin: vec3<f32>, normal: vec3<f32>) -> f32 {
+    let d = from_origin - b.centre;
+    let q = dot(d, d);
+    if (q <= 0.0 || b.length <= 0.0) {
+        return 0.0;
+    }
+    let s = b.normal;
+    let a = dot(s, d);
+    let bb = dot(normal, d);
+    if (a <= 0.0 || bb >= 0.0) {
+        return 0.0;
+    }
+    let trace = b.diagonal.x + b.diagonal.y + b.diagonal.z;
+    let c = dot(normal, covariance_times(b, s)) / (a * bb)
+        - 4.0 * dot(d, covariance_times(b, normal * a + s * bb)) / (a * bb * q)
+        - 2.0 * trace / q
+        + 12.0 * dot(d, covariance_times(b, d)) / (q * q);
+    return -b.length * a * bb / (PI * q * q) * (1.0 + clamp(c, -0.5, 0.5));
+}
+
+// The receiver's view of the corners of element `e`, relative to it.
+struct Polygon {
+    p: array<vec3<f32>, 6>,
+    count: u32,
+}
+
+fn element_polygon(e: u32, r: Receiver) -> Polygon {
+    let el = elements[e];
+    var out: Polygon;
+    out.count = el.count;
+    for (var i = 0u; i < el.count; i += 1u) {
+        out.p[i] = minus(el.corners[i].xyz, el.corners_lo[i].xyz, r.point, r.point_lo);
+    }
+    return out;
+}
+
+// geometry::clip: the edge from p (distance dp > 0) to q (dq < 0) cut at
+// the plane, interpolated from the end nearer it.
+fn crossing(p: vec3<f32>, dp: f32, q: vec3<f32>, dq: f32) -> vec3<f32> {
+    if (-dq < dp) {
+        return q + (p - q) * (dq / (dq - dp));
+    }
+    return p + (q - p) * (dp / (dp - dq));
+}
+
+// The part of `poly` where dot(normal, p) >= -tolerance (clip_each).
+fn clip(poly: Polygon, normal: vec3<f32>, tolerance: f32) -> Polygon {
+    var out: Polygon;
+    out.count = 0u;
+    for (var i = 0u; i < poly.count; i += 1u) {
+        let a = poly.p[i];
+        let b = poly.p[(i + 1u) % poly.count];
+        let da = dot(normal, a);
+        let db = dot(normal, b);
+        let a_in = da >= -tolerance;
+        let b_in = db >= -tolerance;
+        if (a_in) {
+            out.p[out.count] = a;
+            out.count += 1u;
+        }
+        if (a_in != b_in) {
+            var p = a;
+            var dp = da;
+            var q = b;
+            var dq = db;
+            if (!a_in) {
+                p = b;
+                dp = db;
+                q = a;
+                dq = da;
+            }
+            if (dp > 0.0) {
+                out.p[out.count] = crossing(p, dp, q, dq);
+                out.count += 1u;
+            }
+        }
+    }
+    return out;
+}
+
+fn newell(poly: Polygon) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let o = poly.p[0];
+    for (var i = 0u; i < poly.count; i += 1u) {
+        sum += cross(poly.p[i] - o, poly.p[(i + 1u) % poly.count] - o);
+    }
+    return sum;
+}
+
+// geometry::centroid: area-weighted, about the first corner.
+fn centroid(poly: Polygon) -> vec3<f32> {
+    let o = poly.p[0];
+    let axis = newell(poly);
+    var weighted = vec3<f32>(0.0);
+    var total = 0.0;
+    var mean = o;
+    for (var i = 1u; i + 1u < poly.count; i += 1u) {
+        let b = poly.p[i];
+        let c = poly.p[i + 1u];
+        let w = dot(cross(b - o, c - o), axis);
+        weighted += w * (o + b + c) / 3.0;
+        total += w;
+        mean += b;
+    }
+    if (abs(total) <= 1.17549435e-38) {
+        mean += poly.p[poly.count - 1u];
+        return mean / f32(poly.count);
+    }
+    return weighted / total;
+}
+
+// One edge of form_factor::analytic's contour (a and b relative to the
+// receiver).
+fn contour_edge(p: vec3<f32>, q: vec3<f32>, normal: vec3<f32>, approach: vec3<f32>, at_receiver: f32) -> f32 {
+    var a = p;
+    var b = q;
+    let here = at_receiver * at_receiver;
+    let la2 = dot(a, a);
+    let lb2 = dot(b, b);
+    if (la2 <= here && lb2 <= here) {
+        return 0.0;
+    }
+    if (la2 <= here) {
+        a = -approach * sqrt(lb2);
+    } else if (lb2 <= here) {
+        b = -approach * sqrt(la2);
+    }
+    let c = cross(a, b);
+    let s = length(c);
+    let cosine = dot(a, b);
+    if (cosine > 0.0) {
+        var angle_over_sine = 1.0 / cosine;
+        if (s > 0.0) {
+            angle_over_sine = atan2(s, cosine) / s;
+        }
+        return dot(normal, c) * angle_over_sine;
+    }
+    let edge = b - a;
+    if (s > at_receiver * length(edge)) {
+        return dot(normal, c) * atan2(s, cosine) / s;
+    }
+    let axis = cross(edge, approach);
+    let l = length(axis);
+    if (l <= 0.0) {
+        return 0.0;
+    }
+    return PI * dot(normal, axis / l);
+}
+
+// form_factor::analytic: the exact factor of a polygon (relative to the
+// receiver, its unit normal `source_normal`) at the receiver, clipped to
+// its front.
+fn analytic(poly: Polygon, normal: vec3<f32>, source_normal: vec3<f32>) -> f32 {
+    if (poly.count < 3u) {
+        return 0.0;
+    }
+    var scale2 = 0.0;
+    for (var i = 0u; i < poly.count; i += 1u) {
+        scale2 = max(scale2, dot(poly.p[i], poly.p[i]));
+    }
+    let scale = sqrt(scale2);
+    if (!(scale > 0.0)) {
+        return 0.0;
+    }
+    let facing = dot(normal, source_normal);
+    let tangential = source_normal - facing * normal;
+    var approach = source_normal;
+    if (length(tangential) > DEGENERATE) {
+        approach = normalize(tangential);
+    } else if (facing > 0.0) {
+        return 0.0;
+    }
+    let clipped = clip(poly, normal, ON_PLANE * scale);
+    let at_receiver = DEGENERATE * scale;
+    var sum = 0.0;
+    for (var i = 0u; i < clipped.count; i += 1u) {
+        sum += contour_edge(clipped.p[i], clipped.p[(i + 1u) % clipped.count], normal, approach, at_receiver);
+    }
+    let f = -sum / TAU;
+    if (f != f) {
+        return 0.0;
+    }
+    return clamp(f, 0.0, 1.0);
+}
+
+fn element_factor(e: u32, r: Receiver) -> f32 {
+    return analytic(element_polygon(e, r), r.normal, surfaces[elements[e].surface].normal);
+}
+
+// Transfer::visible_element_factor: the factor of element `e` times its
+// visibility from the centre of the part in front of the receiver.
+fn visible_element_factor(e: u32, r: Receiver) -> f32 {
+    let el = elements[e];
+    let poly = element_polygon(e, r);
+    let tolerance = 1e-9 * sqrt(el.area);
+    var any_front = false;
+    var all_front = true;
+    for (var i = 0u; i < poly.count; i += 1u) {
+        let h = dot(r.normal, poly.p[i]);
+        any_front = any_front || h > tolerance;
+        all_front = all_front && h > tolerance;
+    }
+    if (!any_front) {
+        return 0.0;
+    }
+    var origin = minus(el.centroid, el.centroid_lo, r.point, r.point_lo);
+    if (!all_front) {
+        let clipped = clip(poly, r.normal, 0.0);
+        if (clipped.count < 3u || length(newell(clipped)) <= 0.0) {
+            return 0.0;
+        }
+        origin = centroid(clipped);
+    }
+    pairs += 1u;
+    if (!visible(origin, r, surfaces[el.surface].group)) {
+        return 0.0;
+    }
+    return analytic(poly, r.normal, surfaces[el.surface].normal);
+}
+
+fn node_offset(n: TreeNode, r: Receiver) -> vec3<f32> {
+    return minus(n.centre, n.centre_lo, r.point, r.point_lo);
+}
+
+// Transfer::faces: whether any point of the node can light the receiver.
+fn faces(n: TreeNode, r: Receiver) -> bool {
+    if (dot(r.normal, node_offset(n, r)) < -n.radius) {
+        return false;
+    }
+    if (n.group == NONE) {
+        return true;
+    }
+    if (n.group == r.group) {
+        return false;
+    }
+    let s = surfaces[n.surface];
+    return dot(s.normal, minus(r.point, r.point_lo, s.corner, s.corner_lo)) > 0.0;
+}
+
+fn straddles(n: TreeNode, r: Receiver) -> bool {
+    return abs(dot(r.normal, node_offset(n, r))) < n.radius;
+}
+
+// The receiver less the shot's centre.
+fn from_origin(r: Receiver) -> vec3<f32> {
+    return minus(r.point, r.point_lo, shot.origin, shot.origin_lo);
+}
+
+// Transfer::representative: the element of the node's heaviest bin (the
+// last of equals, as Rust's max_by); NONE for a node with no power.
+fn representative(n: u32) -> u32 {
+    let s = sources[n - shot.root];
+    var best = NONE;
+    var weight = 0.0;
+    for (var k = 0u; k < s.bins; k += 1u) {
+        let b = bins[s.first_bin + k];
+        if (best == NONE || b.weight >= weight) {
+            best = b.representative;
+            weight = b.weight;
+        }
+    }
+    return best;
+}
+
+// Irradiance of each of a node's bins, in its bins' order, with no
+// occlusion (Transfer::node_geometry).
+struct Geometry {
+    e: array<vec3<f32>, 6>,
+}
+
+fn node_geometry(n: u32, r: Receiver) -> Geometry {
+    var g: Geometry;
+    let s = sources[n - shot.root];
+    for (var k = 0u; k < 6u; k += 1u) {
+        g.e[k] = vec3<f32>(0.0);
+    }
+    let offset = from_origin(r);
+    var pieces: array<u32, WALK_STACK>;
+    var depth = 1u;
+    pieces[0] = n;
+    while (depth > 0u) {
+        depth -= 1u;
+        let piece = pieces[depth];
+        let node = tree[piece];
+        let o = node_offset(node, r);
+        let reach = QUADRATURE_RATIO * node.radius;
+        let near = dot(o, o) < reach * reach || straddles(node, r);
+        let leaf = node.second == NONE;
+        if (near && !leaf) {
+            pieces[depth] = node.second;
+            pieces[depth + 1u] = piece + 1u;
+            depth += 2u;
+            continue;
+        }
+        let ps = sources[piece - shot.root];
+        for (var k = 0u; k < ps.bins; k += 1u) {
+            let b = bins[ps.first_bin + k];
+            var slot = NONE;
+            for (var j = 0u; j < s.bins; j += 1u) {
+                if (slot == NONE && bins[s.first_bin + j].axis == b.axis) {
+                    slot = j;
+                }
+            }
+            if (slot == NONE) {
+                continue;
+            }
+            if (near) {
+                // An element close by: its exact factor.
+                g.e[slot] += element_factor(b.representative, r) * ps.unshot;
+            } else {
+                g.e[slot] += b.power * point_factor(b, offset, r.normal);
+            }
+        }
+    }
+    return g;
+}
+
+fn geometry_sum(g: Geometry, count: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < count; k += 1u) {
+        sum += g.e[k];
+    }
+    return sum;
+}
+
+// Transfer::dim_irradiance: the node's geometry behind one shadow ray
+// from the representative of the bin that sends the most.
+fn dim_irradiance(n: u32, r: Receiver) -> vec3<f32> {
+    let s = sources[n - shot.root];
+    let g = node_geometry(n, r);
+    var best = NONE;
+    var most = 0.0;
+    for (var k = 0u; k < s.bins; k += 1u) {
+        if (all(g.e[k] == vec3<f32>(0.0))) {
+            continue;
+        }
+        let l = luminance(g.e[k]);
+        if (best == NONE || l >= most) {
+            best = k;
+            most = l;
+        }
+    }
+    if (best == NONE) {
+        return vec3<f32>(0.0);
+    }
+    pairs += 1u;
+    if (visible_from(bins[s.first_bin + best].representative, r)) {
+        return geometry_sum(g, s.bins);
+    }
+    return vec3<f32>(0.0);
+}
+
+// Transfer::uniform_visibility: 1 when up to four shadow rays spread over
+// the node all see it, 0 when none does, 2 when they disagree (or there
+// are none).
+fn uniform_visibility(n: u32, r: Receiver) -> u32 {
+    var samples: array<u32, 4>;
+    var count = 0u;
+    let node = tree[n];
+    if (node.second == NONE) {
+        samples[0] = n;
+        count = 1u;
+    } else {
+        let children = array<u32, 2>(n + 1u, node.second);
+        for (var i = 0u; i < 2u; i += 1u) {
+            let child = children[i];
+            let c = tree[child];
+            if (c.second == NONE) {
+                samples[count] = child;
+                count += 1u;
+            } else {
+                samples[count] = child + 1u;
+                samples[count + 1u] = c.second;
+                count += 2u;
+            }
+        }
+    }
+    var answer = 2u;
+    for (var i = 0u; i < count; i += 1u) {
+        let e = representative(samples[i]);
+        if (e == NONE) {
+            continue;
+        }
+        pairs += 1u;
+        let v = select(0u, 1u, visible_from(e, r));
+        if (answer == 2u) {
+            answer = v;
+        } else if (answer != v) {
+            return 2u;
+        }
+    }
+    return answer;
+}
+
+// The irradiance the shooting node sends one receiver (the CPU's
+// Gatherer::gather).
+fn gather_one(r: Receiver, small: f32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    var stack: array<u32, WALK_STACK>;
+    var depth = 1u;
+    stack[0] = shot.root;
+    let offset = from_origin(r);
+    while (depth > 0u) {
+        depth -= 1u;
+        let n = stack[depth];
+        let node = tree[n];
+        let source = sources[n - shot.root];
+        visits += 1u;
+        if (source.weight <= 0.0 || !faces(node, r)) {
+            continue;
+        }
+        if (node.second == NONE) {
+            element_sources += 1u;
+            sum += source.unshot * visible_element_factor(node.element, r);
+            continue;
+        }
+        let distance = length(node_offset(node, r));
+        if (distance < FAR_RATIO * node.radius || straddles(node, r)) {
+            // Near: accepted whole only if even all its power at the
+            // nearest point of its bounding sphere would be negligible.
+            let clearance = distance - node.radius;
+            if (clearance > 0.0 && source.weight <= small * PI * clearance * clearance) {
+                sum += dim_irradiance(n, r);
+                continue;
+            }
+        } else {
+            // Far: the corrected point sources are accurate; what is left
+            // to judge is occlusion.
+            var estimate = 0.0;
+            for (var k = 0u; k < source.bins; k += 1u) {
+                let b = bins[source.first_bin + k];
+                estimate += b.weight * point_factor(b, offset, r.normal);
+            }
+            if (estimate <= FAR_FACTOR * small) {
+                sum += dim_irradiance(n, r);
+                continue;
+            }
+            let seen = uniform_visibility(n, r);
+            if (seen != 2u) {
+                if (seen == 1u) {
+                    sum += geometry_sum(node_geometry(n, r), source.bins);
+                }
+                continue;
+            }
+        }
+        stack[depth] = node.second;
+        stack[depth + 1u] = n + 1u;
+        depth += 2u;
+    }
+    return sum;
+}
+
+@compute @workgroup_size(64)
+fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= shot.count) {
+        return;
+    }
+    let i = shot.first + id.x;
+    let r = receivers[i];
+    pairs = 0u;
+    rays = 0u;
+    visits = 0u;
+    element_sources = 0u;
+    var out: Gathered;
+    out.irradiance = vec3<f32>(0.0);
+    out.walks = 0u;
+    // A source of one surface id never lights that id's receivers.
+    let root = tree[shot.root];
+    if (sources[0].weight > 0.0 && (root.group == NONE || root.group != r.group)) {
+        out.walks = 1u;
+        out.irradiance = gather_one(r, negligible[i]);
+    }
+    out.pairs = pairs;
+    out.rays = rays;
+    out.visits = visits;
+    out.elements = element_sources;
+    gathered[i] = out;
+}

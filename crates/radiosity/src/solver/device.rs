@@ -1,0 +1,167 @@
+//! The seam between a method and the device its transfers run on, beyond
+//! the paper (whose shooting loop, Wallace, Elmquist & Haines 1989, ran on
+//! the CPU): the loop, the method's book-keeping and its choice of shooter
+//! stay here, written once; a [`Backend`] (the GPU back end in the
+//! `radiosity-gpu` crate) takes over the part of a shot that is the work,
+//! every receiver's walk of the shooting node's tree, and hands back what
+//! each receiver gathered. The CPU is the oracle it is tested against.
+//!
+//! A solve names its device in [`super::Settings::device`]; the CPU when it
+//! names none. A device that fails, at the start or during a shot, is a
+//! fault to survive: the method carries on on the CPU from the state it
+//! holds, and says so once ([`DeviceReport::fault`]).
+
+use std::fmt;
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use super::hierarchy::Hierarchy;
+use super::hierarchy::sources::Sources;
+use super::{Abort, Receiver};
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// A device that runs transfers.
+pub trait Backend: Send + Sync {
+    /// The device's name as a run reports it (an adapter's name and
+    /// backend).
+    fn name(&self) -> String;
+
+    /// Starts adaptive shooting's transfers for one solve: what stays the
+    /// same from shot to shot (the scene, the element tree, the receivers)
+    /// goes to the device now.
+    ///
+    /// # Errors
+    ///
+    /// When the device cannot hold or run them.
+    fn adaptive(
+        &self,
+        solve: &AdaptiveSolve<'_>,
+    ) -> Result<Box<dyn AdaptiveTransfers>, DeviceError>;
+}
+
+/// What adaptive shooting's transfers keep for a whole solve.
+pub struct AdaptiveSolve<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its mesh.
+    pub mesh: &'a Mesh,
+    /// The tree over the mesh's elements.
+    pub hierarchy: &'a Hierarchy,
+    /// The receivers (vertices, then sensors).
+    pub receivers: &'a [Receiver],
+    /// The receivers' order on the device (neighbours together): each
+    /// receiver's index, in that order.
+    pub order: &'a [u32],
+}
+
+/// One shot's transfers on a device.
+pub trait AdaptiveTransfers: Send {
+    /// What every receiver gathers from the shooting node: `None` when
+    /// the shot was abandoned ([`AdaptiveShot::abort`]).
+    ///
+    /// # Errors
+    ///
+    /// When the device fails; the shot is then made on the CPU.
+    fn gather(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Gathered>, DeviceError>;
+}
+
+/// What one adaptive shot sends.
+pub struct AdaptiveShot<'a> {
+    /// The shooting node of the element tree.
+    pub root: u32,
+    /// Its centre: the origin of its sources' positions.
+    pub origin: DVec3,
+    /// Its subtree's sources.
+    pub sources: &'a Sources,
+    /// Unshot radiosity of each element.
+    pub unshot: &'a [DVec3],
+    /// Each receiver's negligible irradiance (luminance), in the
+    /// receivers' order.
+    pub negligible: &'a [f64],
+    /// When to abandon the shot.
+    pub abort: &'a Abort,
+}
+
+/// What the receivers gathered in a shot, and what it cost.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Gathered {
+    /// Irradiance per receiver, in the receivers' order.
+    pub irradiance: Vec<DVec3>,
+    /// Receiver-source pairs considered.
+    pub pairs: u64,
+    /// Shadow rays traced.
+    pub rays: u64,
+    /// Receivers that walked the source tree.
+    pub walks: u64,
+    /// Source nodes the walks visited.
+    pub node_visits: u64,
+    /// Elements taken as exact sources.
+    pub element_sources: u64,
+}
+
+/// A device's failure, as it said it.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct DeviceError(pub String);
+
+/// The device a solve's transfers run on: the CPU, or a [`Backend`].
+#[derive(Clone, Default)]
+pub struct Device(Option<Arc<dyn Backend>>);
+
+impl Device {
+    /// The CPU.
+    #[must_use]
+    pub fn cpu() -> Device {
+        Device(None)
+    }
+
+    /// `backend`.
+    #[must_use]
+    pub fn backend(backend: Arc<dyn Backend>) -> Device {
+        Device(Some(backend))
+    }
+
+    /// The backend, if not the CPU.
+    #[must_use]
+    pub fn get(&self) -> Option<&Arc<dyn Backend>> {
+        self.0.as_ref()
+    }
+
+    /// The device's name: `cpu`, or the backend's.
+    #[must_use]
+    pub fn name(&self) -> String {
+        self.0
+            .as_ref()
+            .map_or_else(|| "cpu".to_string(), |b| b.name())
+    }
+}
+
+impl fmt::Debug for Device {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Device({})", self.name())
+    }
+}
+
+/// Two devices are equal when they are the same one (or both the CPU).
+impl PartialEq for Device {
+    fn eq(&self, other: &Device) -> bool {
+        match (&self.0, &other.0) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+}
+
+/// Where a solve's shots ran.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct DeviceReport {
+    /// The device asked for (`None`: the CPU).
+    pub name: Option<String>,
+    /// Shots whose transfers ran on it.
+    pub device_shots: u64,
+    /// Why it stopped being used, if it did: later shots ran on the CPU.
+    pub fault: Option<String>,
+}
