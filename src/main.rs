@@ -22,6 +22,14 @@ use radiosity::scene::{Limits, builtin};
 use radiosity_experiments as experiments;
 
 fn main() -> ExitCode {
+    // Adapters are ranked by the GPU back end itself; Mesa's device-select
+    // Vulkan layer, which would rank them too, connects to a display server
+    // to do so and, on a headless machine, prints errors for nothing. Set
+    // before any thread exists, as `set_var` requires.
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: the process has one thread yet.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         // An option's value checked by one of the parsers above: one line

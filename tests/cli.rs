@@ -69,6 +69,7 @@ impl Case {
 
 fn run(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "cpu")
         .args(args)
         .output()
         .expect("the binary runs")
@@ -379,12 +380,16 @@ fn cornell_writes_picture_vertices_and_stats() {
             "accel_build_seconds",
             "base_elements",
             "bookkeeping_seconds",
+            "coarse_device_shots",
             "coarse_shots",
             "coarse_stop_reason",
             "cut_entries",
             "cut_evaluations",
             "cut_samples",
             "cut_splits",
+            "device",
+            "device_fault",
+            "device_shots",
             "element_sources",
             "elements",
             "estimated_memory_bytes",
@@ -1063,6 +1068,7 @@ fn a_write_failure_midway_leaves_nothing_behind() {
     let case = Case::new(&obj(""), MTL);
     let p = |name: &str| case.path(name).to_str().unwrap().to_string();
     let out = Command::new("sh")
+        .env("RADIOSITY_DEVICE", "cpu")
         .arg("-c")
         .arg("trap '' XFSZ; ulimit -f 32; exec \"$0\" \"$@\"")
         .arg(env!("CARGO_BIN_EXE_radiosity"))

@@ -10,6 +10,7 @@ fn a_bad_gltf_leaves_no_output() {
     let bad = dir.path().join("bad.glb");
     std::fs::write(&bad, b"glTF\x02\0\0\0\xff\xff\0\0").unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "cpu")
         .arg("render")
         .arg(&bad)
         .arg("--output")

@@ -17,6 +17,7 @@ fn floor(directives: &str) -> String {
 
 fn run(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "cpu")
         .current_dir(dir)
         .args(args)
         .output()

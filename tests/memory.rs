@@ -10,6 +10,7 @@ use std::process::{Command, Output};
 
 fn run(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "cpu")
         .args(args)
         .output()
         .unwrap()

@@ -12,6 +12,7 @@ use approx::{abs_diff_eq, assert_abs_diff_eq};
 
 fn run(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "cpu")
         .args(args)
         .output()
         .expect("the binary runs")

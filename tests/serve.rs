@@ -43,6 +43,7 @@ impl Served {
     fn start(args: &[&str]) -> Served {
         let dir = tempfile::tempdir().unwrap();
         let mut command = Command::new(env!("CARGO_BIN_EXE_radiosity"));
+        command.env("RADIOSITY_DEVICE", "cpu");
         command
             .args([
                 "serve", "cornell", "--port", "0", "--width", "64", "--height", "48",
@@ -844,6 +845,7 @@ fn binds_loopback_unless_told() {
 
     let dir = tempfile::tempdir().unwrap();
     let mut command = Command::new(env!("CARGO_BIN_EXE_radiosity"));
+    command.env("RADIOSITY_DEVICE", "cpu");
     command.args([
         "serve",
         "cornell",
@@ -878,6 +880,7 @@ fn binds_loopback_unless_told() {
 fn bad_input_fails_with_one_clear_error() {
     let run = |args: &[&str]| {
         Command::new(env!("CARGO_BIN_EXE_radiosity"))
+            .env("RADIOSITY_DEVICE", "cpu")
             .arg("serve")
             .args(args)
             .output()

@@ -308,6 +308,16 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub load: LoadArgs,
 
+    /// Where the solve's transfers run. auto: a real GPU (discrete or
+    /// integrated) when there is one and the settings run on it, else the
+    /// CPU; gpu: any GPU adapter, software ones (Mesa's lavapipe) included,
+    /// an error without one; cpu: the CPU. The GPU runs the default method
+    /// only: the paper's presets, --shooting cuts|patches, --accel bsp|brute
+    /// and the other form factors stay on the CPU
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto, env = "RADIOSITY_DEVICE",
+          hide_possible_values = true)]
+    pub device: DeviceArg,
+
     /// Named settings. adaptive (the default, the most accurate and
     /// fastest): unshot radiosity per element, clusters of elements as
     /// shooters refined per receiver, analytic factor, BVH shadow rays,

@@ -182,6 +182,22 @@ pub fn print_summary(o: &Outcome) {
         o.solve_time.as_secs_f64(),
         o.threads
     );
+    if let Some(name) = &o.device.name {
+        println!(
+            "device: {name}: {} of {} shots ({} surface shots, the lights' on the CPU){}",
+            o.device.device_shots,
+            o.stats.shots,
+            o.stats.shots.saturating_sub(o.lights.len() as u64),
+            if c.coarse_shots > 0 {
+                format!(
+                    "; coarse pass {} of {} shots",
+                    c.coarse_device_shots, c.coarse_shots
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
     if let Some(peak) = o.peak_memory_bytes {
         println!(
             "memory: peak {} resident (estimated {})",

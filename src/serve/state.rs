@@ -70,6 +70,11 @@ pub struct Status {
     pub stop_reason: Option<&'static str>,
     /// Files written, once they are.
     pub written: Vec<String>,
+    /// The device the transfers run on (`cpu`, or the GPU adapter's name
+    /// and backend), once the solve has shot.
+    pub device: String,
+    /// Shots whose transfers ran on it.
+    pub device_shots: u64,
 }
 
 /// The solution at one moment.
@@ -185,6 +190,8 @@ impl Shared {
                     stop_requested: false,
                     stop_reason: None,
                     written: Vec::new(),
+                    device: "cpu".to_string(),
+                    device_shots: 0,
                 },
                 paused: false,
                 holds,
@@ -492,6 +499,7 @@ impl LiveObserver {
         }
         let rays_per_second = self.rays_per_second;
         let unshot_fraction = solver.unshot_fraction();
+        let device = solver.device_report();
         self.shared
             .publish(solver.radiosity().to_vec(), solver.ambient(), |status| {
                 status.phase = phase;
@@ -504,6 +512,8 @@ impl LiveObserver {
                 status.rays_per_second = rays_per_second;
                 status.unshot_fraction = unshot_fraction;
                 status.elapsed_seconds = active.as_secs_f64();
+                status.device = device.name.unwrap_or_else(|| "cpu".to_string());
+                status.device_shots = device.device_shots;
                 if let Some(stop) = stop {
                     status.stop_reason = Some(stop.describe());
                 }

@@ -234,6 +234,9 @@ function onStatus(s) {
   $('unshot').title = String(s.unshot_fraction);
   $('rays').textContent = formatCount(s.rays_per_second);
   $('elapsed').textContent = formatTime(s.elapsed_seconds);
+  $('device').textContent = s.device === 'cpu'
+    ? 'CPU'
+    : `${s.device}, ${s.device_shots.toLocaleString()} shots`;
   const running = s.phase === 'loading' || s.phase === 'solving' || s.phase === 'paused';
   const holding = s.phase === 'paused' || s.pause_requested;
   $('pause').textContent = holding ? 'Resume' : 'Pause';

@@ -21,9 +21,11 @@ export function tempDir(prefix) {
   return mkdtempSync(join(tmpdir(), `radiosity-${prefix}-`));
 }
 
-/** Runs the binary; throws with its stderr on failure. */
+/** Runs the binary on the CPU (the tests compare with CPU results);
+ * throws with its stderr on failure. */
 export function radiosity(args, options = {}) {
-  const r = spawnSync(BIN, args, { encoding: 'utf8', ...options });
+  const env = { ...process.env, RADIOSITY_DEVICE: 'cpu', ...(options.env ?? {}) };
+  const r = spawnSync(BIN, args, { encoding: 'utf8', ...options, env });
   if (r.status !== 0) {
     throw new Error(`radiosity ${args.join(' ')} failed (${r.status}): ${r.stderr}`);
   }

@@ -233,6 +233,23 @@ pub fn run(
     Ok(written)
 }
 
+/// The solver's device for `--device` (`validate`, `scale`): the GPU as
+/// a back end when one opens, `None` for the CPU (`cpu`, or `auto` without
+/// a real GPU).
+///
+/// # Errors
+///
+/// When `--device gpu` finds no adapter, or one will not open.
+pub fn gpu_device(context: &Context) -> Result<Option<radiosity::solver::device::Device>, Error> {
+    let gpu = radiosity_gpu::Gpu::open(context.device)
+        .map_err(|e| Error::Experiment(format!("--device: {e}")))?;
+    Ok(gpu.map(|gpu| {
+        radiosity::solver::device::Device::backend(std::sync::Arc::new(
+            radiosity_gpu::GpuBackend::new(gpu),
+        ))
+    }))
+}
+
 /// Writes a whole file through a temporary name.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     radiosity::export::Staged::write(path, |w| std::io::Write::write_all(w, bytes))

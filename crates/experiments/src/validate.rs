@@ -24,6 +24,7 @@ use super::reference::{self, Harness};
 use super::{Context, Error, Report, table, write_file};
 use radiosity::app;
 use radiosity::export;
+use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::sky::{DEFAULT_SUBDIVISION, Daylight, SkySpec, SunSpec};
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
@@ -160,6 +161,28 @@ pub fn presets() -> [(&'static str, Settings); 2] {
     [Preset::Adaptive, Preset::WongTsang93].map(|p| (p.name(), p.settings()))
 }
 
+/// The name of the default preset's row on the GPU.
+pub const ON_GPU: &str = "adaptive-gpu";
+
+/// [`presets`], and the default on the GPU when `--device` opens one.
+///
+/// # Errors
+///
+/// When `--device gpu` finds no adapter.
+pub fn presets_on(context: &Context) -> Result<Vec<(&'static str, Settings)>, Error> {
+    let mut presets = presets().to_vec();
+    if let Some(device) = crate::gpu_device(context)? {
+        presets.push((
+            ON_GPU,
+            Settings {
+                device,
+                ..Preset::Adaptive.settings()
+            },
+        ));
+    }
+    Ok(presets)
+}
+
 /// The OBJ file of a scene: a built-in one is written (OBJ and MTL, as
 /// shipped) into `scenes/` of the output folder for the harness to read.
 pub fn scene_file(context: &Context, case: &SceneCase) -> Result<PathBuf, Error> {
@@ -223,6 +246,8 @@ pub struct Solved {
     pub shots: u64,
     /// Unshot fraction at the end.
     pub unshot: f64,
+    /// Shots whose transfers ran on the settings' device (0 on the CPU).
+    pub device_shots: u64,
 }
 
 /// Loads, meshes and solves the scene at `path` with `settings` (mesh sizes
@@ -278,6 +303,7 @@ pub fn solve_lit(
     let display = solver.display_radiosity(true);
     let shots = solver.stats().shots;
     let unshot = solver.unshot_fraction();
+    let device_shots = solver.device_report().device_shots;
     drop(solver);
     Ok(Solved {
         scene,
@@ -289,6 +315,7 @@ pub fn solve_lit(
         base_elements,
         shots,
         unshot,
+        device_shots,
     })
 }
 
@@ -437,6 +464,7 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
     } else {
         &SCENES
     };
+    let presets = presets_on(context)?;
     let mut results = Vec::new();
     for case in cases {
         let path = scene_file(context, case)?;
@@ -452,8 +480,9 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
         .scene;
         let drawn = random_points(&scene, SENSOR_POINTS);
         let points: Vec<SensorPoint> = drawn.iter().map(|(p, _)| *p).collect();
-        for (preset, settings) in presets() {
-            let solved = solve_lit(&path, daylight, &settings, None, &points)?;
+        for (preset, settings) in &presets {
+            let preset = *preset;
+            let solved = solve_lit(&path, daylight, settings, None, &points)?;
             let stem = format!("validate-{}-{preset}", case.name);
             let csv = context.path(&format!("{stem}.csv"));
             write_vertices(&csv, &solved)?;
@@ -544,6 +573,54 @@ pub fn validate_plot(results: &[&Validated], size: (u32, u32)) -> Result<Picture
         })
         .collect::<Result<Vec<_>, Error>>()?;
     error_pictures(&panels)
+}
+
+/// The default on the GPU against the default on the CPU, scene by scene:
+/// the difference of their scores and of the two solves' values at the
+/// sensor points (the same points whatever mesh each refined), and the
+/// shots the GPU made. `None` without a GPU row.
+fn gpu_comparison(results: &[Validated]) -> Option<String> {
+    let mut lines = Vec::new();
+    for scene in by_scene(results) {
+        let find = |name: &str| scene.iter().find(|v| v.preset == name);
+        let (Some(cpu), Some(gpu)) = (find(Preset::Adaptive.name()), find(ON_GPU)) else {
+            continue;
+        };
+        let (mut diff, mut total) = (0.0, 0.0);
+        for (g, c) in gpu
+            .solved
+            .sensor_irradiance
+            .iter()
+            .zip(&cpu.solved.sensor_irradiance)
+        {
+            diff += (luminance(*g) - luminance(*c)).abs();
+            total += luminance(*c).abs();
+        }
+        let sensors = if total > 0.0 { diff / total } else { 0.0 };
+        lines.push(format!(
+            "{}: L1 {} on the GPU, {} on the CPU ({:+.3} points); sensors L1 {} and {} \
+             ({:+.3} points); the two solves' irradiance at the sensors differs by {} (L1); \
+             {} of {} shots on the GPU",
+            scene[0].case.name,
+            percent(gpu.ours.l1),
+            percent(cpu.ours.l1),
+            100.0 * (gpu.ours.l1 - cpu.ours.l1),
+            percent(gpu.sensors.l1),
+            percent(cpu.sensors.l1),
+            100.0 * (gpu.sensors.l1 - cpu.sensors.l1),
+            percent(sensors),
+            gpu.solved.device_shots,
+            gpu.solved.shots,
+        ));
+    }
+    (!lines.is_empty()).then(|| {
+        format!(
+            "The default on the GPU ({ON_GPU}, `--device`) against the CPU: {}. Each refines \
+             its own mesh from its own coarse pass, so the two are compared at the sensor \
+             points; the lights' shots run on the CPU.",
+            lines.join("; ")
+        )
+    })
 }
 
 /// The results of each scene, in order.
@@ -680,6 +757,9 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
          darker than 2% of the 95th percentile, which score.py leaves out of the median and \
          p90. The measured Cornell box is seen from the built-in box's camera.",
     );
+    if let Some(paragraph) = gpu_comparison(results) {
+        report.paragraph(&paragraph);
+    }
     for scene in by_scene(results) {
         let titles: Vec<String> = scene
             .iter()

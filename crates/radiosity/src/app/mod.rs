@@ -85,6 +85,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         refined_elements: refined.split_elements,
         coarse_shots: refined.coarse_shots,
         coarse_stop_reason: refined.coarse_stop,
+        coarse_device_shots: refined.coarse_device.device_shots,
         ..Counts::of(&scene, &mesh)
     };
     let memory_estimate = estimate(&mesh);
@@ -260,6 +261,17 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         })?);
     }
     let threads = rayon::current_num_threads();
+    let device = solver.device_report();
+    let device_fault = [&refined.coarse_device, &device]
+        .into_iter()
+        .find_map(|d| d.fault.as_ref().map(|f| (d.name.clone(), f.clone())))
+        .map(|(name, fault)| {
+            format!(
+                "the device {} failed ({fault}): the solve went on on the CPU from the shot it \
+                 was in",
+                name.unwrap_or_default()
+            )
+        });
     let mut outcome = Outcome {
         scene: scene.name.clone(),
         counts,
@@ -282,11 +294,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             .cloned()
             .chain(enclosed)
             .chain(lightmap_report.iter().flat_map(|r| r.warnings.clone()))
+            .chain(device_fault)
             .collect(),
         peak_memory_bytes: None,
         memory_estimate,
         lights: outcome::LightPower::of(&scene, solver.light_power()),
         lightmap: lightmap_report,
+        device,
     };
     outcome.peak_memory_bytes = memory::peak_resident_bytes();
     outcome.write_time = write_start.elapsed();

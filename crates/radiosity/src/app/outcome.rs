@@ -7,6 +7,7 @@ use std::time::Duration;
 use crate::memory;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::solver::device::DeviceReport;
 use crate::solver::{Counter, MethodSettings, Settings, Stats, StopReason};
 
 /// What a run did.
@@ -55,6 +56,9 @@ pub struct Outcome {
     pub lights: Vec<LightPower>,
     /// What a lightmap bake made.
     pub lightmap: Option<crate::export::lightmap::LightmapReport>,
+    /// Where the solve's shots ran (the coarse pass's are counted in
+    /// [`Counts::coarse_device_shots`]).
+    pub device: DeviceReport,
 }
 
 /// A light of the run and the power it sent (the `--stats` file's
@@ -116,6 +120,8 @@ pub struct Counts {
     /// machine was.
     #[serde(serialize_with = "describe_stop")]
     pub coarse_stop_reason: Option<StopReason>,
+    /// Shots of the coarse pass whose transfers ran on the device (`--device`).
+    pub coarse_device_shots: u64,
 }
 
 /// A stop reason as its description, `null` for none.
@@ -146,6 +152,7 @@ impl Counts {
             refined_elements: 0,
             coarse_shots: 0,
             coarse_stop_reason: None,
+            coarse_device_shots: 0,
         }
     }
 }
@@ -204,6 +211,15 @@ pub struct StatsFile {
     pub lights: Vec<LightPower>,
     /// The lightmap of a `--bake-target lightmap` run (`null` otherwise).
     pub lightmap: Option<crate::export::lightmap::LightmapReport>,
+    /// The device the transfers ran on: `cpu`, or the GPU adapter's name
+    /// and backend.
+    pub device: String,
+    /// Shots whose transfers ran on that device (a GPU: every surface's
+    /// shot unless it failed; the lights shoot on the CPU).
+    pub device_shots: u64,
+    /// Why the device stopped being used, when it failed (`null`
+    /// otherwise): the solve went on on the CPU.
+    pub device_fault: Option<String>,
 }
 
 /// A run's method counters with every other method's at zero, as a map.
@@ -250,6 +266,13 @@ impl StatsFile {
             settings: settings.clone(),
             lights: outcome.lights.clone(),
             lightmap: outcome.lightmap.clone(),
+            device: outcome
+                .device
+                .name
+                .clone()
+                .unwrap_or_else(|| "cpu".to_string()),
+            device_shots: outcome.device.device_shots,
+            device_fault: outcome.device.fault.clone(),
         }
     }
 

@@ -55,6 +55,8 @@ pub struct Refined {
     pub coarse_stop: Option<super::StopReason>,
     /// Seconds of the coarse pass and the split.
     pub seconds: f64,
+    /// Where the coarse pass's shots ran.
+    pub coarse_device: super::device::DeviceReport,
 }
 
 /// The receivers at the centres of `mesh`'s elements, placed as vertices
@@ -108,7 +110,10 @@ pub fn refine_base(
     let levels = settings.mesh.refine.refine_levels;
     let base_elements = base.elements.len();
     // The base mesh as it is, when nothing is refined.
-    let unrefined = |mut mesh: Mesh, coarse_shots: u64, coarse_stop| {
+    let unrefined = |mut mesh: Mesh,
+                     coarse_shots: u64,
+                     coarse_stop,
+                     coarse_device: &super::device::DeviceReport| {
         if settings.mesh.conform {
             mesh.share_coplanar_edge_vertices();
         }
@@ -119,10 +124,11 @@ pub fn refine_base(
             coarse_shots,
             coarse_stop,
             seconds: start.elapsed().as_secs_f64(),
+            coarse_device: coarse_device.clone(),
         })
     };
     if levels == 0 || base.elements.is_empty() {
-        return unrefined(base, 0, None);
+        return unrefined(base, 0, None, &super::device::DeviceReport::default());
     }
     let sources = scene.lights.len() as u64
         + base
@@ -147,9 +153,10 @@ pub fn refine_base(
     }
     let stop = solver.run(|_| Flow::Continue);
     let coarse_shots = solver.stats().shots;
+    let coarse_device = solver.device_report();
     if stop == super::StopReason::Stopped {
         drop(solver);
-        return unrefined(base, coarse_shots, Some(stop));
+        return unrefined(base, coarse_shots, Some(stop), &coarse_device);
     }
     let centre_radiosity: Vec<DVec3> = centres
         .iter()
@@ -187,5 +194,6 @@ pub fn refine_base(
         coarse_shots,
         coarse_stop: Some(stop),
         seconds: start.elapsed().as_secs_f64(),
+        coarse_device,
     })
 }

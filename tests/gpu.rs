@@ -1,0 +1,237 @@
+//! The command on the GPU (`--device`): a default render of the built-in
+//! Cornell box through `--device gpu` against the same through `--device
+//! cpu` (the statistics say every shot, the coarse pass's too, ran on the
+//! GPU; the values at sensor points, the same points whatever mesh each
+//! device's coarse pass refined, agree within 0.5% L1), and the clear
+//! errors: settings the GPU does not run, and no adapter at all.
+//!
+//! Without an adapter the comparison says it did not run, unless
+//! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
+//! installed): then it fails.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
+
+fn run(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env_remove("RADIOSITY_DEVICE")
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// Whether there is an adapter to test on; without one, and none
+/// required, a note.
+fn adapter() -> bool {
+    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
+    match Gpu::open(DeviceChoice::Gpu) {
+        Ok(gpu) => gpu.is_some(),
+        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
+        Err(e) => {
+            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
+            false
+        }
+    }
+}
+
+/// Sensor points spread over every surface of the built-in Cornell box:
+/// on each surface's fan of triangles, five fixed barycentric points per
+/// triangle, each facing out of the surface's front.
+fn sensor_points() -> String {
+    let scene = radiosity::scene::load("cornell").unwrap();
+    let mut out = String::new();
+    let weights = [
+        [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+        [0.6, 0.2, 0.2],
+        [0.2, 0.6, 0.2],
+        [0.2, 0.2, 0.6],
+        [0.45, 0.45, 0.1],
+    ];
+    for s in &scene.surfaces {
+        let p = &s.polygon;
+        for i in 1..p.len() - 1 {
+            for w in weights {
+                let x = p[0] * w[0] + p[i] * w[1] + p[i + 1] * w[2];
+                let n = s.normal;
+                out += &format!("{} {} {} {} {} {}\n", x.x, x.y, x.z, n.x, n.y, n.z);
+            }
+        }
+    }
+    out
+}
+
+/// The irradiance (luminance) of each row of a sensors CSV.
+fn sensor_values(path: &Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|line| {
+            let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+            0.2126 * v[6] + 0.7152 * v[7] + 0.0722 * v[8]
+        })
+        .collect()
+}
+
+fn stats(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
+    if !adapter() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("points.txt"), sensor_points()).unwrap();
+    for device in ["cpu", "gpu"] {
+        let out = run(
+            dir.path(),
+            &[
+                "render",
+                "cornell",
+                "--device",
+                device,
+                "--width",
+                "32",
+                "--height",
+                "24",
+                "--output",
+                &format!("{device}.png"),
+                "--stats",
+                &format!("{device}.json"),
+                "--sensors",
+                "points.txt",
+                "--sensors-out",
+                &format!("{device}.csv"),
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{device}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let summary = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(summary.contains("device: "), device == "gpu", "{summary}");
+    }
+    let cpu = stats(&dir.path().join("cpu.json"));
+    let gpu = stats(&dir.path().join("gpu.json"));
+    assert_eq!(cpu["device"], "cpu");
+    assert_eq!(cpu["device_shots"], 0);
+    let name = gpu["device"].as_str().unwrap();
+    assert!(name != "cpu" && name.contains('('), "{name}");
+    assert!(gpu["device_fault"].is_null(), "{}", gpu["device_fault"]);
+    // The built-in box has no lights but its surfaces: every shot, the
+    // coarse pass's too, ran on the GPU.
+    assert_eq!(gpu["device_shots"], gpu["shots"]);
+    assert_eq!(gpu["coarse_device_shots"], gpu["coarse_shots"]);
+    assert_eq!(gpu["stop_reason"], "converged");
+    let (c, g) = (
+        sensor_values(&dir.path().join("cpu.csv")),
+        sensor_values(&dir.path().join("gpu.csv")),
+    );
+    assert_eq!(c.len(), g.len());
+    let diff: f64 = c.iter().zip(&g).map(|(a, b)| (a - b).abs()).sum();
+    let total: f64 = c.iter().sum();
+    eprintln!(
+        "sensors: L1 {:.4}% between the devices",
+        100.0 * diff / total
+    );
+    assert!(
+        diff / total < 5e-3,
+        "GPU and CPU differ by {} (L1)",
+        diff / total
+    );
+}
+
+/// The paper's presets and the settings only the CPU runs are refused on
+/// the GPU by name, before anything is loaded; `auto` runs them on the CPU.
+#[test]
+fn settings_the_gpu_does_not_run_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, named) in [
+        (&["--preset", "wallace89"][..], "the wallace89 preset"),
+        (&["--preset", "wong-tsang93"][..], "the wong-tsang93 preset"),
+        (&["--shooting", "cuts"][..], "--shooting cuts"),
+        (&["--accel", "bsp"][..], "--accel bsp"),
+        (&["--form-factor", "disk"][..], "--form-factor disk"),
+    ] {
+        let mut args = vec!["render", "cornell", "--device", "gpu", "--quiet"];
+        args.extend_from_slice(extra);
+        let out = run(dir.path(), &args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{extra:?}");
+        assert!(stderr.contains(named), "{extra:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    }
+    let out = run(
+        dir.path(),
+        &[
+            "render",
+            "cornell",
+            "--preset",
+            "wallace89",
+            "--max-shots",
+            "2",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--stats",
+            "s.json",
+            "--quiet",
+        ],
+    );
+    assert!(out.status.success());
+    assert_eq!(stats(&dir.path().join("s.json"))["device"], "cpu");
+    assert!(std::fs::read_dir(dir.path()).unwrap().count() == 2);
+}
+
+/// `--device gpu` where Vulkan finds no driver: one line saying so, a
+/// non-zero exit, no output; `auto` there runs on the CPU.
+#[test]
+fn no_adapter_is_one_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let nothing = dir.path().join("no-driver.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env_remove("RADIOSITY_DEVICE")
+        .env("VK_ICD_FILENAMES", &nothing)
+        .env("VK_DRIVER_FILES", &nothing)
+        .current_dir(dir.path())
+        .args(["render", "cornell", "--device", "gpu", "--output", "x.png"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("--device gpu: no GPU adapter"), "{stderr}");
+    assert!(!dir.path().join("x.png").exists());
+    let out = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env_remove("RADIOSITY_DEVICE")
+        .env("VK_ICD_FILENAMES", &nothing)
+        .env("VK_DRIVER_FILES", &nothing)
+        .current_dir(dir.path())
+        .args([
+            "render",
+            "cornell",
+            "--max-shots",
+            "2",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--stats",
+            "s.json",
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(stats(&dir.path().join("s.json"))["device"], "cpu");
+}
