@@ -230,6 +230,12 @@ pub struct Run {
     pub peak_memory_bytes: Option<u64>,
     /// The child's own estimate of its memory, bytes.
     pub estimated_memory_bytes: u64,
+    /// The device its transfers ran on (`cpu`, or the GPU adapter).
+    pub device: String,
+    /// Shots whose transfers ran on that device.
+    pub device_shots: u64,
+    /// Shots of the coarse pass that ran on it.
+    pub coarse_device_shots: u64,
 }
 
 impl Run {
@@ -274,6 +280,9 @@ impl Run {
             threads: count("threads")?,
             peak_memory_bytes: stats["peak_memory_bytes"].as_u64(),
             estimated_memory_bytes: count("estimated_memory_bytes")?,
+            device: stats["device"].as_str().unwrap_or("cpu").to_string(),
+            device_shots: stats["device_shots"].as_u64().unwrap_or(0),
+            coarse_device_shots: stats["coarse_device_shots"].as_u64().unwrap_or(0),
         })
     }
 
@@ -342,6 +351,11 @@ pub fn measure(
         source,
     })?;
     let threads = rayon::current_num_threads();
+    // With a GPU (`--device`), the default on it too; the CPU's rows are
+    // pinned to the CPU whatever `auto` would take.
+    let gpu = radiosity_gpu::Gpu::open(context.device)
+        .map_err(|e| Error::Experiment(format!("--device: {e}")))?
+        .is_some();
     let mut cases = Vec::new();
     for scene in scenes {
         let source = if scene.spec.shared {
@@ -361,7 +375,20 @@ pub fn measure(
                 format!("{}", QUICK_COARSENING * element_size),
             ]);
         }
-        for (k, configuration) in configurations(scene, context.quick).into_iter().enumerate() {
+        let mut list = configurations(scene, context.quick);
+        for c in &mut list {
+            c.flags.extend(["--device".to_string(), "cpu".to_string()]);
+        }
+        if gpu {
+            list.push(Configuration {
+                name: format!(
+                    "adaptive ({}), --device gpu",
+                    Settings::adaptive().accel.name()
+                ),
+                flags: vec!["--device".into(), "gpu".into()],
+            });
+        }
+        for (k, configuration) in list.into_iter().enumerate() {
             let stem = stem(scene.spec.name, &configuration.name);
             let mut args = common.clone();
             args.extend(configuration.flags.iter().cloned());

@@ -132,6 +132,7 @@ pub fn markdown(quick: bool, scenes: &[ScaleScene], cases: &[Case]) -> Report {
         &solve_rows,
     ));
     phase_table(&mut report, cases);
+    device_paragraph(&mut report, cases);
     early_table(&mut report, cases);
     let _ = writeln!(
         report.body,
@@ -153,6 +154,9 @@ fn phase_table(report: &mut Report, cases: &[Case]) {
         .iter()
         .filter_map(|case| {
             let run = case.result.as_ref().ok()?;
+            if run.device != "cpu" {
+                return None;
+            }
             let threads = run.threads.max(1) as f64;
             let gathering = run.gather_seconds * threads;
             Some(vec![
@@ -187,6 +191,36 @@ fn phase_table(report: &mut Report, cases: &[Case]) {
         ],
         &rows,
     ));
+}
+
+/// The cases run on a GPU: the adapter and the shots it made.
+fn device_paragraph(report: &mut Report, cases: &[Case]) {
+    let lines: Vec<String> = cases
+        .iter()
+        .filter_map(|case| {
+            let run = case.result.as_ref().ok()?;
+            (run.device != "cpu").then(|| {
+                format!(
+                    "{} on {}: {} of {} shots on the GPU ({} of the coarse pass's), the rest \
+                     the lights' (on the CPU); mesh {} (the coarse pass included), solve {}",
+                    case.scene,
+                    run.device,
+                    run.device_shots,
+                    run.shots,
+                    run.coarse_device_shots,
+                    seconds(run.mesh_seconds),
+                    seconds(run.solve_seconds)
+                )
+            })
+        })
+        .collect();
+    if !lines.is_empty() {
+        report.paragraph(&format!(
+            "On the GPU: {}. Its shots' thread times are not sampled (the shares above are the \
+             CPU's only).",
+            lines.join("; ")
+        ));
+    }
 }
 
 /// The early pictures of each scene's default configuration.
