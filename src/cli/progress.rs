@@ -184,7 +184,8 @@ pub fn print_summary(o: &Outcome) {
     );
     if let Some(name) = &o.device.name {
         println!(
-            "device: {name}: {} of {} shots ({} surface shots, the lights' on the CPU){}",
+            "device: {name}: {} of {} shots ({} surface shots, the lights' on the CPU){}; \
+             upload {:.2} s, kernels {:.2} s, readback {:.2} s",
             o.device.device_shots,
             o.stats.shots,
             o.stats.shots.saturating_sub(o.lights.len() as u64),
@@ -195,7 +196,10 @@ pub fn print_summary(o: &Outcome) {
                 )
             } else {
                 String::new()
-            }
+            },
+            o.device.upload_time.as_secs_f64(),
+            o.device.kernel_time.as_secs_f64(),
+            o.device.readback_time.as_secs_f64()
         );
     }
     if let Some(peak) = o.peak_memory_bytes {

@@ -23,6 +23,7 @@
 //! its side of a neighbour's plane.
 
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DVec3};
@@ -563,6 +564,7 @@ impl AdaptiveTransfers for GpuTransfers {
             }));
         }
         let gpu = self.gpu.clone();
+        let upload_start = Instant::now();
         let (nodes, bins) = self.sources(shot);
         let negligible: Vec<f32> = self
             .order
@@ -577,6 +579,7 @@ impl AdaptiveTransfers for GpuTransfers {
             .write(&gpu, bytemuck::cast_slice(&negligible));
         let layout = self.pipeline.get_bind_group_layout(0);
         let (origin, origin_lo) = split(shot.origin, self.origin);
+        let kernel_start = Instant::now();
         for first in (0..count).step_by(DISPATCH_RECEIVERS) {
             if shot.abort.fired() {
                 let _ = pollster::block_on(memory.pop());
@@ -634,6 +637,7 @@ impl AdaptiveTransfers for GpuTransfers {
                 .poll(wgpu::PollType::wait_indefinitely())
                 .map_err(|e| self.failed(e))?;
         }
+        let readback_start = Instant::now();
         let bytes = (size_of::<GpuGathered>() * count) as u64;
         let mut encoder = gpu
             .device
@@ -680,6 +684,9 @@ impl AdaptiveTransfers for GpuTransfers {
             }
         }
         self.readback.unmap();
+        out.upload_time = kernel_start - upload_start;
+        out.kernel_time = readback_start - kernel_start;
+        out.readback_time = readback_start.elapsed();
         Ok(Some(out))
     }
 }

@@ -236,6 +236,9 @@ pub struct Run {
     pub device_shots: u64,
     /// Shots of the coarse pass that ran on it.
     pub coarse_device_shots: u64,
+    /// The device's shots' seconds preparing and sending data, in kernels,
+    /// and reading back.
+    pub device_seconds: [f64; 3],
 }
 
 impl Run {
@@ -283,6 +286,11 @@ impl Run {
             device: stats["device"].as_str().unwrap_or("cpu").to_string(),
             device_shots: stats["device_shots"].as_u64().unwrap_or(0),
             coarse_device_shots: stats["coarse_device_shots"].as_u64().unwrap_or(0),
+            device_seconds: ["upload", "kernel", "readback"].map(|part| {
+                stats[format!("device_{part}_seconds").as_str()]
+                    .as_f64()
+                    .unwrap_or(0.0)
+            }),
         })
     }
 

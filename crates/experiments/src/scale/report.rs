@@ -202,14 +202,20 @@ fn device_paragraph(report: &mut Report, cases: &[Case]) {
             (run.device != "cpu").then(|| {
                 format!(
                     "{} on {}: {} of {} shots on the GPU ({} of the coarse pass's), the rest \
-                     the lights' (on the CPU); mesh {} (the coarse pass included), solve {}",
+                     the lights' (on the CPU); mesh {} (the coarse pass included), solve {} \
+                     (of which the GPU's shots: upload {}, kernels {}, readback {}; \
+                     book-keeping on the host {})",
                     case.scene,
                     run.device,
                     run.device_shots,
                     run.shots,
                     run.coarse_device_shots,
                     seconds(run.mesh_seconds),
-                    seconds(run.solve_seconds)
+                    seconds(run.solve_seconds),
+                    seconds(run.device_seconds[0]),
+                    seconds(run.device_seconds[1]),
+                    seconds(run.device_seconds[2]),
+                    seconds(run.bookkeeping_seconds),
                 )
             })
         })

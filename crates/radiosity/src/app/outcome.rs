@@ -220,6 +220,12 @@ pub struct StatsFile {
     /// Why the device stopped being used, when it failed (`null`
     /// otherwise): the solve went on on the CPU.
     pub device_fault: Option<String>,
+    /// The device's shots' time preparing and sending their data, seconds.
+    pub device_upload_seconds: f64,
+    /// The device's shots' kernel time (waited for), seconds.
+    pub device_kernel_seconds: f64,
+    /// The device's shots' time reading results back, seconds.
+    pub device_readback_seconds: f64,
 }
 
 /// A run's method counters with every other method's at zero, as a map.
@@ -273,6 +279,9 @@ impl StatsFile {
                 .unwrap_or_else(|| "cpu".to_string()),
             device_shots: outcome.device.device_shots,
             device_fault: outcome.device.fault.clone(),
+            device_upload_seconds: outcome.device.upload_time.as_secs_f64(),
+            device_kernel_seconds: outcome.device.kernel_time.as_secs_f64(),
+            device_readback_seconds: outcome.device.readback_time.as_secs_f64(),
         }
     }
 

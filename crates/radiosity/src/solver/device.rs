@@ -13,6 +13,7 @@
 
 use std::fmt;
 use std::sync::Arc;
+use std::time::Duration;
 
 use glam::DVec3;
 
@@ -99,6 +100,12 @@ pub struct Gathered {
     pub node_visits: u64,
     /// Elements taken as exact sources.
     pub element_sources: u64,
+    /// Time preparing and sending the shot's data (host clock).
+    pub upload_time: Duration,
+    /// Time the kernels took, waited for (host clock).
+    pub kernel_time: Duration,
+    /// Time reading the results back (host clock).
+    pub readback_time: Duration,
 }
 
 /// A device's failure, as it said it.
@@ -164,4 +171,10 @@ pub struct DeviceReport {
     pub device_shots: u64,
     /// Why it stopped being used, if it did: later shots ran on the CPU.
     pub fault: Option<String>,
+    /// Its shots' time preparing and sending data ([`Gathered::upload_time`]).
+    pub upload_time: Duration,
+    /// Its shots' kernel time ([`Gathered::kernel_time`]).
+    pub kernel_time: Duration,
+    /// Its shots' time reading results back ([`Gathered::readback_time`]).
+    pub readback_time: Duration,
 }

@@ -313,6 +313,9 @@ impl AdaptiveShooting {
         match result {
             Some(Ok(Some(gathered))) => {
                 self.report.device_shots += 1;
+                self.report.upload_time += gathered.upload_time;
+                self.report.kernel_time += gathered.kernel_time;
+                self.report.readback_time += gathered.readback_time;
                 OnDevice::Gathered(gathered)
             }
             Some(Ok(None)) => OnDevice::Abandoned,
@@ -530,3 +533,6 @@ impl Shooter for AdaptiveShooting {
         self.mean_radiosity = mean_radiosity.max(f64::MIN_POSITIVE);
     }
 }
+
+#[cfg(test)]
+mod tests;
