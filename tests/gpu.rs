@@ -3,7 +3,8 @@
 //! cpu` (the statistics say every shot, the coarse pass's too, ran on the
 //! GPU; the values at sensor points, the same points whatever mesh each
 //! device's coarse pass refined, agree within 0.5% L1), and the clear
-//! errors: settings the GPU does not run, and no adapter at all.
+//! errors: settings the GPU does not run, a solve over `--max-gpu-memory`,
+//! and no adapter at all.
 //!
 //! Without an adapter the comparison says it did not run, unless
 //! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
@@ -117,6 +118,25 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
         let summary = String::from_utf8_lossy(&out.stdout);
         assert_eq!(summary.contains("device: "), device == "gpu", "{summary}");
     }
+    // Over --max-gpu-memory: refused by name before the solve, nothing
+    // written.
+    let out = run(
+        dir.path(),
+        &[
+            "render",
+            "cornell",
+            "--device",
+            "gpu",
+            "--max-gpu-memory",
+            "1M",
+            "--output",
+            "small.png",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("over --max-gpu-memory 1 MiB"), "{stderr}");
+    assert!(!dir.path().join("small.png").exists());
     let cpu = stats(&dir.path().join("cpu.json"));
     let gpu = stats(&dir.path().join("gpu.json"));
     assert_eq!(cpu["device"], "cpu");

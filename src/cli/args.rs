@@ -484,6 +484,13 @@ pub struct RenderArgs {
     #[arg(long, value_name = "SIZE", help_heading = LIMITS, allow_hyphen_values = true,
           value_parser = memory_size)]
     pub max_memory: Option<u64>,
+    /// GPU memory a solve may take on the device, like --max-memory: a
+    /// solve whose estimate exceeds it runs on the CPU under --device auto
+    /// (with a note) and is refused under --device gpu [default: the
+    /// adapter's own limits]
+    #[arg(long, value_name = "SIZE", help_heading = LIMITS, allow_hyphen_values = true,
+          value_parser = memory_size)]
+    pub max_gpu_memory: Option<u64>,
 }
 
 /// `--shooting`'s help: every registered method with its summary.

@@ -31,7 +31,9 @@ impl RenderArgs {
                     return Ok(Device::cpu());
                 }
                 match radiosity_gpu::Gpu::open(choice) {
-                    Ok(Some(gpu)) => Ok(Device::backend(Arc::new(GpuBackend::new(gpu)))),
+                    Ok(Some(gpu)) => Ok(Device::preferred(Arc::new(
+                        GpuBackend::new(gpu).with_max_memory(self.max_gpu_memory),
+                    ))),
                     Ok(None) => Ok(Device::cpu()),
                     Err(e) => {
                         warnings.push(format!("--device auto: {e}; the solve runs on the CPU"));
@@ -57,7 +59,9 @@ impl RenderArgs {
                     .ok_or_else(|| {
                         anyhow!("--device gpu: {}", radiosity_gpu::GpuError::NoAdapter)
                     })?;
-                Ok(Device::backend(Arc::new(GpuBackend::new(gpu))))
+                Ok(Device::backend(Arc::new(
+                    GpuBackend::new(gpu).with_max_memory(self.max_gpu_memory),
+                )))
             }
         }
     }

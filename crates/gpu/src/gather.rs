@@ -220,13 +220,88 @@ pub struct GpuGathered {
 #[derive(Clone)]
 pub struct GpuBackend {
     gpu: Arc<Gpu>,
+    /// The most device memory a solve may take (`--max-gpu-memory`).
+    max_memory: Option<u64>,
+}
+
+/// What a solve keeps on the device, estimated before it starts: each
+/// buffer's bytes, by name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeviceMemory {
+    /// The buffers, largest first.
+    pub buffers: Vec<(&'static str, u64)>,
+}
+
+impl DeviceMemory {
+    /// The buffers of a solve of `mesh` with `receivers` receivers: the
+    /// scene's triangles and their tree (at most two nodes a triangle), the
+    /// element tree (at most two nodes an element), the elements, the
+    /// surfaces, the receivers with their per-shot values and readback, and
+    /// a shot's sources (at most the whole tree, one bin a node).
+    #[must_use]
+    pub fn of(
+        scene: &radiosity::scene::Scene,
+        mesh: &radiosity::mesh::Mesh,
+        receivers: usize,
+    ) -> DeviceMemory {
+        let triangles: usize = scene
+            .surfaces
+            .iter()
+            .map(|s| s.polygon.len().saturating_sub(2))
+            .sum();
+        let elements = mesh.elements.len();
+        let bytes = |count: usize, each: usize| (count * each) as u64;
+        let mut buffers = vec![
+            (
+                "triangles",
+                bytes(triangles, size_of::<trace::GpuTriangle>()),
+            ),
+            (
+                "triangle tree",
+                bytes(2 * triangles, size_of::<trace::GpuNode>()),
+            ),
+            (
+                "element tree",
+                bytes(2 * elements, size_of::<GpuTreeNode>()),
+            ),
+            ("elements", bytes(elements, size_of::<GpuElement>())),
+            (
+                "surfaces",
+                bytes(scene.surfaces.len(), size_of::<GpuSurface>()),
+            ),
+            ("receivers", bytes(receivers, size_of::<GpuReceiver>())),
+            ("negligible", bytes(receivers, size_of::<f32>())),
+            ("gathered", bytes(receivers, size_of::<GpuGathered>())),
+            ("readback", bytes(receivers, size_of::<GpuGathered>())),
+            ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
+            ("bins", bytes(2 * elements, size_of::<GpuBin>())),
+        ];
+        buffers.sort_by_key(|b| std::cmp::Reverse(b.1));
+        DeviceMemory { buffers }
+    }
+
+    /// All of them.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.buffers.iter().map(|b| b.1).sum()
+    }
 }
 
 impl GpuBackend {
     /// The back end on `gpu`.
     #[must_use]
     pub fn new(gpu: Gpu) -> GpuBackend {
-        GpuBackend { gpu: Arc::new(gpu) }
+        GpuBackend {
+            gpu: Arc::new(gpu),
+            max_memory: None,
+        }
+    }
+
+    /// The same, taking at most `bytes` of device memory a solve.
+    #[must_use]
+    pub fn with_max_memory(mut self, bytes: Option<u64>) -> GpuBackend {
+        self.max_memory = bytes;
+        self
     }
 
     /// The device.
@@ -239,6 +314,43 @@ impl GpuBackend {
 impl Backend for GpuBackend {
     fn name(&self) -> String {
         self.gpu.name()
+    }
+
+    /// [`DeviceMemory::of`] against the adapter's largest buffer and
+    /// `--max-gpu-memory`.
+    fn check(
+        &self,
+        scene: &radiosity::scene::Scene,
+        mesh: &radiosity::mesh::Mesh,
+        receivers: usize,
+    ) -> Result<u64, DeviceError> {
+        let memory = DeviceMemory::of(scene, mesh, receivers);
+        let limits = self.gpu.device.limits();
+        let largest = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        if let Some(&(name, bytes)) = memory.buffers.first()
+            && bytes > largest
+        {
+            return Err(DeviceError(format!(
+                "the solve's {name} take {} in one buffer, more than the largest the GPU {} \
+                 binds ({}): coarsen the mesh (--element-size) or use --device cpu",
+                radiosity::memory::bytes(bytes),
+                self.gpu.name(),
+                radiosity::memory::bytes(largest)
+            )));
+        }
+        let total = memory.total();
+        if let Some(cap) = self.max_memory
+            && total > cap
+        {
+            return Err(DeviceError(format!(
+                "the solve would take about {} of GPU memory, over --max-gpu-memory {}",
+                radiosity::memory::bytes(total),
+                radiosity::memory::bytes(cap)
+            )));
+        }
+        Ok(total)
     }
 
     fn adaptive(

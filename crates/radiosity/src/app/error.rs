@@ -106,6 +106,9 @@ pub enum Error {
     /// The run would need more memory than it may use.
     #[error("{0}")]
     Memory(memory::TooLarge),
+    /// The solve does not fit the device asked for (`--device gpu`).
+    #[error("--device gpu: {0}")]
+    Device(String),
     /// An output file could not be written.
     #[error("{path}: cannot write: {source}", path = path.display())]
     Output {

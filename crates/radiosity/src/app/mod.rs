@@ -29,6 +29,31 @@ use crate::scene::{self, LoadOptions, Scene};
 use crate::sensors;
 use crate::solver::{self, Settings, Solver};
 
+/// Whether the solve of `mesh` fits the settings' device
+/// ([`solver::device::Backend::check`]): a device asked for by name that
+/// cannot hold it is an error; one taken because it was there leaves the
+/// solve to the CPU, with a note.
+fn check_device(
+    settings: &mut Settings,
+    scene: &Scene,
+    mesh: &Mesh,
+    receivers: usize,
+    notes: &mut Vec<String>,
+) -> Result<(), Error> {
+    let Some(backend) = settings.device.get() else {
+        return Ok(());
+    };
+    match backend.check(scene, mesh, receivers) {
+        Ok(_) => Ok(()),
+        Err(e) if settings.device.required() => Err(Error::Device(e.0)),
+        Err(e) => {
+            notes.push(format!("--device auto: {}; the solve runs on the CPU", e.0));
+            settings.device = solver::device::Device::cpu();
+            Ok(())
+        }
+    }
+}
+
 /// Runs a job in the current rayon pool.
 pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let start = Instant::now();
@@ -59,19 +84,25 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         None => Vec::new(),
     };
     let suggested = scene.default_mesh_sizes();
-    let settings = job.settings_for(&suggested);
+    let mut settings = job.settings_for(&suggested);
+    let mut device_notes = Vec::new();
     let mesh_start = Instant::now();
     let base = Mesh::build(&scene, &settings.mesh)
         .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     // Checked on the base mesh before the coarse pass solves it, and again
     // on the refined mesh before the solve.
-    let estimate = |mesh: &Mesh| {
-        memory::estimate(
-            &memory_sizes(job, &scene, mesh),
-            settings.method.method().memory(),
-        )
-    };
+    let method_memory = settings.method.method().memory();
+    let estimate =
+        |mesh: &Mesh| memory::estimate(&memory_sizes(job, &scene, mesh), method_memory.clone());
     memory::check(&estimate(&base), job.max_memory).map_err(Error::Memory)?;
+    let receivers = |mesh: &Mesh| mesh.vertices.len() + sensor_receivers.len();
+    check_device(
+        &mut settings,
+        &scene,
+        &base,
+        receivers(&base) + base.elements.len(),
+        &mut device_notes,
+    )?;
     if settings.mesh.refine.refine_levels > 0 {
         observer.refining();
     }
@@ -90,6 +121,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     };
     let memory_estimate = estimate(&mesh);
     memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
+    check_device(
+        &mut settings,
+        &scene,
+        &mesh,
+        receivers(&mesh),
+        &mut device_notes,
+    )?;
     observer.started(&scene, &mesh);
 
     let solve_start = Instant::now();
@@ -294,6 +332,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             .cloned()
             .chain(enclosed)
             .chain(lightmap_report.iter().flat_map(|r| r.warnings.clone()))
+            .chain(device_notes)
             .chain(device_fault)
             .collect(),
         peak_memory_bytes: None,

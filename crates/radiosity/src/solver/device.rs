@@ -40,6 +40,15 @@ pub trait Backend: Send + Sync {
         &self,
         solve: &AdaptiveSolve<'_>,
     ) -> Result<Box<dyn AdaptiveTransfers>, DeviceError>;
+
+    /// The memory, bytes, a solve of `mesh` with `receivers` receivers
+    /// would take on the device; an error naming the limit when it is over
+    /// one (the adapter's largest buffer, a cap the user set).
+    ///
+    /// # Errors
+    ///
+    /// When the solve would not fit.
+    fn check(&self, scene: &Scene, mesh: &Mesh, receivers: usize) -> Result<u64, DeviceError>;
 }
 
 /// What adaptive shooting's transfers keep for a whole solve.
@@ -113,33 +122,57 @@ pub struct Gathered {
 #[error("{0}")]
 pub struct DeviceError(pub String);
 
-/// The device a solve's transfers run on: the CPU, or a [`Backend`].
+/// The device a solve's transfers run on: the CPU, or a [`Backend`],
+/// asked for by name (`--device gpu`) or taken because it was there
+/// (`auto`).
 #[derive(Clone, Default)]
-pub struct Device(Option<Arc<dyn Backend>>);
+pub struct Device {
+    backend: Option<Arc<dyn Backend>>,
+    required: bool,
+}
 
 impl Device {
     /// The CPU.
     #[must_use]
     pub fn cpu() -> Device {
-        Device(None)
+        Device::default()
     }
 
-    /// `backend`.
+    /// `backend`, asked for: a solve it cannot hold is an error.
     #[must_use]
     pub fn backend(backend: Arc<dyn Backend>) -> Device {
-        Device(Some(backend))
+        Device {
+            backend: Some(backend),
+            required: true,
+        }
+    }
+
+    /// `backend`, taken because it was there: a solve it cannot hold runs
+    /// on the CPU, with a note.
+    #[must_use]
+    pub fn preferred(backend: Arc<dyn Backend>) -> Device {
+        Device {
+            backend: Some(backend),
+            required: false,
+        }
     }
 
     /// The backend, if not the CPU.
     #[must_use]
     pub fn get(&self) -> Option<&Arc<dyn Backend>> {
-        self.0.as_ref()
+        self.backend.as_ref()
+    }
+
+    /// Whether the backend was asked for by name.
+    #[must_use]
+    pub fn required(&self) -> bool {
+        self.required
     }
 
     /// The device's name: `cpu`, or the backend's.
     #[must_use]
     pub fn name(&self) -> String {
-        self.0
+        self.backend
             .as_ref()
             .map_or_else(|| "cpu".to_string(), |b| b.name())
     }
@@ -154,11 +187,12 @@ impl fmt::Debug for Device {
 /// Two devices are equal when they are the same one (or both the CPU).
 impl PartialEq for Device {
     fn eq(&self, other: &Device) -> bool {
-        match (&self.0, &other.0) {
-            (None, None) => true,
-            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-            _ => false,
-        }
+        self.required == other.required
+            && match (&self.backend, &other.backend) {
+                (None, None) => true,
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                _ => false,
+            }
     }
 }
 

@@ -40,6 +40,10 @@ impl Backend for Stand {
         "stand-in".into()
     }
 
+    fn check(&self, _: &Scene, _: &Mesh, _: usize) -> Result<u64, DeviceError> {
+        Ok(0)
+    }
+
     fn adaptive(
         &self,
         solve: &AdaptiveSolve<'_>,
