@@ -680,7 +680,12 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
     );
     report.setting(
         "presets",
-        "adaptive (the default) and wong-tsang93 (the paper's), each at its default settings",
+        if results.iter().any(|v| v.preset == ON_GPU) {
+            "adaptive (the default) and wong-tsang93 (the paper's), each at its default \
+             settings; adaptive-gpu: the default on the GPU (--device)"
+        } else {
+            "adaptive (the default) and wong-tsang93 (the paper's), each at its default settings"
+        },
     );
     report.setting("threads", rayon::current_num_threads());
     let rows: Vec<Vec<String>> = results

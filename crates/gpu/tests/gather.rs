@@ -1,4 +1,5 @@
-//! Adaptive shooting's transfers on the GPU against the CPU's: the same
+//! Adaptive shooting's transfers on the GPU against the CPU's: every
+//! buffer's Rust struct against its WGSL twin, and the same
 //! solve of each built-in scene (the default settings, on its default
 //! base mesh, with the coplanar faces merged as a run does) on both
 //! devices, compared vertex by vertex; every surface shot must have run on
@@ -18,7 +19,129 @@ use radiosity::mesh::Mesh;
 use radiosity::scene;
 use radiosity::solver::device::Device;
 use radiosity::solver::{Flow, Settings, Solver, StopReason};
+use radiosity_gpu::gather::{
+    GpuBin, GpuElement, GpuGathered, GpuNodeSource, GpuReceiver, GpuShot, GpuSurface, GpuTreeNode,
+};
 use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
+
+/// Size and member offsets of the WGSL struct `name` of the transfer
+/// kernel (trace.wgsl and gather.wgsl, as the device compiles them).
+fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
+    let source = [
+        include_str!("../src/trace.wgsl"),
+        include_str!("../src/gather/gather.wgsl"),
+    ]
+    .concat();
+    let module = naga::front::wgsl::parse_str(&source).unwrap();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no struct {name} in gather.wgsl"));
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is not a struct");
+    };
+    assert_eq!(layouter[handle].size, *span);
+    (
+        *span,
+        members
+            .iter()
+            .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+            .collect(),
+    )
+}
+
+/// Each struct's WGSL name, its Rust size and its members' Rust offsets.
+macro_rules! layout {
+    ($wgsl:literal, $rust:ty, [$($field:ident),* $(,)?]) => {
+        (
+            $wgsl,
+            std::mem::size_of::<$rust>(),
+            vec![$((stringify!($field), std::mem::offset_of!($rust, $field))),*],
+        )
+    };
+}
+
+#[test]
+fn transfer_buffers_match_their_wgsl_twins() {
+    let cases: Vec<(&str, usize, Vec<(&str, usize)>)> = vec![
+        layout!(
+            "TreeNode",
+            GpuTreeNode,
+            [
+                centre, radius, centre_lo, second, group, surface, element, pad0
+            ]
+        ),
+        layout!(
+            "Surface",
+            GpuSurface,
+            [normal, group, corner, pad0, corner_lo, pad1]
+        ),
+        layout!(
+            "Element",
+            GpuElement,
+            [
+                corners,
+                corners_lo,
+                centroid,
+                surface,
+                centroid_lo,
+                count,
+                area,
+                pad0,
+                pad1,
+                pad2
+            ]
+        ),
+        layout!(
+            "Receiver",
+            GpuReceiver,
+            [point, group, point_lo, pad0, normal, pad1]
+        ),
+        layout!(
+            "NodeSource",
+            GpuNodeSource,
+            [weight, first_bin, bins, pad0, unshot, pad1]
+        ),
+        layout!(
+            "Bin",
+            GpuBin,
+            [
+                power,
+                weight,
+                normal,
+                length,
+                centre,
+                representative,
+                diagonal,
+                axis,
+                off_diagonal,
+                pad0
+            ]
+        ),
+        layout!(
+            "Shot",
+            GpuShot,
+            [root, first, count, pad0, origin, pad1, origin_lo, pad2]
+        ),
+        layout!(
+            "Gathered",
+            GpuGathered,
+            [irradiance, pairs, rays, walks, visits, elements]
+        ),
+    ];
+    for (name, size, offsets) in cases {
+        let (span, members) = wgsl_layout(name);
+        assert_eq!(span as usize, size, "{name}: WGSL size vs Rust");
+        let rust: Vec<(String, u32)> = offsets
+            .iter()
+            .map(|(n, o)| ((*n).to_string(), *o as u32))
+            .collect();
+        assert_eq!(members, rust, "{name}: member names and offsets");
+    }
+}
 
 /// A GPU adapter (software ones included), or `None` with a note when
 /// there is none and none is required.

@@ -25,7 +25,6 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DVec3};
 use radiosity::solver::device::{
     AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Backend, DeviceError, Gathered,
@@ -34,6 +33,13 @@ use radiosity::solver::hierarchy::sources::outer;
 use radiosity::solver::hierarchy::{NONE, Tree};
 use wgpu::util::DeviceExt;
 
+mod buffers;
+mod memory;
+
+pub use self::buffers::{
+    GpuBin, GpuElement, GpuGathered, GpuNodeSource, GpuReceiver, GpuShot, GpuSurface, GpuTreeNode,
+};
+pub use self::memory::DeviceMemory;
 use crate::Gpu;
 use crate::trace::{self, entry, nonempty, split, storage};
 
@@ -52,239 +58,12 @@ const MAX_TREE_DEPTH: usize = 62;
 /// Storage buffers the kernel binds at once.
 const STORAGE_BUFFERS: u32 = 10;
 
-/// A node of the element tree (WGSL `TreeNode`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuTreeNode {
-    /// Centre.
-    pub centre: [f32; 3],
-    /// Bounding radius.
-    pub radius: f32,
-    /// Centre's round-off.
-    pub centre_lo: [f32; 3],
-    /// Second child, or [`NONE`].
-    pub second: u32,
-    /// Surface id, or [`NONE`].
-    pub group: u32,
-    /// Surface of its first element.
-    pub surface: u32,
-    /// A leaf's element.
-    pub element: u32,
-    /// Padding.
-    pub pad0: u32,
-}
-
-/// A surface's plane (WGSL `Surface`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuSurface {
-    /// Unit normal.
-    pub normal: [f32; 3],
-    /// Surface id.
-    pub group: u32,
-    /// A corner.
-    pub corner: [f32; 3],
-    /// Padding.
-    pub pad0: u32,
-    /// The corner's round-off.
-    pub corner_lo: [f32; 3],
-    /// Padding.
-    pub pad1: u32,
-}
-
-/// An element (WGSL `Element`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuElement {
-    /// Corners (`w` unused).
-    pub corners: [[f32; 4]; 4],
-    /// Their round-offs.
-    pub corners_lo: [[f32; 4]; 4],
-    /// Centroid.
-    pub centroid: [f32; 3],
-    /// Its surface.
-    pub surface: u32,
-    /// Centroid's round-off.
-    pub centroid_lo: [f32; 3],
-    /// Corner count, 3 or 4.
-    pub count: u32,
-    /// Area.
-    pub area: f32,
-    /// Padding.
-    pub pad: [u32; 3],
-}
-
-/// A receiver (WGSL `Receiver`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuReceiver {
-    /// Gathering point.
-    pub point: [f32; 3],
-    /// Surface id.
-    pub group: u32,
-    /// Point's round-off.
-    pub point_lo: [f32; 3],
-    /// Padding.
-    pub pad0: u32,
-    /// Unit normal.
-    pub normal: [f32; 3],
-    /// Padding.
-    pub pad1: u32,
-}
-
-/// A node of the shooting subtree as a source (WGSL `NodeSource`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuNodeSource {
-    /// Luminance of its unshot power.
-    pub weight: f32,
-    /// First of its bins.
-    pub first_bin: u32,
-    /// Its bins.
-    pub bins: u32,
-    /// Padding.
-    pub pad0: u32,
-    /// A leaf's unshot radiosity.
-    pub unshot: [f32; 3],
-    /// Padding.
-    pub pad1: u32,
-}
-
-/// A bin as a corrected point source (WGSL `Bin`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuBin {
-    /// Power per channel.
-    pub power: [f32; 3],
-    /// Its luminance.
-    pub weight: f32,
-    /// Unit mean normal.
-    pub normal: [f32; 3],
-    /// Length of the mean normal.
-    pub length: f32,
-    /// Power-weighted centre, relative to the shot's centre.
-    pub centre: [f32; 3],
-    /// Element the shadow rays start from.
-    pub representative: u32,
-    /// Covariance: xx, yy, zz.
-    pub diagonal: [f32; 3],
-    /// Dominant axis and sign of the normals.
-    pub axis: u32,
-    /// Covariance: xy, xz, yz.
-    pub off_diagonal: [f32; 3],
-    /// Padding.
-    pub pad0: u32,
-}
-
-/// One dispatch of a shot (WGSL `Shot`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuShot {
-    /// The shooting node.
-    pub root: u32,
-    /// First receiver of the dispatch.
-    pub first: u32,
-    /// Receivers in it.
-    pub count: u32,
-    /// Padding.
-    pub pad0: u32,
-    /// The shooting node's centre.
-    pub origin: [f32; 3],
-    /// Padding.
-    pub pad1: u32,
-    /// Its round-off.
-    pub origin_lo: [f32; 3],
-    /// Padding.
-    pub pad2: u32,
-}
-
-/// What a receiver gathered (WGSL `Gathered`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuGathered {
-    /// Irradiance.
-    pub irradiance: [f32; 3],
-    /// Pairs considered.
-    pub pairs: u32,
-    /// Rays traced.
-    pub rays: u32,
-    /// 1 if it walked the source tree.
-    pub walks: u32,
-    /// Nodes visited.
-    pub visits: u32,
-    /// Elements taken as exact sources.
-    pub elements: u32,
-}
-
 /// The GPU as a device for the solver's transfers.
 #[derive(Clone)]
 pub struct GpuBackend {
     gpu: Arc<Gpu>,
     /// The most device memory a solve may take (`--max-gpu-memory`).
     max_memory: Option<u64>,
-}
-
-/// What a solve keeps on the device, estimated before it starts: each
-/// buffer's bytes, by name.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DeviceMemory {
-    /// The buffers, largest first.
-    pub buffers: Vec<(&'static str, u64)>,
-}
-
-impl DeviceMemory {
-    /// The buffers of a solve of `mesh` with `receivers` receivers: the
-    /// scene's triangles and their tree (at most two nodes a triangle), the
-    /// element tree (at most two nodes an element), the elements, the
-    /// surfaces, the receivers with their per-shot values and readback, and
-    /// a shot's sources (at most the whole tree, one bin a node).
-    #[must_use]
-    pub fn of(
-        scene: &radiosity::scene::Scene,
-        mesh: &radiosity::mesh::Mesh,
-        receivers: usize,
-    ) -> DeviceMemory {
-        let triangles: usize = scene
-            .surfaces
-            .iter()
-            .map(|s| s.polygon.len().saturating_sub(2))
-            .sum();
-        let elements = mesh.elements.len();
-        let bytes = |count: usize, each: usize| (count * each) as u64;
-        let mut buffers = vec![
-            (
-                "triangles",
-                bytes(triangles, size_of::<trace::GpuTriangle>()),
-            ),
-            (
-                "triangle tree",
-                bytes(2 * triangles, size_of::<trace::GpuNode>()),
-            ),
-            (
-                "element tree",
-                bytes(2 * elements, size_of::<GpuTreeNode>()),
-            ),
-            ("elements", bytes(elements, size_of::<GpuElement>())),
-            (
-                "surfaces",
-                bytes(scene.surfaces.len(), size_of::<GpuSurface>()),
-            ),
-            ("receivers", bytes(receivers, size_of::<GpuReceiver>())),
-            ("negligible", bytes(receivers, size_of::<f32>())),
-            ("gathered", bytes(receivers, size_of::<GpuGathered>())),
-            ("readback", bytes(receivers, size_of::<GpuGathered>())),
-            ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
-            ("bins", bytes(2 * elements, size_of::<GpuBin>())),
-        ];
-        buffers.sort_by_key(|b| std::cmp::Reverse(b.1));
-        DeviceMemory { buffers }
-    }
-
-    /// All of them.
-    #[must_use]
-    pub fn total(&self) -> u64 {
-        self.buffers.iter().map(|b| b.1).sum()
-    }
 }
 
 impl GpuBackend {
@@ -545,7 +324,7 @@ impl GpuTransfers {
             }));
         let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let source = [include_str!("trace.wgsl"), include_str!("gather.wgsl")].concat();
+        let source = [include_str!("../trace.wgsl"), include_str!("gather.wgsl")].concat();
         let module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -1,0 +1,175 @@
+//! The buffers of the transfer kernel (`gather.wgsl`, beyond the paper:
+//! the per-receiver source subdivision of Wallace, Elmquist & Haines 1989
+//! on the GPU): each `#[repr(C)]` struct is the twin of a WGSL struct, its
+//! sizes and offsets checked against naga's layout of the shader by a
+//! test.
+
+use bytemuck::{Pod, Zeroable};
+
+/// A node of the element tree (WGSL `TreeNode`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTreeNode {
+    /// Centre.
+    pub centre: [f32; 3],
+    /// Bounding radius.
+    pub radius: f32,
+    /// Centre's round-off.
+    pub centre_lo: [f32; 3],
+    /// Second child, or [`NONE`].
+    pub second: u32,
+    /// Surface id, or [`NONE`].
+    pub group: u32,
+    /// Surface of its first element.
+    pub surface: u32,
+    /// A leaf's element.
+    pub element: u32,
+    /// Padding.
+    pub pad0: u32,
+}
+
+/// A surface's plane (WGSL `Surface`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSurface {
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Surface id.
+    pub group: u32,
+    /// A corner.
+    pub corner: [f32; 3],
+    /// Padding.
+    pub pad0: u32,
+    /// The corner's round-off.
+    pub corner_lo: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// An element (WGSL `Element`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuElement {
+    /// Corners (`w` unused).
+    pub corners: [[f32; 4]; 4],
+    /// Their round-offs.
+    pub corners_lo: [[f32; 4]; 4],
+    /// Centroid.
+    pub centroid: [f32; 3],
+    /// Its surface.
+    pub surface: u32,
+    /// Centroid's round-off.
+    pub centroid_lo: [f32; 3],
+    /// Corner count, 3 or 4.
+    pub count: u32,
+    /// Area.
+    pub area: f32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// A receiver (WGSL `Receiver`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuReceiver {
+    /// Gathering point.
+    pub point: [f32; 3],
+    /// Surface id.
+    pub group: u32,
+    /// Point's round-off.
+    pub point_lo: [f32; 3],
+    /// Padding.
+    pub pad0: u32,
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// A node of the shooting subtree as a source (WGSL `NodeSource`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuNodeSource {
+    /// Luminance of its unshot power.
+    pub weight: f32,
+    /// First of its bins.
+    pub first_bin: u32,
+    /// Its bins.
+    pub bins: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// A leaf's unshot radiosity.
+    pub unshot: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// A bin as a corrected point source (WGSL `Bin`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuBin {
+    /// Power per channel.
+    pub power: [f32; 3],
+    /// Its luminance.
+    pub weight: f32,
+    /// Unit mean normal.
+    pub normal: [f32; 3],
+    /// Length of the mean normal.
+    pub length: f32,
+    /// Power-weighted centre, relative to the shot's centre.
+    pub centre: [f32; 3],
+    /// Element the shadow rays start from.
+    pub representative: u32,
+    /// Covariance: xx, yy, zz.
+    pub diagonal: [f32; 3],
+    /// Dominant axis and sign of the normals.
+    pub axis: u32,
+    /// Covariance: xy, xz, yz.
+    pub off_diagonal: [f32; 3],
+    /// Padding.
+    pub pad0: u32,
+}
+
+/// One dispatch of a shot (WGSL `Shot`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuShot {
+    /// The shooting node.
+    pub root: u32,
+    /// First receiver of the dispatch.
+    pub first: u32,
+    /// Receivers in it.
+    pub count: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// The shooting node's centre.
+    pub origin: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+    /// Its round-off.
+    pub origin_lo: [f32; 3],
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// What a receiver gathered (WGSL `Gathered`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGathered {
+    /// Irradiance.
+    pub irradiance: [f32; 3],
+    /// Pairs considered.
+    pub pairs: u32,
+    /// Rays traced.
+    pub rays: u32,
+    /// 1 if it walked the source tree.
+    pub walks: u32,
+    /// Nodes visited.
+    pub visits: u32,
+    /// Elements taken as exact sources.
+    pub elements: u32,
+}

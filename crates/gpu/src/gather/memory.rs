@@ -1,0 +1,70 @@
+//! What a solve keeps on the GPU (the transfers of adaptive shooting,
+//! beyond the paper's CPU-only solver), estimated before it starts, so
+//! that a solve the device cannot hold is refused or left to the CPU
+//! before anything is uploaded.
+
+use super::{GpuBin, GpuElement, GpuGathered, GpuNodeSource, GpuReceiver, GpuSurface, GpuTreeNode};
+use crate::trace;
+
+/// What a solve keeps on the device, estimated before it starts: each
+/// buffer's bytes, by name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeviceMemory {
+    /// The buffers, largest first.
+    pub buffers: Vec<(&'static str, u64)>,
+}
+
+impl DeviceMemory {
+    /// The buffers of a solve of `mesh` with `receivers` receivers: the
+    /// scene's triangles and their tree (at most two nodes a triangle), the
+    /// element tree (at most two nodes an element), the elements, the
+    /// surfaces, the receivers with their per-shot values and readback, and
+    /// a shot's sources (at most the whole tree, one bin a node).
+    #[must_use]
+    pub fn of(
+        scene: &radiosity::scene::Scene,
+        mesh: &radiosity::mesh::Mesh,
+        receivers: usize,
+    ) -> DeviceMemory {
+        let triangles: usize = scene
+            .surfaces
+            .iter()
+            .map(|s| s.polygon.len().saturating_sub(2))
+            .sum();
+        let elements = mesh.elements.len();
+        let bytes = |count: usize, each: usize| (count * each) as u64;
+        let mut buffers = vec![
+            (
+                "triangles",
+                bytes(triangles, size_of::<trace::GpuTriangle>()),
+            ),
+            (
+                "triangle tree",
+                bytes(2 * triangles, size_of::<trace::GpuNode>()),
+            ),
+            (
+                "element tree",
+                bytes(2 * elements, size_of::<GpuTreeNode>()),
+            ),
+            ("elements", bytes(elements, size_of::<GpuElement>())),
+            (
+                "surfaces",
+                bytes(scene.surfaces.len(), size_of::<GpuSurface>()),
+            ),
+            ("receivers", bytes(receivers, size_of::<GpuReceiver>())),
+            ("negligible", bytes(receivers, size_of::<f32>())),
+            ("gathered", bytes(receivers, size_of::<GpuGathered>())),
+            ("readback", bytes(receivers, size_of::<GpuGathered>())),
+            ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
+            ("bins", bytes(2 * elements, size_of::<GpuBin>())),
+        ];
+        buffers.sort_by_key(|b| std::cmp::Reverse(b.1));
+        DeviceMemory { buffers }
+    }
+
+    /// All of them.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.buffers.iter().map(|b| b.1).sum()
+    }
+}
