@@ -53,7 +53,10 @@ fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
     )
 }
 
-/// Each struct's WGSL name, its Rust size and its members' Rust offsets.
+/// A struct's WGSL name, its Rust size and its members' Rust offsets.
+type RustLayout = (&'static str, usize, Vec<(&'static str, usize)>);
+
+/// A [`RustLayout`] of a Rust struct, its fields named as in WGSL.
 macro_rules! layout {
     ($wgsl:literal, $rust:ty, [$($field:ident),* $(,)?]) => {
         (
@@ -66,7 +69,7 @@ macro_rules! layout {
 
 #[test]
 fn transfer_buffers_match_their_wgsl_twins() {
-    let cases: Vec<(&str, usize, Vec<(&str, usize)>)> = vec![
+    let cases: Vec<RustLayout> = vec![
         layout!(
             "TreeNode",
             GpuTreeNode,
