@@ -1,15 +1,22 @@
-//! The seam between a method and the device its transfers run on, beyond
-//! the paper (whose shooting loop, Wallace, Elmquist & Haines 1989, ran on
-//! the CPU): the loop, the method's book-keeping and its choice of shooter
-//! stay here, written once; a [`Backend`] (the GPU back end in the
-//! `radiosity-gpu` crate) takes over the part of a shot that is the work,
-//! every receiver's walk of the shooting node's tree, and hands back what
-//! each receiver gathered. The CPU is the oracle it is tested against.
+//! The seam between a method and the device its shots run on, beyond the
+//! paper (whose shooting loop, Wallace, Elmquist & Haines 1989, ran on the
+//! CPU). The loop's rules (stopping, the ledger, the lights first), the
+//! choice of shooter and the preparation of its sources stay on the host,
+//! written once for both; a [`Backend`] (the GPU back end in the
+//! `radiosity-gpu` crate) keeps the state that grows with the scene, each
+//! receiver's irradiance and each element's unshot radiosity, and makes
+//! each shot's work there: every receiver's walk of the shooting node's
+//! tree, the book-keeping of design.md section 2 step 5, the sums of the
+//! ledger. A shot sends the device its sources and reads back only the
+//! ledger's sums and the shooters' powers; the whole state comes back at
+//! checkpoints (a few times a second, and at the end). The CPU is the
+//! oracle the device is tested against.
 //!
 //! A solve names its device in [`super::Settings::device`]; the CPU when it
-//! names none. A device that fails, at the start or during a shot, is a
-//! fault to survive: the method carries on on the CPU from the state it
-//! holds, and says so once ([`DeviceReport::fault`]).
+//! names none. A device that fails, at the start, in a shot or at a
+//! checkpoint, is a fault to survive: the solve goes back to its last
+//! checkpoint and carries on on the CPU, and says so once
+//! ([`DeviceReport::fault`]).
 
 use std::fmt;
 use std::sync::Arc;
@@ -19,6 +26,7 @@ use glam::DVec3;
 
 use super::hierarchy::Hierarchy;
 use super::hierarchy::sources::Sources;
+use super::method::Received;
 use super::{Abort, Receiver};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -66,15 +74,49 @@ pub struct AdaptiveSolve<'a> {
     pub order: &'a [u32],
 }
 
-/// One shot's transfers on a device.
+/// Adaptive shooting on a device that keeps the solve's state: each
+/// receiver's irradiance and each element's unshot radiosity stay there
+/// from shot to shot. The host chooses each shooter from the powers the
+/// device reports and prepares its sources; the device gathers, books and
+/// reports the ledger's sums; the state comes back only at checkpoints.
 pub trait AdaptiveTransfers: Send {
-    /// What every receiver gathers from the shooting node: `None` when
-    /// the shot was abandoned ([`AdaptiveShot::abort`]).
+    /// Takes over the solve's state: each receiver's irradiance so far (in
+    /// the solver's order) and each element's unshot radiosity.
     ///
     /// # Errors
     ///
-    /// When the device fails; the shot is then made on the CPU.
-    fn gather(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Gathered>, DeviceError>;
+    /// When the device fails.
+    fn begin(&mut self, irradiance: &[DVec3], unshot: &[DVec3]) -> Result<(), DeviceError>;
+
+    /// The unshot radiosity the device holds for the elements
+    /// `tree.items[first..last]` of the element tree (a shooter's), in
+    /// that order.
+    ///
+    /// # Errors
+    ///
+    /// When the device fails.
+    fn unshot(&mut self, first: u32, last: u32) -> Result<Vec<DVec3>, DeviceError>;
+
+    /// One shot: every receiver gathers from the shooting node; the device
+    /// adds it to the receivers' irradiance, zeroes the shooter's unshot
+    /// radiosity and adds each element's reflected share to its own.
+    /// `None` when the shot was abandoned ([`AdaptiveShot::abort`]), with
+    /// nothing changed.
+    ///
+    /// # Errors
+    ///
+    /// When the device fails; the solve then goes back to its last
+    /// checkpoint on the CPU.
+    fn shoot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError>;
+
+    /// The state, read back: each receiver's irradiance (the solver's
+    /// order) and each element's unshot radiosity.
+    ///
+    /// # Errors
+    ///
+    /// When the device fails.
+    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3])
+    -> Result<(), DeviceError>;
 }
 
 /// What one adaptive shot sends.
@@ -85,20 +127,25 @@ pub struct AdaptiveShot<'a> {
     pub origin: DVec3,
     /// Its subtree's sources.
     pub sources: &'a Sources,
-    /// Unshot radiosity of each element.
+    /// Unshot radiosity of each element: current for the shooter's.
     pub unshot: &'a [DVec3],
-    /// Each receiver's negligible irradiance (luminance), in the
-    /// receivers' order.
-    pub negligible: &'a [f64],
+    /// A receiver's negligible irradiance (luminance) is this...
+    pub negligible: f64,
+    /// ... times its irradiance's luminance over this, if more than one.
+    pub mean_radiosity: f64,
     /// When to abandon the shot.
     pub abort: &'a Abort,
 }
 
-/// What the receivers gathered in a shot, and what it cost.
+/// What a shot booked on the device, and what it cost.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Gathered {
-    /// Irradiance per receiver, in the receivers' order.
-    pub irradiance: Vec<DVec3>,
+pub struct Booked {
+    /// Power that arrived at the elements, and the part absorbed.
+    pub received: Received,
+    /// Unshot power left after the shot, per channel (W).
+    pub unshot_power: DVec3,
+    /// Each shooter's unshot power (luminance) after the shot.
+    pub shooter_power: Vec<f64>,
     /// Receiver-source pairs considered.
     pub pairs: u64,
     /// Shadow rays traced.
@@ -205,10 +252,10 @@ pub struct DeviceReport {
     pub device_shots: u64,
     /// Why it stopped being used, if it did: later shots ran on the CPU.
     pub fault: Option<String>,
-    /// Its shots' time preparing and sending data ([`Gathered::upload_time`]).
+    /// Its shots' time preparing and sending data ([`Booked::upload_time`]).
     pub upload_time: Duration,
-    /// Its shots' kernel time ([`Gathered::kernel_time`]).
+    /// Its shots' kernel time ([`Booked::kernel_time`]).
     pub kernel_time: Duration,
-    /// Its shots' time reading results back ([`Gathered::readback_time`]).
+    /// Its shots' time reading results back ([`Booked::readback_time`]).
     pub readback_time: Duration,
 }

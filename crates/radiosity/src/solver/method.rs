@@ -105,6 +105,20 @@ pub trait Shooter: Send {
     /// it in. Nothing by default.
     fn light_received(&mut self, _power: DVec3) {}
 
+    /// For a method whose state lives on a device: reads it back, its own
+    /// into its host copy and each receiver's irradiance into
+    /// `irradiance`, a checkpoint the solve can go back to.
+    fn checkpoint(&mut self, _irradiance: &mut [DVec3]) -> Checkpoint {
+        Checkpoint::Host
+    }
+
+    /// True, once, after its device failed in a shot (which
+    /// [`Shooter::shoot`] then answered with `None`): it is back at its last
+    /// checkpoint, on the CPU, and the loop must go back there too.
+    fn rolled_back(&mut self) -> bool {
+        false
+    }
+
     /// Where its shots' transfers ran: the CPU by default.
     fn device(&self) -> super::device::DeviceReport {
         super::device::DeviceReport::default()
@@ -294,6 +308,24 @@ pub struct Shot {
     pub power: DVec3,
     /// Time spent choosing the shooter, for [`Stats::bookkeeping_time`].
     pub selection_time: Duration,
+    /// Set by a method whose state lives on a device, which booked the
+    /// shot there: the power the elements received and absorbed.
+    /// [`Shot::irradiance`] is then empty and [`Shooter::receive`] is not
+    /// called.
+    pub booked: Option<Received>,
+}
+
+/// What became of a checkpoint ([`Shooter::checkpoint`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Checkpoint {
+    /// The method keeps its state on the host: nothing to read back.
+    Host,
+    /// The device's state was read back: the receivers' irradiance and the
+    /// method's own.
+    Taken,
+    /// The device failed: the method is back at its last checkpoint, on
+    /// the CPU, and the loop must go back there too.
+    RolledBack,
 }
 
 /// Power arriving at the receiving elements in one shot.

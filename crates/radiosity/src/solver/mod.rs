@@ -39,7 +39,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
-use self::method::ShotInputs;
+use self::method::{Checkpoint, Received, ShotInputs};
 pub use self::method::{Counter, Method, Shooter, Stats, Visibility};
 pub use self::registry::{MethodSettings, Shooting};
 pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, SettingsError};
@@ -189,7 +189,18 @@ pub struct Solver<'a> {
     /// spot or luminaire's flux, what a sun or sky delivered to the
     /// elements; zero until it shoots.
     light_power: Vec<DVec3>,
+    /// The ledger and counters at the last checkpoint (after every shot
+    /// booked on the host; at each read-back of a device's state), which a
+    /// device's failure goes back to.
+    saved: (Energy, Stats),
+    /// When the device's state was last read back.
+    synced: Instant,
 }
+
+/// How often the state of a solve on a device is read back: what the live
+/// view and the progress show between checkpoints is at most this old,
+/// and a device lost mid-solve costs at most this much work again.
+pub const CHECKPOINT_INTERVAL: Duration = Duration::from_millis(250);
 
 impl<'a> Solver<'a> {
     /// Starts a solve: `B_v = E`, unshot radiosity `E`.
@@ -259,8 +270,11 @@ impl<'a> Solver<'a> {
             interrupt: None,
             lights_pending: lights::shooting_order(&scene.lights),
             light_power: vec![DVec3::ZERO; scene.lights.len()],
+            saved: (Energy::default(), Stats::default()),
+            synced: Instant::now(),
         };
         solver.energy.emitted = solver.unshot_power();
+        solver.saved = (solver.energy, solver.stats.clone());
         solver
     }
 
@@ -488,29 +502,64 @@ impl<'a> Solver<'a> {
             deadline: self.settings.time_limit.map(|limit| start + limit),
             flag: self.interrupt.clone(),
         };
-        loop {
+        let reason = loop {
             if let Some(reason) = self.stop_reason() {
-                return reason;
+                break reason;
             }
             if let Some(reason) = abort.reason() {
-                return reason;
+                break reason;
             }
             if !self.shoot_unless(&abort) {
-                return abort.reason().unwrap_or(StopReason::Stopped);
+                break abort.reason().unwrap_or(StopReason::Stopped);
+            }
+            if self.synced.elapsed() >= CHECKPOINT_INTERVAL {
+                self.checkpoint();
             }
             let called = Instant::now();
             let flow = after_shot(self);
             abort.postpone(called.elapsed());
             if flow == Flow::Stop {
-                return StopReason::Stopped;
+                break StopReason::Stopped;
             }
+        };
+        self.checkpoint();
+        reason
+    }
+
+    /// Reads a device's state back (nothing for a method that keeps it on
+    /// the host): the receivers' irradiance and the vertices' radiosity,
+    /// `B = E_surface + rho E`, become current, and the ledger is saved
+    /// with them. A device that fails here leaves the solve at its last
+    /// checkpoint, on the CPU.
+    fn checkpoint(&mut self) {
+        self.synced = Instant::now();
+        match self.shooter.checkpoint(&mut self.irradiance) {
+            Checkpoint::Host => {}
+            Checkpoint::Taken => {
+                for (i, v) in self.mesh.vertices.iter().enumerate() {
+                    let s = &self.scene.surfaces[v.surface as usize];
+                    self.radiosity[i] = s.emission + s.rho * self.irradiance[i];
+                }
+                self.saved = (self.energy, self.stats.clone());
+            }
+            Checkpoint::RolledBack => self.roll_back(),
         }
+    }
+
+    /// Back to the last checkpoint's ledger and counters (the receivers'
+    /// irradiance and radiosity are still the checkpoint's: a device's
+    /// shots change them only when its state is read back).
+    fn roll_back(&mut self) {
+        let (energy, stats) = self.saved.clone();
+        self.energy = energy;
+        self.stats = stats;
     }
 
     /// One shot: the brightest shooter shoots its unshot radiosity to every
     /// receiver, then the book-keeping of design.md step 5.
     pub fn shoot(&mut self) {
         self.shoot_unless(&Abort::default());
+        self.checkpoint();
     }
 
     /// [`Solver::shoot`], abandoned (returning false, nothing changed) if
@@ -543,8 +592,21 @@ impl<'a> Solver<'a> {
             }
             None => {
                 let Some(shot) = self.shooter.shoot(&context, &mut self.stats) else {
+                    if self.shooter.rolled_back() {
+                        // The device failed: the shots since the last
+                        // checkpoint are made again, on the CPU.
+                        self.roll_back();
+                        return true;
+                    }
                     return false;
                 };
+                if let Some(received) = shot.booked {
+                    let book_start = Instant::now();
+                    self.book_ledger(received, shot.power);
+                    self.stats.bookkeeping_time +=
+                        (Instant::now() - book_start) + shot.selection_time;
+                    return true;
+                }
                 (shot.irradiance, None, Some(shot.power), shot.selection_time)
             }
         };
@@ -558,7 +620,18 @@ impl<'a> Solver<'a> {
                 .light_received(self.energy.received - received_before);
         }
         self.stats.bookkeeping_time += (Instant::now() - book_start) + selection_time;
+        self.saved = (self.energy, self.stats.clone());
         true
+    }
+
+    /// The ledger's part of the book-keeping, for a shot booked on a
+    /// device: the power sent, received, absorbed and escaped.
+    fn book_ledger(&mut self, received: Received, power: DVec3) {
+        self.energy.shot += power;
+        self.energy.received += received.incident;
+        self.energy.absorbed += received.absorbed;
+        self.energy.escaped += power - received.incident;
+        self.stats.shots += 1;
     }
 
     /// The book-keeping of design.md step 5 after a shot that gave the
@@ -589,11 +662,7 @@ impl<'a> Solver<'a> {
             self.energy.emitted += received.incident;
             received.incident
         });
-        self.energy.shot += power;
-        self.energy.received += received.incident;
-        self.energy.absorbed += received.absorbed;
-        self.energy.escaped += power - received.incident;
-        self.stats.shots += 1;
+        self.book_ledger(received, power);
         power
     }
 }

@@ -361,6 +361,7 @@ impl Shooter for PatchShooting {
             irradiance,
             power: unshot * patch.area,
             selection_time: hemicube_start - start,
+            booked: None,
         })
     }
 

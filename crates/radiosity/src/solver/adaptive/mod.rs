@@ -39,19 +39,20 @@
 //! [`super::hierarchy::sources::point_factor`].
 
 mod gather;
+mod resident;
 
 use std::time::Instant;
 
 use glam::DVec3;
 
 use self::gather::{Counters, Gatherer};
-use super::device::{AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, DeviceReport, Gathered};
+use super::device::{AdaptiveSolve, AdaptiveTransfers, DeviceReport};
 use super::hierarchy::sources::Sources;
 pub use super::hierarchy::transfer::FAR_RATIO;
-use super::hierarchy::transfer::{Cost, Transfer};
+use super::hierarchy::transfer::Transfer;
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
-    self, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
+    self, Checkpoint, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
     ShotInputs, Stats, VISIBILITY, Value, Visibility,
 };
 use super::{Receiver, Settings};
@@ -217,6 +218,13 @@ struct AdaptiveShooting {
     device: Option<Box<dyn AdaptiveTransfers>>,
     /// Where the shots ran.
     report: DeviceReport,
+    /// The state the device took over, once it has.
+    resident: Option<resident::Resident>,
+    /// Set when the device failed in a shot, until the loop asks.
+    rolled_back: bool,
+    /// The shooters' powers are to be recomputed (after a device's
+    /// failure restored the unshot radiosity).
+    stale_powers: bool,
 }
 
 impl AdaptiveShooting {
@@ -265,6 +273,9 @@ impl AdaptiveShooting {
             counters: Counters::default(),
             device: None,
             report: DeviceReport::default(),
+            resident: None,
+            rolled_back: false,
+            stale_powers: false,
         };
         if let Some(backend) = settings.device.get() {
             shooting.report.name = Some(backend.name());
@@ -282,50 +293,6 @@ impl AdaptiveShooting {
         }
         shooting.total_shooter_power(mesh);
         shooting
-    }
-
-    /// Each receiver's negligible irradiance, in the receivers' order (as
-    /// [`AdaptiveShooting::receiver_negligible`] at the leaves).
-    fn negligible_per_receiver(&self, irradiance: &[DVec3]) -> Vec<f64> {
-        irradiance
-            .iter()
-            .map(|e| self.negligible * (luminance(*e) / self.mean_radiosity).max(1.0))
-            .collect()
-    }
-
-    /// The shot's transfers on the device, if there is one (a device
-    /// that fails is not asked again: the shot, and later ones, are made
-    /// on the CPU).
-    fn gather_on_device(&mut self, inputs: &ShotInputs<'_>, root: u32) -> OnDevice {
-        if self.device.is_none() {
-            return OnDevice::Cpu;
-        }
-        let negligible = self.negligible_per_receiver(inputs.irradiance);
-        let shot = AdaptiveShot {
-            root,
-            origin: self.hierarchy.tree.nodes[root as usize].centre,
-            sources: &self.sources,
-            unshot: &self.unshot,
-            negligible: &negligible,
-            abort: inputs.abort,
-        };
-        let result = self.device.as_mut().map(|d| d.gather(&shot));
-        match result {
-            Some(Ok(Some(gathered))) => {
-                self.report.device_shots += 1;
-                self.report.upload_time += gathered.upload_time;
-                self.report.kernel_time += gathered.kernel_time;
-                self.report.readback_time += gathered.readback_time;
-                OnDevice::Gathered(gathered)
-            }
-            Some(Ok(None)) => OnDevice::Abandoned,
-            Some(Err(e)) => {
-                self.report.fault = Some(e.0);
-                self.device = None;
-                OnDevice::Cpu
-            }
-            None => OnDevice::Cpu,
-        }
     }
 
     fn total_shooter_power(&mut self, mesh: &Mesh) {
@@ -371,16 +338,6 @@ impl AdaptiveShooting {
         }
         out
     }
-}
-
-/// What became of a shot's transfers on the device.
-enum OnDevice {
-    /// Made there.
-    Gathered(Gathered),
-    /// Abandoned there (the shot is abandoned).
-    Abandoned,
-    /// To be made on the CPU: no device, or one that just failed.
-    Cpu,
 }
 
 impl AdaptiveShooting {
@@ -429,6 +386,9 @@ impl Shooter for AdaptiveShooting {
     }
 
     fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
+        if let Some(power) = self.resident.as_ref().map(|r| r.unshot_power) {
+            return power;
+        }
         mesh.elements
             .iter()
             .zip(&self.unshot)
@@ -439,6 +399,12 @@ impl Shooter for AdaptiveShooting {
     /// One shot of the chosen node; its elements' unshot radiosity is
     /// zeroed.
     fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
+        if self.device.is_some() {
+            return self.shoot_on_device(inputs, stats);
+        }
+        if std::mem::take(&mut self.stale_powers) {
+            self.total_shooter_power(inputs.mesh);
+        }
         let start = Instant::now();
         let (scene, mesh) = (inputs.scene, inputs.mesh);
         let root = self.choose_shooting_node();
@@ -451,27 +417,7 @@ impl Shooter for AdaptiveShooting {
             elements += 1;
         }
         let gather_start = Instant::now();
-        let mut on_device = true;
-        let (irradiance, counters) = match self.gather_on_device(inputs, root) {
-            OnDevice::Abandoned => return None,
-            OnDevice::Gathered(gathered) => {
-                let counters = Counters {
-                    cost: Cost {
-                        pairs: gathered.pairs,
-                        rays: gathered.rays,
-                        ..Cost::default()
-                    },
-                    walks: gathered.walks,
-                    node_visits: gathered.node_visits,
-                    element_sources: gathered.element_sources,
-                };
-                (gathered.irradiance, counters)
-            }
-            OnDevice::Cpu => {
-                on_device = false;
-                self.gather_on_cpu(inputs, root)?
-            }
-        };
+        let (irradiance, counters) = self.gather_on_cpu(inputs, root)?;
         let gather_end = Instant::now();
 
         self.counters += counters;
@@ -480,11 +426,9 @@ impl Shooter for AdaptiveShooting {
         stats.rays_cast += cost.rays;
         stats.ray_time += cost.ray_time;
         stats.form_factor_time += cost.form_factor_time;
-        if !on_device {
-            stats.pretest_time += (gather_end - gather_start)
-                .mul_f64(rayon::current_num_threads() as f64)
-                .saturating_sub(cost.ray_time + cost.form_factor_time);
-        }
+        stats.pretest_time += (gather_end - gather_start)
+            .mul_f64(rayon::current_num_threads() as f64)
+            .saturating_sub(cost.ray_time + cost.form_factor_time);
         for &e in self.hierarchy.tree.items_of(root) {
             self.unshot[e as usize] = DVec3::ZERO;
         }
@@ -494,6 +438,7 @@ impl Shooter for AdaptiveShooting {
             irradiance,
             power,
             selection_time: gather_start - start,
+            booked: None,
         })
     }
 
@@ -521,6 +466,14 @@ impl Shooter for AdaptiveShooting {
 
     fn device(&self) -> DeviceReport {
         self.report.clone()
+    }
+
+    fn checkpoint(&mut self, irradiance: &mut [DVec3]) -> Checkpoint {
+        self.checkpoint_device(irradiance)
+    }
+
+    fn rolled_back(&mut self) -> bool {
+        std::mem::take(&mut self.rolled_back)
     }
 
     /// A light's power counts towards the mean radiosity the tolerance

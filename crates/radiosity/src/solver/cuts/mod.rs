@@ -294,6 +294,7 @@ impl Shooter for CutShooting {
             irradiance,
             power,
             selection_time: gather_start - start,
+            booked: None,
         })
     }
 

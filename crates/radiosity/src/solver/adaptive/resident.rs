@@ -1,0 +1,179 @@
+//! Adaptive shooting ([`super`]) with its state on a device, beyond the
+//! paper (whose solver kept everything on the CPU): from its first shot of
+//! a surface the device holds each receiver's irradiance and each
+//! element's unshot radiosity ([`crate::solver::device`]). Each shot the
+//! host chooses the shooter from the powers the device last reported (the
+//! CPU's rule, written once), reads back that shooter's elements' unshot
+//! radiosity, prepares its sources as the CPU does, and lets the device
+//! gather and book; the whole state comes back at checkpoints. A device
+//! that fails leaves the method at its last checkpoint, on the CPU.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::AdaptiveShooting;
+use super::gather::Counters;
+use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, DeviceError};
+use crate::solver::hierarchy::transfer::Cost;
+use crate::solver::method::{Checkpoint, Shot, ShotInputs, Stats};
+
+/// What the device holds for a solve, as the host last heard it.
+pub(super) struct Resident {
+    /// Unshot power left, per channel, after the last shot.
+    pub(super) unshot_power: DVec3,
+    /// Every element's unshot radiosity at the last checkpoint.
+    saved: Vec<DVec3>,
+    /// Shots on the device since then (undone if it fails).
+    since_checkpoint: u64,
+}
+
+impl AdaptiveShooting {
+    /// One shot on the device; `None` when abandoned, or when the device
+    /// failed (then [`AdaptiveShooting::rolled_back`] is set and the
+    /// method is back at its last checkpoint, on the CPU).
+    pub(super) fn shoot_on_device(
+        &mut self,
+        inputs: &ShotInputs<'_>,
+        stats: &mut Stats,
+    ) -> Option<Shot> {
+        let mut device = self.device.take()?;
+        match self.try_shoot_on_device(device.as_mut(), inputs, stats) {
+            Ok(shot) => {
+                self.device = Some(device);
+                shot
+            }
+            Err(e) => {
+                self.fail(e);
+                None
+            }
+        }
+    }
+
+    fn try_shoot_on_device(
+        &mut self,
+        device: &mut dyn AdaptiveTransfers,
+        inputs: &ShotInputs<'_>,
+        stats: &mut Stats,
+    ) -> Result<Option<Shot>, DeviceError> {
+        let start = Instant::now();
+        let (scene, mesh) = (inputs.scene, inputs.mesh);
+        if self.resident.is_none() {
+            // The lights have shot on the host: the device takes over the
+            // state as it stands.
+            device.begin(inputs.irradiance, &self.unshot)?;
+            self.resident = Some(Resident {
+                unshot_power: mesh
+                    .elements
+                    .iter()
+                    .zip(&self.unshot)
+                    .map(|(e, u)| *u * e.area)
+                    .sum(),
+                saved: self.unshot.clone(),
+                since_checkpoint: 0,
+            });
+        }
+        let root = self.choose_shooting_node();
+        let node = self.hierarchy.tree.nodes[root as usize];
+        let fresh = device.unshot(node.first, node.last)?;
+        let items = self.hierarchy.tree.items_of(root);
+        for (&e, u) in items.iter().zip(fresh) {
+            self.unshot[e as usize] = u;
+        }
+        self.sources
+            .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);
+        let mut power = DVec3::ZERO;
+        for &e in items {
+            power += self.unshot[e as usize] * mesh.elements[e as usize].area;
+        }
+        let gather_start = Instant::now();
+        let shot = AdaptiveShot {
+            root,
+            origin: node.centre,
+            sources: &self.sources,
+            unshot: &self.unshot,
+            negligible: self.negligible,
+            mean_radiosity: self.mean_radiosity,
+            abort: inputs.abort,
+        };
+        let Some(booked) = device.shoot(&shot)? else {
+            return Ok(None);
+        };
+        let gather_end = Instant::now();
+        for &e in items {
+            self.unshot[e as usize] = DVec3::ZERO;
+        }
+        if booked.shooter_power.len() != self.shooter_power.len() {
+            return Err(DeviceError(format!(
+                "the device reported {} shooters' powers, not {}",
+                booked.shooter_power.len(),
+                self.shooter_power.len()
+            )));
+        }
+        self.shooter_power = booked.shooter_power;
+        let counters = Counters {
+            cost: Cost {
+                pairs: booked.pairs,
+                rays: booked.rays,
+                ..Cost::default()
+            },
+            walks: booked.walks,
+            node_visits: booked.node_visits,
+            element_sources: booked.element_sources,
+        };
+        self.counters += counters;
+        stats.pairs += booked.pairs;
+        stats.rays_cast += booked.rays;
+        stats.subsources += items.len() as u64;
+        stats.gather_time += gather_end - gather_start;
+        self.report.device_shots += 1;
+        self.report.upload_time += booked.upload_time;
+        self.report.kernel_time += booked.kernel_time;
+        self.report.readback_time += booked.readback_time;
+        if let Some(resident) = self.resident.as_mut() {
+            resident.unshot_power = booked.unshot_power;
+            resident.since_checkpoint += 1;
+        }
+        Ok(Some(Shot {
+            irradiance: Vec::new(),
+            power,
+            selection_time: gather_start - start,
+            booked: Some(booked.received),
+        }))
+    }
+
+    /// Reads the device's state back ([`crate::solver::Shooter::checkpoint`]).
+    pub(super) fn checkpoint_device(&mut self, irradiance: &mut [DVec3]) -> Checkpoint {
+        let (Some(device), Some(_)) = (self.device.as_mut(), self.resident.as_ref()) else {
+            return Checkpoint::Host;
+        };
+        match device.state(irradiance, &mut self.unshot) {
+            Ok(()) => {
+                if let Some(resident) = self.resident.as_mut() {
+                    resident.saved.clone_from(&self.unshot);
+                    resident.since_checkpoint = 0;
+                }
+                Checkpoint::Taken
+            }
+            Err(e) => {
+                self.fail(e);
+                self.rolled_back = false;
+                Checkpoint::RolledBack
+            }
+        }
+    }
+
+    /// The device failed: the method goes back to its last checkpoint (the
+    /// shots since are not counted as the device's) and on to the CPU.
+    fn fail(&mut self, e: DeviceError) {
+        self.report.fault = Some(e.0);
+        self.device = None;
+        if let Some(resident) = self.resident.take() {
+            self.unshot = resident.saved;
+            self.report.device_shots -= resident.since_checkpoint;
+        }
+        // Recomputed from the restored unshot radiosity at the next shot.
+        self.stale_powers = true;
+        self.rolled_back = true;
+    }
+}
