@@ -20,7 +20,8 @@ use radiosity::scene;
 use radiosity::solver::device::Device;
 use radiosity::solver::{Flow, Settings, Solver, StopReason};
 use radiosity_gpu::gather::{
-    GpuBin, GpuElement, GpuGathered, GpuNodeSource, GpuReceiver, GpuShot, GpuSurface, GpuTreeNode,
+    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuShot,
+    GpuSurface, GpuTreeNode,
 };
 use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
 
@@ -30,6 +31,7 @@ fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
     let source = [
         include_str!("../src/trace.wgsl"),
         include_str!("../src/gather/gather.wgsl"),
+        include_str!("../src/gather/book.wgsl"),
     ]
     .concat();
     let module = naga::front::wgsl::parse_str(&source).unwrap();
@@ -127,12 +129,16 @@ fn transfer_buffers_match_their_wgsl_twins() {
         layout!(
             "Shot",
             GpuShot,
-            [root, first, count, pad0, origin, pad1, origin_lo, pad2]
+            [
+                root, first, count, negligible, origin, mean, origin_lo, pad0
+            ]
         ),
+        layout!("ElementBook", GpuElementBook, [corners, rho, area]),
+        layout!("Partial", GpuPartial, [incident, absorbed, unshot]),
         layout!(
-            "Gathered",
-            GpuGathered,
-            [irradiance, pairs, rays, walks, visits, elements]
+            "Book",
+            GpuBook,
+            [first, last, elements, receivers, shooters, pad0, pad1, pad2]
         ),
     ];
     for (name, size, offsets) in cases {

@@ -144,32 +144,61 @@ pub struct GpuShot {
     pub first: u32,
     /// Receivers in it.
     pub count: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// A receiver's negligible irradiance is this times its irradiance's
+    /// luminance over `mean`, if more than one.
+    pub negligible: f32,
     /// The shooting node's centre.
     pub origin: [f32; 3],
-    /// Padding.
-    pub pad1: u32,
-    /// Its round-off.
+    /// See `negligible`.
+    pub mean: f32,
+    /// The centre's round-off.
     pub origin_lo: [f32; 3],
     /// Padding.
-    pub pad2: u32,
+    pub pad0: u32,
 }
 
-/// What a receiver gathered (WGSL `Gathered`).
+/// An element's book-keeping data (WGSL `ElementBook`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuGathered {
-    /// Irradiance.
-    pub irradiance: [f32; 3],
-    /// Pairs considered.
-    pub pairs: u32,
-    /// Rays traced.
-    pub rays: u32,
-    /// 1 if it walked the source tree.
-    pub walks: u32,
-    /// Nodes visited.
-    pub visits: u32,
-    /// Elements taken as exact sources.
+pub struct GpuElementBook {
+    /// Its corners' receivers, in the device's order.
+    pub corners: [u32; 4],
+    /// Reflectance.
+    pub rho: [f32; 3],
+    /// Area.
+    pub area: f32,
+}
+
+/// One workgroup's share of a shot's ledger (WGSL `Partial`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPartial {
+    /// Power received (`w` unused).
+    pub incident: [f32; 4],
+    /// Power absorbed.
+    pub absorbed: [f32; 4],
+    /// Unshot power left.
+    pub unshot: [f32; 4],
+}
+
+/// A shot's book-keeping dispatches (WGSL `Book`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuBook {
+    /// The shooter's first item in the element tree's order.
+    pub first: u32,
+    /// One past its last.
+    pub last: u32,
+    /// Elements.
     pub elements: u32,
+    /// Receivers.
+    pub receivers: u32,
+    /// Shooters.
+    pub shooters: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
 }

@@ -97,32 +97,35 @@ struct Shot {
     // The first receiver of this dispatch, and how many it has.
     first: u32,
     count: u32,
-    pad0: u32,
+    // A receiver's negligible irradiance is this times its irradiance's
+    // luminance over `mean`, if more than one.
+    negligible: f32,
     // The shooting node's centre: the bins' origin.
     origin: vec3<f32>,
-    pad1: u32,
+    mean: f32,
     origin_lo: vec3<f32>,
-    pad2: u32,
+    pad0: u32,
 }
 
-struct Gathered {
-    irradiance: vec3<f32>,
-    pairs: u32,
-    rays: u32,
-    walks: u32,
-    visits: u32,
-    elements: u32,
-}
+// What the shot's walks counted, summed (integers: the same in any order).
+const PAIRS: u32 = 0u;
+const RAYS: u32 = 1u;
+const WALKS: u32 = 2u;
+const VISITS: u32 = 3u;
+const ELEMENTS: u32 = 4u;
 
 @group(0) @binding(5) var<storage, read> tree: array<TreeNode>;
 @group(0) @binding(6) var<storage, read> surfaces: array<Surface>;
 @group(0) @binding(7) var<storage, read> elements: array<Element>;
 @group(0) @binding(8) var<storage, read> receivers: array<Receiver>;
-@group(0) @binding(9) var<storage, read> negligible: array<f32>;
+// Each receiver's irradiance so far (the device's order).
+@group(0) @binding(9) var<storage, read_write> total: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read> sources: array<NodeSource>;
 @group(0) @binding(11) var<storage, read> bins: array<Bin>;
-@group(0) @binding(12) var<storage, read_write> gathered: array<Gathered>;
+// What each receiver gathers in this shot.
+@group(0) @binding(12) var<storage, read_write> shot_irradiance: array<vec4<f32>>;
 @group(0) @binding(13) var<uniform> shot: Shot;
+@group(0) @binding(14) var<storage, read_write> counters: array<atomic<u32>, 8>;
 
 const NONE: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
@@ -655,18 +658,19 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     rays = 0u;
     visits = 0u;
     element_sources = 0u;
-    var out: Gathered;
-    out.irradiance = vec3<f32>(0.0);
-    out.walks = 0u;
+    var irradiance = vec3<f32>(0.0);
+    var walked = 0u;
     // A source of one surface id never lights that id's receivers.
     let root = tree[shot.root];
     if (sources[0].weight > 0.0 && (root.group == NONE || root.group != r.group)) {
-        out.walks = 1u;
-        out.irradiance = gather_one(r, negligible[i]);
+        walked = 1u;
+        let small = shot.negligible * max(luminance(total[i].xyz) / shot.mean, 1.0);
+        irradiance = gather_one(r, small);
     }
-    out.pairs = pairs;
-    out.rays = rays;
-    out.visits = visits;
-    out.elements = element_sources;
-    gathered[i] = out;
+    shot_irradiance[i] = vec4<f32>(irradiance, 0.0);
+    atomicAdd(&counters[PAIRS], pairs);
+    atomicAdd(&counters[RAYS], rays);
+    atomicAdd(&counters[WALKS], walked);
+    atomicAdd(&counters[VISITS], visits);
+    atomicAdd(&counters[ELEMENTS], element_sources);
 }

@@ -3,7 +3,10 @@
 //! that a solve the device cannot hold is refused or left to the CPU
 //! before anything is uploaded.
 
-use super::{GpuBin, GpuElement, GpuGathered, GpuNodeSource, GpuReceiver, GpuSurface, GpuTreeNode};
+use super::{
+    GpuBin, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuSurface,
+    GpuTreeNode,
+};
 use crate::trace;
 
 /// What a solve keeps on the device, estimated before it starts: each
@@ -17,9 +20,12 @@ pub struct DeviceMemory {
 impl DeviceMemory {
     /// The buffers of a solve of `mesh` with `receivers` receivers: the
     /// scene's triangles and their tree (at most two nodes a triangle), the
-    /// element tree (at most two nodes an element), the elements, the
-    /// surfaces, the receivers with their per-shot values and readback, and
-    /// a shot's sources (at most the whole tree, one bin a node).
+    /// element tree (at most two nodes an element), the elements with their
+    /// book-keeping data and unshot radiosity, the surfaces, the receivers
+    /// with their irradiance, a shot's and the readback, and a shot's
+    /// sources (at most the whole tree, one bin a node; the shooters'
+    /// powers and the staging of a shooter's elements at most one an
+    /// element).
     #[must_use]
     pub fn of(
         scene: &radiosity::scene::Scene,
@@ -52,9 +58,17 @@ impl DeviceMemory {
                 bytes(scene.surfaces.len(), size_of::<GpuSurface>()),
             ),
             ("receivers", bytes(receivers, size_of::<GpuReceiver>())),
-            ("negligible", bytes(receivers, size_of::<f32>())),
-            ("gathered", bytes(receivers, size_of::<GpuGathered>())),
-            ("readback", bytes(receivers, size_of::<GpuGathered>())),
+            ("irradiance", bytes(receivers, 16)),
+            ("shot irradiance", bytes(receivers, 16)),
+            ("unshot radiosity", bytes(elements, 16)),
+            ("element book", bytes(elements, size_of::<GpuElementBook>())),
+            (
+                "ledger partials",
+                bytes(elements.div_ceil(256), size_of::<GpuPartial>()),
+            ),
+            ("shooter powers", bytes(elements, 4)),
+            ("staging", bytes(elements, 16)),
+            ("readback", bytes(receivers + elements, 16)),
             ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
             ("bins", bytes(2 * elements, size_of::<GpuBin>())),
         ];

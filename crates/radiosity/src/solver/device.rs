@@ -115,8 +115,7 @@ pub trait AdaptiveTransfers: Send {
     /// # Errors
     ///
     /// When the device fails.
-    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3])
-    -> Result<(), DeviceError>;
+    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError>;
 }
 
 /// What one adaptive shot sends.

@@ -12,15 +12,15 @@ use glam::DVec3;
 use super::gather::Gatherer;
 use crate::accel::Accel;
 use crate::form_factor::FormFactor;
+use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::{self, Scene};
-use crate::luminance;
 use crate::solver::device::{
     AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Backend, Booked, Device, DeviceError,
 };
-use crate::solver::method;
 use crate::solver::hierarchy::transfer::Transfer;
 use crate::solver::hierarchy::{self, Hierarchy};
+use crate::solver::method;
 use crate::solver::{Flow, Receiver, Settings, Solver};
 
 /// A device that answers as the CPU does and fails at its `fail_at`-th
@@ -171,11 +171,7 @@ impl AdaptiveTransfers for StandTransfers {
         }))
     }
 
-    fn state(
-        &mut self,
-        irradiance: &mut [DVec3],
-        unshot: &mut [DVec3],
-    ) -> Result<(), DeviceError> {
+    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError> {
         irradiance.copy_from_slice(&self.irradiance);
         unshot.copy_from_slice(&self.unshot);
         Ok(())
@@ -222,11 +218,18 @@ fn a_failing_device_leaves_the_solve_to_the_cpu() {
             solve(Device::backend(Arc::new(Stand { fail_at })));
         assert_eq!(shots, 40, "failing at {fail_at:?}");
         assert_eq!(report.name.as_deref(), Some("stand-in"));
-        assert!(report.device_shots <= most, "failing at {fail_at:?}: {report:?}");
+        assert!(
+            report.device_shots <= most,
+            "failing at {fail_at:?}: {report:?}"
+        );
         if fail_at.is_none() {
             assert_eq!(report.device_shots, 40);
         }
-        assert_eq!(report.fault.is_some(), fail_at.is_some(), "failing at {fail_at:?}");
+        assert_eq!(
+            report.fault.is_some(),
+            fail_at.is_some(),
+            "failing at {fail_at:?}"
+        );
         assert_eq!(irradiance, cpu_irradiance, "failing at {fail_at:?}");
         assert_eq!(energy, cpu_energy, "failing at {fail_at:?}");
         for (a, b) in radiosity.iter().zip(&cpu) {

@@ -1,0 +1,140 @@
+// The book-keeping of a shot on the GPU (design.md section 2, step 5, as
+// radiosity::solver does it on the host for the CPU): each receiver's
+// irradiance accumulated, the shooter's unshot radiosity zeroed, each
+// element's reflected share rho * (mean of its corners' irradiance) added
+// to its own, the ledger's sums (power received, absorbed, unshot left)
+// per workgroup in a fixed order, each shooter's unshot power. Appended to
+// trace.wgsl and gather.wgsl. No float atomics: a rerun gives the same
+// result to the last bit.
+
+// An element's book-keeping data (by element id).
+struct ElementBook {
+    // Its corners' receivers, in the device's order (count in Element).
+    corners: vec4<u32>,
+    rho: vec3<f32>,
+    area: f32,
+}
+
+// One workgroup's share of the ledger.
+struct Partial {
+    incident: vec4<f32>,
+    absorbed: vec4<f32>,
+    unshot: vec4<f32>,
+}
+
+struct Book {
+    // The shooter's elements: items[first..last].
+    first: u32,
+    last: u32,
+    elements: u32,
+    receivers: u32,
+    shooters: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(15) var<storage, read_write> unshot: array<vec4<f32>>;
+@group(0) @binding(16) var<storage, read> element_book: array<ElementBook>;
+@group(0) @binding(17) var<storage, read_write> partials: array<Partial>;
+@group(0) @binding(18) var<storage, read> shooter_items: array<vec2<u32>>;
+@group(0) @binding(19) var<storage, read> items: array<u32>;
+@group(0) @binding(20) var<storage, read_write> powers: array<f32>;
+@group(0) @binding(21) var<storage, read_write> staging: array<vec4<f32>>;
+@group(0) @binding(22) var<uniform> book: Book;
+
+const BOOK_WORKGROUP: u32 = 256u;
+
+var<workgroup> sum_incident: array<vec3<f32>, BOOK_WORKGROUP>;
+var<workgroup> sum_absorbed: array<vec3<f32>, BOOK_WORKGROUP>;
+var<workgroup> sum_unshot: array<vec3<f32>, BOOK_WORKGROUP>;
+
+// The shooter's elements' unshot radiosity, in the tree's order, for the
+// host to prepare its sources.
+@compute @workgroup_size(256)
+fn collect(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = book.first + id.x;
+    if (i >= book.last) {
+        return;
+    }
+    staging[id.x] = unshot[items[i]];
+}
+
+// The shooter has shot: its elements' unshot radiosity is gone.
+@compute @workgroup_size(256)
+fn zero_shooter(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = book.first + id.x;
+    if (i >= book.last) {
+        return;
+    }
+    unshot[items[i]] = vec4<f32>(0.0);
+}
+
+// Each element's mean irradiance from its corners: its reflected share
+// becomes unshot radiosity; the power it received, absorbed and still has
+// to shoot summed per workgroup (a fixed tree of additions).
+@compute @workgroup_size(256)
+fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) local: u32, @builtin(workgroup_id) group: vec3<u32>) {
+    let e = id.x;
+    var incident = vec3<f32>(0.0);
+    var absorbed = vec3<f32>(0.0);
+    var left = vec3<f32>(0.0);
+    if (e < book.elements) {
+        let b = element_book[e];
+        let count = elements[e].count;
+        var sum = vec3<f32>(0.0);
+        for (var k = 0u; k < count; k += 1u) {
+            sum += shot_irradiance[b.corners[k]].xyz;
+        }
+        let mean = sum / f32(count);
+        let u = unshot[e].xyz + b.rho * mean;
+        unshot[e] = vec4<f32>(u, 0.0);
+        incident = mean * b.area;
+        absorbed = (vec3<f32>(1.0) - b.rho) * mean * b.area;
+        left = u * b.area;
+    }
+    sum_incident[local] = incident;
+    sum_absorbed[local] = absorbed;
+    sum_unshot[local] = left;
+    workgroupBarrier();
+    for (var stride = BOOK_WORKGROUP / 2u; stride > 0u; stride = stride / 2u) {
+        if (local < stride) {
+            sum_incident[local] += sum_incident[local + stride];
+            sum_absorbed[local] += sum_absorbed[local + stride];
+            sum_unshot[local] += sum_unshot[local + stride];
+        }
+        workgroupBarrier();
+    }
+    if (local == 0u) {
+        partials[group.x] = Partial(
+            vec4<f32>(sum_incident[0], 0.0),
+            vec4<f32>(sum_absorbed[0], 0.0),
+            vec4<f32>(sum_unshot[0], 0.0),
+        );
+    }
+}
+
+// Each receiver's irradiance: what it had, plus the shot's.
+@compute @workgroup_size(256)
+fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= book.receivers) {
+        return;
+    }
+    total[id.x] += shot_irradiance[id.x];
+}
+
+// Each shooter's unshot power (luminance), over its elements in the
+// tree's order.
+@compute @workgroup_size(64)
+fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= book.shooters) {
+        return;
+    }
+    let range = shooter_items[id.x];
+    var power = 0.0;
+    for (var i = range.x; i < range.y; i += 1u) {
+        let e = items[i];
+        power += luminance(unshot[e].xyz) * element_book[e].area;
+    }
+    powers[id.x] = power;
+}

@@ -1,0 +1,802 @@
+//! A solve's state and shots on the GPU (adaptive shooting, beyond the
+//! paper: the per-receiver source subdivision of Wallace, Elmquist &
+//! Haines 1989, section 4, as `radiosity::solver::adaptive` makes it on the
+//! CPU): the scene, the element tree, the elements and the receivers go to
+//! the device once; so do each receiver's irradiance and each element's
+//! unshot radiosity, which then stay there. A shot uploads its sources,
+//! runs the walk (`gather.wgsl`) and the book-keeping (`book.wgsl`) in one
+//! submission, and reads back the ledger's sums per workgroup (added on the
+//! host in `f64`, in a fixed order), the shooters' powers and the walks'
+//! counts; the state comes back only when asked ([`AdaptiveTransfers::state`]).
+
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use glam::{DMat3, DVec3};
+use radiosity::solver::device::{
+    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError,
+};
+use radiosity::solver::hierarchy::NONE;
+use radiosity::solver::hierarchy::sources::outer;
+use radiosity::solver::method::Received;
+use wgpu::util::DeviceExt;
+
+use super::buffers::{
+    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuShot,
+    GpuSurface, GpuTreeNode,
+};
+use super::{DISPATCH_RECEIVERS, MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
+use crate::Gpu;
+use crate::trace::{self, entry, nonempty, split, storage};
+
+/// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
+/// `book.wgsl`; the shooters' powers take 64).
+const BOOK_WORKGROUP: u32 = 256;
+
+/// Counters the walks sum (`counters` in `gather.wgsl`).
+const COUNTERS: usize = 8;
+
+/// A buffer that grows to hold what a shot uploads.
+struct Growing {
+    label: &'static str,
+    buffer: wgpu::Buffer,
+    capacity: u64,
+}
+
+impl Growing {
+    fn new(gpu: &Gpu, label: &'static str) -> Growing {
+        Growing {
+            label,
+            buffer: Growing::make(gpu, label, 256),
+            capacity: 256,
+        }
+    }
+
+    fn make(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Writes `bytes` at the start, growing the buffer first if need be.
+    fn write(&mut self, gpu: &Gpu, bytes: &[u8]) {
+        let size = (bytes.len() as u64).max(16).next_multiple_of(4);
+        if size > self.capacity {
+            self.capacity = size.next_power_of_two();
+            self.buffer = Growing::make(gpu, self.label, self.capacity);
+        }
+        gpu.queue.write_buffer(&self.buffer, 0, bytes);
+    }
+}
+
+/// The kernels, one pipeline an entry point of one module.
+struct Pipelines {
+    gather: wgpu::ComputePipeline,
+    collect: wgpu::ComputePipeline,
+    zero_shooter: wgpu::ComputePipeline,
+    receive: wgpu::ComputePipeline,
+    accumulate: wgpu::ComputePipeline,
+    shooter_powers: wgpu::ComputePipeline,
+}
+
+/// A solve on the GPU.
+pub(super) struct GpuTransfers {
+    gpu: Arc<Gpu>,
+    /// The scene's centre, the origin of the device's coordinates.
+    origin: DVec3,
+    /// Each device receiver's index among the solver's receivers.
+    order: Vec<u32>,
+    /// Leaves' elements, by tree node (`NONE` for inner nodes).
+    leaf_element: Vec<u32>,
+    /// Each tree node's items, `first..last`.
+    ranges: Vec<[u32; 2]>,
+    elements: u32,
+    shooters: u32,
+    pipelines: Pipelines,
+    nodes: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    tree: wgpu::Buffer,
+    surfaces: wgpu::Buffer,
+    element_buffer: wgpu::Buffer,
+    receivers: wgpu::Buffer,
+    element_book: wgpu::Buffer,
+    shooter_items: wgpu::Buffer,
+    items: wgpu::Buffer,
+    /// Each receiver's irradiance (state).
+    total: wgpu::Buffer,
+    /// Each element's unshot radiosity (state).
+    unshot: wgpu::Buffer,
+    shot_irradiance: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    partials: wgpu::Buffer,
+    powers: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    sources: Growing,
+    bins: Growing,
+    readback: wgpu::Buffer,
+    uncaptured: Arc<Mutex<Option<String>>>,
+}
+
+/// A buffer the kernels read and write, and copies go in and out of.
+fn state_buffer(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(16),
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A uniform buffer holding `value`.
+fn uniform<T: bytemuck::Pod>(gpu: &Gpu, label: &str, value: &T) -> wgpu::Buffer {
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(value),
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+}
+
+/// `v` as the device keeps it.
+fn vec4(v: DVec3) -> [f32; 4] {
+    let v = v.as_vec3();
+    [v.x, v.y, v.z, 0.0]
+}
+
+/// A device `vec4` read back.
+fn dvec3(v: &[f32]) -> DVec3 {
+    DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
+}
+
+impl GpuTransfers {
+    pub(super) fn new(
+        gpu: Arc<Gpu>,
+        solve: &AdaptiveSolve<'_>,
+    ) -> Result<GpuTransfers, DeviceError> {
+        let limits = gpu.device.limits();
+        if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
+            return Err(DeviceError(format!(
+                "the GPU {} binds {} storage buffers at once; the transfer kernel needs {}",
+                gpu.name(),
+                limits.max_storage_buffers_per_shader_stage,
+                STORAGE_BUFFERS
+            )));
+        }
+        let tree = &solve.hierarchy.tree;
+        let tree_depth = depth(tree);
+        if tree_depth > MAX_TREE_DEPTH {
+            return Err(DeviceError(format!(
+                "the element tree is {tree_depth} deep; the GPU's walk holds {MAX_TREE_DEPTH}"
+            )));
+        }
+        let scene = solve.scene;
+        let mesh = solve.mesh;
+        let (origin, scale) = trace::centre_and_scale(&scene.surfaces);
+        let triangles = trace::triangles(&scene.surfaces, origin);
+        let (bvh_nodes, ordered) = trace::tree(&triangles, 8.0 * f64::from(f32::EPSILON) * scale);
+
+        let gpu_tree: Vec<GpuTreeNode> = tree
+            .nodes
+            .iter()
+            .map(|n| {
+                let (centre, centre_lo) = split(n.centre, origin);
+                let first = tree.items[n.first as usize];
+                GpuTreeNode {
+                    centre,
+                    radius: n.radius as f32,
+                    centre_lo,
+                    second: n.second,
+                    group: n.group,
+                    surface: mesh.elements[first as usize].surface,
+                    element: if n.is_leaf() { first } else { NONE },
+                    pad0: 0,
+                }
+            })
+            .collect();
+        let leaf_element = gpu_tree.iter().map(|n| n.element).collect();
+        let surfaces: Vec<GpuSurface> = scene
+            .surfaces
+            .iter()
+            .map(|s| {
+                let (corner, corner_lo) =
+                    split(s.polygon.first().copied().unwrap_or_default(), origin);
+                GpuSurface {
+                    normal: s.normal.as_vec3().to_array(),
+                    group: s.group,
+                    corner,
+                    corner_lo,
+                    ..GpuSurface::default()
+                }
+            })
+            .collect();
+        let elements: Vec<GpuElement> = mesh
+            .elements
+            .iter()
+            .zip(&solve.hierarchy.centroids)
+            .map(|(e, &c)| {
+                let mut out = GpuElement {
+                    surface: e.surface,
+                    count: u32::from(e.corner_count),
+                    area: e.area as f32,
+                    ..GpuElement::default()
+                };
+                for (k, &v) in e.vertices().iter().enumerate() {
+                    let (hi, lo) = split(mesh.vertices[v as usize].position, origin);
+                    out.corners[k] = [hi[0], hi[1], hi[2], 0.0];
+                    out.corners_lo[k] = [lo[0], lo[1], lo[2], 0.0];
+                }
+                (out.centroid, out.centroid_lo) = split(c, origin);
+                out
+            })
+            .collect();
+        let receivers: Vec<GpuReceiver> = solve
+            .order
+            .iter()
+            .map(|&r| {
+                let r = &solve.receivers[r as usize];
+                let (point, point_lo) = split(r.point, origin);
+                GpuReceiver {
+                    point,
+                    group: r.group,
+                    point_lo,
+                    normal: r.normal.as_vec3().to_array(),
+                    ..GpuReceiver::default()
+                }
+            })
+            .collect();
+
+        let mut device_index = vec![0u32; solve.receivers.len()];
+        for (i, &r) in solve.order.iter().enumerate() {
+            device_index[r as usize] = i as u32;
+        }
+        let element_book: Vec<GpuElementBook> = mesh
+            .elements
+            .iter()
+            .map(|e| {
+                let mut corners = [0u32; 4];
+                for (k, &v) in e.vertices().iter().enumerate() {
+                    corners[k] = device_index[v as usize];
+                }
+                GpuElementBook {
+                    corners,
+                    rho: scene.surfaces[e.surface as usize].rho.as_vec3().to_array(),
+                    area: e.area as f32,
+                }
+            })
+            .collect();
+        let shooter_items: Vec<[u32; 2]> = solve
+            .hierarchy
+            .shooters
+            .iter()
+            .map(|&n| {
+                let node = &tree.nodes[n as usize];
+                [node.first, node.last]
+            })
+            .collect();
+        let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
+
+        let uncaptured = Arc::new(Mutex::new(None));
+        let sink = uncaptured.clone();
+        gpu.device
+            .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                if let Ok(mut slot) = sink.lock() {
+                    slot.get_or_insert_with(|| e.to_string());
+                }
+            }));
+        let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let source = [
+            include_str!("../trace.wgsl"),
+            include_str!("gather.wgsl"),
+            include_str!("book.wgsl"),
+        ]
+        .concat();
+        let module = gpu
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("gather.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        let pipeline = |entry: &str| {
+            gpu.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    cache: None,
+                })
+        };
+        let pipelines = Pipelines {
+            gather: pipeline("gather"),
+            collect: pipeline("collect"),
+            zero_shooter: pipeline("zero_shooter"),
+            receive: pipeline("receive"),
+            accumulate: pipeline("accumulate"),
+            shooter_powers: pipeline("shooter_powers"),
+        };
+        let r = receivers.len() as u64;
+        let e = mesh.elements.len() as u64;
+        let s = shooter_items.len() as u64;
+        let vec4_bytes = 16u64;
+        let partial_count = e.div_ceil(u64::from(BOOK_WORKGROUP)).max(1);
+        let shot_readback =
+            4 * s + partial_count * size_of::<GpuPartial>() as u64 + 4 * COUNTERS as u64;
+        let readback_bytes = shot_readback
+            .max((r + e) * vec4_bytes)
+            .max(largest_shooter * vec4_bytes)
+            .max(16);
+        let transfers = GpuTransfers {
+            origin,
+            order: solve.order.to_vec(),
+            leaf_element,
+            ranges: tree.nodes.iter().map(|n| [n.first, n.last]).collect(),
+            elements: e as u32,
+            shooters: s as u32,
+            pipelines,
+            nodes: storage(&gpu, "nodes", &nonempty(bvh_nodes)),
+            triangles: storage(&gpu, "triangles", &nonempty(ordered)),
+            tree: storage(&gpu, "element tree", &nonempty(gpu_tree)),
+            surfaces: storage(&gpu, "surfaces", &nonempty(surfaces)),
+            element_buffer: storage(&gpu, "elements", &nonempty(elements)),
+            receivers: storage(&gpu, "receivers", &nonempty(receivers)),
+            element_book: storage(&gpu, "element book", &nonempty(element_book)),
+            shooter_items: storage(&gpu, "shooter items", &nonempty(shooter_items)),
+            items: storage(&gpu, "items", &nonempty(tree.items.clone())),
+            total: state_buffer(&gpu, "irradiance", r * vec4_bytes),
+            unshot: state_buffer(&gpu, "unshot", e * vec4_bytes),
+            shot_irradiance: state_buffer(&gpu, "shot irradiance", r * vec4_bytes),
+            counters: state_buffer(&gpu, "counters", 4 * COUNTERS as u64),
+            partials: state_buffer(
+                &gpu,
+                "partials",
+                partial_count * size_of::<GpuPartial>() as u64,
+            ),
+            powers: state_buffer(&gpu, "shooter powers", 4 * s),
+            staging: state_buffer(&gpu, "staging", largest_shooter * vec4_bytes),
+            sources: Growing::new(&gpu, "sources"),
+            bins: Growing::new(&gpu, "bins"),
+            readback: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: readback_bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            uncaptured,
+            gpu,
+        };
+        let out_of_memory = pollster::block_on(memory.pop());
+        let invalid = pollster::block_on(scope.pop());
+        if let Some(e) = out_of_memory.or(invalid) {
+            return Err(transfers.failed(e));
+        }
+        Ok(transfers)
+    }
+
+    fn failed(&self, e: impl std::fmt::Display) -> DeviceError {
+        DeviceError(self.gpu.failed(e).to_string())
+    }
+
+    /// A bind group of `pipeline` holding `entries`.
+    fn bind(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        entries: &[wgpu::BindGroupEntry<'_>],
+    ) -> wgpu::BindGroup {
+        self.gpu
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &pipeline.get_bind_group_layout(0),
+                entries,
+            })
+    }
+
+    /// The book-keeping's uniform for the shooter `items[first..last]`.
+    fn book(&self, first: u32, last: u32) -> wgpu::Buffer {
+        uniform(
+            &self.gpu,
+            "book",
+            &GpuBook {
+                first,
+                last,
+                elements: self.elements,
+                receivers: self.order.len() as u32,
+                shooters: self.shooters,
+                ..GpuBook::default()
+            },
+        )
+    }
+
+    /// Submits `encoder`, whose last commands copy `bytes` into the
+    /// readback buffer, and returns those bytes once the device is done;
+    /// any error the device reported on the way is this call's.
+    fn finish(&self, encoder: wgpu::CommandEncoder, bytes: u64) -> Result<Vec<u8>, DeviceError> {
+        let gpu = &self.gpu;
+        gpu.queue.submit([encoder.finish()]);
+        let slice = self.readback.slice(..bytes.max(4));
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sender.send(r);
+        });
+        gpu.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| self.failed(e))?;
+        match receiver.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(self.failed(e)),
+            Err(_) => return Err(self.failed("the readback was never mapped")),
+        }
+        if let Some(message) = self.uncaptured.lock().ok().and_then(|s| s.clone()) {
+            return Err(self.failed(message));
+        }
+        let bytes = {
+            let view = slice.get_mapped_range().map_err(|e| self.failed(e))?;
+            view.to_vec()
+        };
+        self.readback.unmap();
+        Ok(bytes)
+    }
+
+    /// `f`, with the device's validation and memory errors caught.
+    fn scoped<T>(&self, f: impl FnOnce() -> Result<T, DeviceError>) -> Result<T, DeviceError> {
+        let scope = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let result = f();
+        let out_of_memory = pollster::block_on(memory.pop());
+        let invalid = pollster::block_on(scope.pop());
+        if let Some(e) = out_of_memory.or(invalid) {
+            return Err(self.failed(e));
+        }
+        result
+    }
+
+    fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
+        self.gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
+    }
+
+    /// The shot's sources for the kernel: per node of the shooting subtree
+    /// its weight, bins and (a leaf) unshot radiosity; the bins as centred
+    /// point sources, worked out in `f64`.
+    fn sources(&self, shot: &AdaptiveShot<'_>) -> (Vec<GpuNodeSource>, Vec<GpuBin>) {
+        let nodes = shot
+            .sources
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let element = self.leaf_element[shot.root as usize + i];
+                let unshot = if element == NONE {
+                    DVec3::ZERO
+                } else {
+                    shot.unshot[element as usize]
+                };
+                GpuNodeSource {
+                    weight: s.weight as f32,
+                    first_bin: s.first_bin,
+                    bins: u32::from(s.bins),
+                    pad0: 0,
+                    unshot: unshot.as_vec3().to_array(),
+                    pad1: 0,
+                }
+            })
+            .collect();
+        let bins = shot
+            .sources
+            .bins
+            .iter()
+            .map(|b| {
+                let w = b.weight;
+                let mean_normal = b.normal / w;
+                let length = mean_normal.length();
+                let centre = b.position / w;
+                let covariance: DMat3 = b.moment * (1.0 / w) - outer(centre);
+                GpuBin {
+                    power: b.power.as_vec3().to_array(),
+                    weight: w as f32,
+                    normal: (mean_normal / length).as_vec3().to_array(),
+                    length: length as f32,
+                    centre: centre.as_vec3().to_array(),
+                    representative: b.representative,
+                    diagonal: [
+                        covariance.x_axis.x as f32,
+                        covariance.y_axis.y as f32,
+                        covariance.z_axis.z as f32,
+                    ],
+                    axis: u32::from(b.axis),
+                    off_diagonal: [
+                        covariance.y_axis.x as f32,
+                        covariance.z_axis.x as f32,
+                        covariance.z_axis.y as f32,
+                    ],
+                    pad0: 0,
+                }
+            })
+            .collect();
+        (nodes, bins)
+    }
+
+    /// One shot's commands and readback (inside an error scope).
+    fn shot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Booked, DeviceError> {
+        let gpu = self.gpu.clone();
+        let upload_start = Instant::now();
+        let (nodes, bins) = self.sources(shot);
+        self.sources
+            .write(&gpu, bytemuck::cast_slice(&nonempty(nodes)));
+        self.bins.write(&gpu, bytemuck::cast_slice(&nonempty(bins)));
+        let (origin, origin_lo) = split(shot.origin, self.origin);
+        let count = self.order.len();
+        let [first, last] = self.ranges[shot.root as usize];
+        let book = self.book(first, last);
+        let mut encoder = self.encoder("shot");
+        encoder.clear_buffer(&self.counters, 0, None);
+        let mut groups = Vec::new();
+        for start in (0..count).step_by(DISPATCH_RECEIVERS) {
+            let n = DISPATCH_RECEIVERS.min(count - start);
+            let uniform = uniform(
+                &gpu,
+                "shot",
+                &GpuShot {
+                    root: shot.root,
+                    first: start as u32,
+                    count: n as u32,
+                    negligible: shot.negligible as f32,
+                    origin,
+                    mean: shot.mean_radiosity as f32,
+                    origin_lo,
+                    pad0: 0,
+                },
+            );
+            let group = self.bind(
+                &self.pipelines.gather,
+                &[
+                    entry(0, &self.nodes),
+                    entry(1, &self.triangles),
+                    entry(5, &self.tree),
+                    entry(6, &self.surfaces),
+                    entry(7, &self.element_buffer),
+                    entry(8, &self.receivers),
+                    entry(9, &self.total),
+                    entry(10, &self.sources.buffer),
+                    entry(11, &self.bins.buffer),
+                    entry(12, &self.shot_irradiance),
+                    entry(13, &uniform),
+                    entry(14, &self.counters),
+                ],
+            );
+            groups.push((group, (n as u32).div_ceil(WORKGROUP)));
+        }
+        let zero = self.bind(
+            &self.pipelines.zero_shooter,
+            &[
+                entry(15, &self.unshot),
+                entry(19, &self.items),
+                entry(22, &book),
+            ],
+        );
+        let receive = self.bind(
+            &self.pipelines.receive,
+            &[
+                entry(7, &self.element_buffer),
+                entry(12, &self.shot_irradiance),
+                entry(15, &self.unshot),
+                entry(16, &self.element_book),
+                entry(17, &self.partials),
+                entry(22, &book),
+            ],
+        );
+        let accumulate = self.bind(
+            &self.pipelines.accumulate,
+            &[
+                entry(9, &self.total),
+                entry(12, &self.shot_irradiance),
+                entry(22, &book),
+            ],
+        );
+        let powers = self.bind(
+            &self.pipelines.shooter_powers,
+            &[
+                entry(15, &self.unshot),
+                entry(16, &self.element_book),
+                entry(18, &self.shooter_items),
+                entry(19, &self.items),
+                entry(20, &self.powers),
+                entry(22, &book),
+            ],
+        );
+        let kernel_start = Instant::now();
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("shot"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipelines.gather);
+            for (group, workgroups) in &groups {
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(*workgroups, 1, 1);
+            }
+            pass.set_pipeline(&self.pipelines.zero_shooter);
+            pass.set_bind_group(0, &zero, &[]);
+            pass.dispatch_workgroups((last - first).div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
+            pass.set_pipeline(&self.pipelines.receive);
+            pass.set_bind_group(0, &receive, &[]);
+            pass.dispatch_workgroups(self.elements.div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
+            pass.set_pipeline(&self.pipelines.accumulate);
+            pass.set_bind_group(0, &accumulate, &[]);
+            pass.dispatch_workgroups((count as u32).div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
+            pass.set_pipeline(&self.pipelines.shooter_powers);
+            pass.set_bind_group(0, &powers, &[]);
+            pass.dispatch_workgroups(self.shooters.div_ceil(64).max(1), 1, 1);
+        }
+        let powers_bytes = 4 * u64::from(self.shooters);
+        let partial_count = u64::from(self.elements.div_ceil(BOOK_WORKGROUP).max(1));
+        let partial_bytes = partial_count * size_of::<GpuPartial>() as u64;
+        let counter_bytes = 4 * COUNTERS as u64;
+        if powers_bytes > 0 {
+            encoder.copy_buffer_to_buffer(&self.powers, 0, &self.readback, 0, powers_bytes);
+        }
+        encoder.copy_buffer_to_buffer(
+            &self.partials,
+            0,
+            &self.readback,
+            powers_bytes,
+            partial_bytes,
+        );
+        encoder.copy_buffer_to_buffer(
+            &self.counters,
+            0,
+            &self.readback,
+            powers_bytes + partial_bytes,
+            counter_bytes,
+        );
+        let bytes = self.finish(encoder, powers_bytes + partial_bytes + counter_bytes)?;
+        let readback_start = Instant::now();
+        let words: &[f32] = bytemuck::cast_slice(&bytes);
+        let shooter_power = words[..self.shooters as usize]
+            .iter()
+            .map(|&p| f64::from(p))
+            .collect();
+        let partials: &[GpuPartial] = bytemuck::cast_slice(
+            &bytes[powers_bytes as usize..(powers_bytes + partial_bytes) as usize],
+        );
+        let (mut incident, mut absorbed, mut unshot_power) =
+            (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+        for p in partials {
+            incident += dvec3(&p.incident);
+            absorbed += dvec3(&p.absorbed);
+            unshot_power += dvec3(&p.unshot);
+        }
+        let counts: &[u32] =
+            bytemuck::cast_slice(&bytes[(powers_bytes + partial_bytes) as usize..]);
+        Ok(Booked {
+            received: Received { incident, absorbed },
+            unshot_power,
+            shooter_power,
+            pairs: u64::from(counts[0]),
+            rays: u64::from(counts[1]),
+            walks: u64::from(counts[2]),
+            node_visits: u64::from(counts[3]),
+            element_sources: u64::from(counts[4]),
+            upload_time: kernel_start - upload_start,
+            kernel_time: readback_start - kernel_start,
+            readback_time: readback_start.elapsed(),
+        })
+    }
+}
+
+impl AdaptiveTransfers for GpuTransfers {
+    fn begin(&mut self, irradiance: &[DVec3], unshot: &[DVec3]) -> Result<(), DeviceError> {
+        let total: Vec<[f32; 4]> = self
+            .order
+            .iter()
+            .map(|&r| vec4(irradiance[r as usize]))
+            .collect();
+        let unshot: Vec<[f32; 4]> = unshot.iter().map(|&u| vec4(u)).collect();
+        self.scoped(|| {
+            self.gpu
+                .queue
+                .write_buffer(&self.total, 0, bytemuck::cast_slice(&total));
+            self.gpu
+                .queue
+                .write_buffer(&self.unshot, 0, bytemuck::cast_slice(&unshot));
+            Ok(())
+        })
+    }
+
+    fn unshot(&mut self, first: u32, last: u32) -> Result<Vec<DVec3>, DeviceError> {
+        if last <= first {
+            return Ok(Vec::new());
+        }
+        self.scoped(|| {
+            let book = self.book(first, last);
+            let group = self.bind(
+                &self.pipelines.collect,
+                &[
+                    entry(15, &self.unshot),
+                    entry(19, &self.items),
+                    entry(21, &self.staging),
+                    entry(22, &book),
+                ],
+            );
+            let mut encoder = self.encoder("collect");
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("collect"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipelines.collect);
+                pass.set_bind_group(0, &group, &[]);
+                pass.dispatch_workgroups((last - first).div_ceil(BOOK_WORKGROUP), 1, 1);
+            }
+            let bytes = 16 * u64::from(last - first);
+            encoder.copy_buffer_to_buffer(&self.staging, 0, &self.readback, 0, bytes);
+            let data = self.finish(encoder, bytes)?;
+            let words: &[f32] = bytemuck::cast_slice(&data);
+            Ok(words.chunks_exact(4).map(dvec3).collect())
+        })
+    }
+
+    fn shoot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError> {
+        if shot.abort.fired() {
+            return Ok(None);
+        }
+        if self.order.is_empty() || shot.sources.nodes.is_empty() {
+            return Err(DeviceError("a shot with no receivers or no sources".into()));
+        }
+        let scope = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let result = self.shot(shot);
+        let out_of_memory = pollster::block_on(memory.pop());
+        let invalid = pollster::block_on(scope.pop());
+        if let Some(e) = out_of_memory.or(invalid) {
+            return Err(self.failed(e));
+        }
+        result.map(Some)
+    }
+
+    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError> {
+        let r = 16 * self.order.len() as u64;
+        let e = 16 * u64::from(self.elements);
+        let data = self.scoped(|| {
+            let mut encoder = self.encoder("state");
+            if r > 0 {
+                encoder.copy_buffer_to_buffer(&self.total, 0, &self.readback, 0, r);
+            }
+            if e > 0 {
+                encoder.copy_buffer_to_buffer(&self.unshot, 0, &self.readback, r, e);
+            }
+            self.finish(encoder, r + e)
+        })?;
+        let words: &[f32] = bytemuck::cast_slice(&data);
+        for (&k, v) in self.order.iter().zip(words.chunks_exact(4)) {
+            irradiance[k as usize] = dvec3(v);
+        }
+        for (u, v) in unshot
+            .iter_mut()
+            .zip(words[(r / 4) as usize..].chunks_exact(4))
+        {
+            *u = dvec3(v);
+        }
+        Ok(())
+    }
+}
