@@ -8,13 +8,16 @@
 //!
 //! What is the same for a whole solve goes to the device once: the scene's
 //! triangles and BVH, the element tree, the elements (corners, centroid,
-//! area), the surfaces' planes and the receivers in the receiver tree's
-//! order (neighbours in one workgroup walk alike). Each shot uploads its
+//! area, reflectance), the surfaces' planes and the receivers in the
+//! receiver tree's order (neighbours in one workgroup walk alike); so does
+//! the state, each receiver's irradiance and each element's unshot
+//! radiosity, which stays there ([`transfers`]). Each shot uploads its
 //! subtree's sources (power in bins by normal, with their centres and
 //! covariances worked out in `f64` on the host, so the kernel never
-//! subtracts large sums) and each receiver's negligible irradiance, and
-//! reads back each receiver's irradiance and counts. The loop, the choice
-//! of shooter and the book-keeping stay on the host, shared with the CPU.
+//! subtracts large sums), runs the walk and the book-keeping
+//! (`book.wgsl`), and reads back the shooters' powers and the ledger's
+//! sums. The loop, the choice of shooter and the preparation of its sources
+//! stay on the host, shared with the CPU.
 //!
 //! Points are two `f32`s relative to the scene's centre, and the kernel
 //! works with differences taken from the receiver (or the shot's centre),

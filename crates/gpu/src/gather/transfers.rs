@@ -619,28 +619,39 @@ impl GpuTransfers {
             ],
         );
         let kernel_start = Instant::now();
-        {
+        let stages: [(&wgpu::ComputePipeline, Vec<(&wgpu::BindGroup, u32)>); 5] = [
+            (
+                &self.pipelines.gather,
+                groups.iter().map(|(g, w)| (g, *w)).collect(),
+            ),
+            (
+                &self.pipelines.zero_shooter,
+                vec![(&zero, (last - first).div_ceil(BOOK_WORKGROUP).max(1))],
+            ),
+            (
+                &self.pipelines.receive,
+                vec![(&receive, self.elements.div_ceil(BOOK_WORKGROUP).max(1))],
+            ),
+            (
+                &self.pipelines.accumulate,
+                vec![(&accumulate, (count as u32).div_ceil(BOOK_WORKGROUP).max(1))],
+            ),
+            (
+                &self.pipelines.shooter_powers,
+                vec![(&powers, self.shooters.div_ceil(64).max(1))],
+            ),
+        ];
+        // A pass a stage: each reads what the one before wrote.
+        for (pipeline, dispatches) in &stages {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("shot"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&self.pipelines.gather);
-            for (group, workgroups) in &groups {
-                pass.set_bind_group(0, group, &[]);
+            pass.set_pipeline(pipeline);
+            for (group, workgroups) in dispatches {
+                pass.set_bind_group(0, *group, &[]);
                 pass.dispatch_workgroups(*workgroups, 1, 1);
             }
-            pass.set_pipeline(&self.pipelines.zero_shooter);
-            pass.set_bind_group(0, &zero, &[]);
-            pass.dispatch_workgroups((last - first).div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
-            pass.set_pipeline(&self.pipelines.receive);
-            pass.set_bind_group(0, &receive, &[]);
-            pass.dispatch_workgroups(self.elements.div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
-            pass.set_pipeline(&self.pipelines.accumulate);
-            pass.set_bind_group(0, &accumulate, &[]);
-            pass.dispatch_workgroups((count as u32).div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
-            pass.set_pipeline(&self.pipelines.shooter_powers);
-            pass.set_bind_group(0, &powers, &[]);
-            pass.dispatch_workgroups(self.shooters.div_ceil(64).max(1), 1, 1);
         }
         let powers_bytes = 4 * u64::from(self.shooters);
         let partial_count = u64::from(self.elements.div_ceil(BOOK_WORKGROUP).max(1));

@@ -305,8 +305,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         .find_map(|d| d.fault.as_ref().map(|f| (d.name.clone(), f.clone())))
         .map(|(name, fault)| {
             format!(
-                "the device {} failed ({fault}): the solve went on on the CPU from the shot it \
-                 was in",
+                "the device {} failed ({fault}): the solve went back to its last checkpoint and \
+                 on on the CPU",
                 name.unwrap_or_default()
             )
         });
