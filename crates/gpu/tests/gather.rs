@@ -179,8 +179,8 @@ fn relative_l1(gpu: &[DVec3], cpu: &[DVec3]) -> f64 {
 
 /// Every built-in scene solved to the default's convergence on both
 /// devices: radiosity within 0.5% L1 of the CPU's, every shot of a surface
-/// on the GPU, and (the Cornell box) a rerun on the GPU the same to the
-/// last bit.
+/// on the GPU, and (the Cornell box) a rerun on the GPU, and one with the
+/// walk cut into dispatches of 1,000 receivers, the same to the last bit.
 #[test]
 fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
     let Some(gpu) = gpu() else { return };
@@ -231,6 +231,17 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
         assert!(
             again.iter().zip(&on_gpu).all(|(a, b)| a == b),
             "{name}: a rerun on the same adapter differs"
+        );
+        // The walk cut into many dispatches, each its own submission:
+        // the same answer to the last bit.
+        let chunked = Device::backend(Arc::new(
+            GpuBackend::new(Gpu::open(DeviceChoice::Gpu).unwrap().unwrap())
+                .with_dispatch_receivers(1000),
+        ));
+        let (cut, _, _) = solve(chunked);
+        assert!(
+            cut.iter().zip(&on_gpu).all(|(a, b)| a == b),
+            "{name}: the walk in dispatches of 1,000 receivers differs"
         );
     }
 }

@@ -63,6 +63,8 @@ pub struct GpuBackend {
     gpu: Arc<Gpu>,
     /// The most device memory a solve may take (`--max-gpu-memory`).
     max_memory: Option<u64>,
+    /// Receivers a dispatch of the walk takes at most.
+    dispatch_receivers: usize,
 }
 
 impl GpuBackend {
@@ -72,7 +74,17 @@ impl GpuBackend {
         GpuBackend {
             gpu: Arc::new(gpu),
             max_memory: None,
+            dispatch_receivers: DISPATCH_RECEIVERS,
         }
+    }
+
+    /// The same, its walk dispatched `receivers` receivers at a time (at
+    /// least one; [`DISPATCH_RECEIVERS`] by default): how the work is cut
+    /// never changes the answer.
+    #[must_use]
+    pub fn with_dispatch_receivers(mut self, receivers: usize) -> GpuBackend {
+        self.dispatch_receivers = receivers.max(1);
+        self
     }
 
     /// The same, taking at most `bytes` of device memory a solve.
@@ -135,7 +147,11 @@ impl Backend for GpuBackend {
         &self,
         solve: &AdaptiveSolve<'_>,
     ) -> Result<Box<dyn AdaptiveTransfers>, DeviceError> {
-        Ok(Box::new(GpuTransfers::new(self.gpu.clone(), solve)?))
+        Ok(Box::new(GpuTransfers::new(
+            self.gpu.clone(),
+            solve,
+            self.dispatch_receivers,
+        )?))
     }
 }
 

@@ -25,7 +25,7 @@ use super::buffers::{
     GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuShot,
     GpuSurface, GpuTreeNode,
 };
-use super::{DISPATCH_RECEIVERS, MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
+use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
 use crate::trace::{self, entry, nonempty, split, storage};
 
@@ -95,6 +95,8 @@ pub(super) struct GpuTransfers {
     ranges: Vec<[u32; 2]>,
     elements: u32,
     shooters: u32,
+    /// Receivers a dispatch of the walk takes at most.
+    dispatch_receivers: usize,
     pipelines: Pipelines,
     nodes: wgpu::Buffer,
     triangles: wgpu::Buffer,
@@ -157,6 +159,7 @@ impl GpuTransfers {
     pub(super) fn new(
         gpu: Arc<Gpu>,
         solve: &AdaptiveSolve<'_>,
+        dispatch_receivers: usize,
     ) -> Result<GpuTransfers, DeviceError> {
         let limits = gpu.device.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
@@ -339,6 +342,7 @@ impl GpuTransfers {
             ranges: tree.nodes.iter().map(|n| [n.first, n.last]).collect(),
             elements: e as u32,
             shooters: s as u32,
+            dispatch_receivers,
             pipelines,
             nodes: storage(&gpu, "nodes", &nonempty(bvh_nodes)),
             triangles: storage(&gpu, "triangles", &nonempty(ordered)),
@@ -530,8 +534,9 @@ impl GpuTransfers {
         (nodes, bins)
     }
 
-    /// One shot's commands and readback (inside an error scope).
-    fn shot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Booked, DeviceError> {
+    /// One shot's commands and readback (inside an error scope); `None`
+    /// when abandoned between two chunks of the walk, nothing booked.
+    fn shot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError> {
         let gpu = self.gpu.clone();
         let upload_start = Instant::now();
         let (nodes, bins) = self.sources(shot);
@@ -545,8 +550,8 @@ impl GpuTransfers {
         let mut encoder = self.encoder("shot");
         encoder.clear_buffer(&self.counters, 0, None);
         let mut groups = Vec::new();
-        for start in (0..count).step_by(DISPATCH_RECEIVERS) {
-            let n = DISPATCH_RECEIVERS.min(count - start);
+        for start in (0..count).step_by(self.dispatch_receivers) {
+            let n = self.dispatch_receivers.min(count - start);
             let uniform = uniform(
                 &gpu,
                 "shot",
@@ -619,39 +624,58 @@ impl GpuTransfers {
             ],
         );
         let kernel_start = Instant::now();
-        let stages: [(&wgpu::ComputePipeline, Vec<(&wgpu::BindGroup, u32)>); 5] = [
-            (
-                &self.pipelines.gather,
-                groups.iter().map(|(g, w)| (g, *w)).collect(),
-            ),
+        // The walk, one submission a chunk of receivers: none runs long
+        // enough to trip a driver's watchdog, and the shot can be
+        // abandoned between them, before anything is booked.
+        let mut encoder = Some(encoder);
+        for (k, (group, workgroups)) in groups.iter().enumerate() {
+            if k > 0 && shot.abort.fired() {
+                return Ok(None);
+            }
+            let mut chunk = encoder.take().unwrap_or_else(|| self.encoder("walk"));
+            {
+                let mut pass = chunk.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("walk"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipelines.gather);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(*workgroups, 1, 1);
+            }
+            gpu.queue.submit([chunk.finish()]);
+        }
+        let mut encoder = self.encoder("book");
+        let stages: [(&wgpu::ComputePipeline, &wgpu::BindGroup, u32); 4] = [
             (
                 &self.pipelines.zero_shooter,
-                vec![(&zero, (last - first).div_ceil(BOOK_WORKGROUP).max(1))],
+                &zero,
+                (last - first).div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.receive,
-                vec![(&receive, self.elements.div_ceil(BOOK_WORKGROUP).max(1))],
+                &receive,
+                self.elements.div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.accumulate,
-                vec![(&accumulate, (count as u32).div_ceil(BOOK_WORKGROUP).max(1))],
+                &accumulate,
+                (count as u32).div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.shooter_powers,
-                vec![(&powers, self.shooters.div_ceil(64).max(1))],
+                &powers,
+                self.shooters.div_ceil(64).max(1),
             ),
         ];
         // A pass a stage: each reads what the one before wrote.
-        for (pipeline, dispatches) in &stages {
+        for (pipeline, group, workgroups) in stages {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("shot"),
+                label: Some("book"),
                 timestamp_writes: None,
             });
             pass.set_pipeline(pipeline);
-            for (group, workgroups) in dispatches {
-                pass.set_bind_group(0, *group, &[]);
-                pass.dispatch_workgroups(*workgroups, 1, 1);
-            }
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
         }
         let powers_bytes = 4 * u64::from(self.shooters);
         let partial_count = u64::from(self.elements.div_ceil(BOOK_WORKGROUP).max(1));
@@ -693,7 +717,7 @@ impl GpuTransfers {
         }
         let counts: &[u32] =
             bytemuck::cast_slice(&bytes[(powers_bytes + partial_bytes) as usize..]);
-        Ok(Booked {
+        Ok(Some(Booked {
             received: Received { incident, absorbed },
             unshot_power,
             shooter_power,
@@ -705,7 +729,7 @@ impl GpuTransfers {
             upload_time: kernel_start - upload_start,
             kernel_time: readback_start - kernel_start,
             readback_time: readback_start.elapsed(),
-        })
+        }))
     }
 }
 
@@ -782,7 +806,7 @@ impl AdaptiveTransfers for GpuTransfers {
         if let Some(e) = out_of_memory.or(invalid) {
             return Err(self.failed(e));
         }
-        result.map(Some)
+        result
     }
 
     fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError> {
