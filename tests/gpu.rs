@@ -4,7 +4,7 @@
 //! GPU; the values at sensor points, the same points whatever mesh each
 //! device's coarse pass refined, agree within 0.5% L1), and the clear
 //! errors: settings the GPU does not run, a solve over `--max-gpu-memory`,
-//! and no adapter at all.
+//! and no adapter at all; and the lights' shots through the GPU.
 //!
 //! Without an adapter the comparison says it did not run, unless
 //! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
@@ -254,4 +254,94 @@ fn no_adapter_is_one_clear_error() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert_eq!(stats(&dir.path().join("s.json"))["device"], "cpu");
+}
+
+/// The lights' shots on the GPU: a lamp room (point lights) and a window
+/// room (sun and clear sky) shot by their lights alone on both devices.
+/// The host draws every point and direction, the GPU answers their shadow
+/// segments: the same irradiance to `f32` round-off, every light's shot
+/// counted on the GPU.
+#[test]
+fn lights_shoot_through_the_gpu() {
+    if !adapter() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/experiments/scenes");
+    for (scene, daylight) in [
+        ("lamp_room", &[][..]),
+        (
+            "window_room",
+            &[
+                "--sun",
+                "35",
+                "200",
+                "60000",
+                "--sky",
+                "clear",
+                "--sky-illuminance",
+                "12000",
+            ][..],
+        ),
+    ] {
+        let path = scenes.join(format!("{scene}.obj"));
+        for device in ["cpu", "gpu"] {
+            let mut args = vec![
+                "render".to_string(),
+                path.to_string_lossy().into_owned(),
+                "--device".into(),
+                device.into(),
+                "--max-shots".into(),
+                "2".into(),
+                "--refine-levels".into(),
+                "0".into(),
+                "--width".into(),
+                "16".into(),
+                "--height".into(),
+                "12".into(),
+                "--output".into(),
+                format!("{scene}-{device}.png"),
+                "--vertices".into(),
+                format!("{scene}-{device}.csv"),
+                "--stats".into(),
+                format!("{scene}-{device}.json"),
+                "--quiet".into(),
+            ];
+            args.extend(daylight.iter().map(|s| s.to_string()));
+            let out = run(
+                dir.path(),
+                &args.iter().map(String::as_str).collect::<Vec<_>>(),
+            );
+            assert!(
+                out.status.success(),
+                "{scene} {device}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        let gpu = stats(&dir.path().join(format!("{scene}-gpu.json")));
+        assert_eq!(gpu["lights"].as_array().unwrap().len(), 2, "{scene}");
+        assert_eq!(gpu["shots"], 2, "{scene}: the lights alone");
+        assert_eq!(gpu["device_shots"], 2, "{scene}: both lights on the GPU");
+        assert!(gpu["device_fault"].is_null(), "{}", gpu["device_fault"]);
+        let values = |device: &str| -> Vec<f64> {
+            std::fs::read_to_string(dir.path().join(format!("{scene}-{device}.csv")))
+                .unwrap()
+                .lines()
+                .skip(1)
+                .map(|line| {
+                    let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+                    0.2126 * v[7] + 0.7152 * v[8] + 0.0722 * v[9]
+                })
+                .collect()
+        };
+        let (c, g) = (values("cpu"), values("gpu"));
+        assert_eq!(c.len(), g.len());
+        let diff: f64 = c.iter().zip(&g).map(|(a, b)| (a - b).abs()).sum();
+        let total: f64 = c.iter().sum();
+        assert!(
+            diff / total < 1e-5,
+            "{scene}: the lights' shots differ by {} (L1)",
+            diff / total
+        );
+    }
 }

@@ -184,11 +184,10 @@ pub fn print_summary(o: &Outcome) {
     );
     if let Some(name) = &o.device.name {
         println!(
-            "device: {name}: {} of {} shots ({} surface shots, the lights' on the CPU){}; \
-             upload {:.2} s, kernels {:.2} s, readback {:.2} s",
+            "device: {name}: {} of {} shots{}; upload {:.2} s, kernels {:.2} s, readback \
+             {:.2} s",
             o.device.device_shots,
             o.stats.shots,
-            o.stats.shots.saturating_sub(o.lights.len() as u64),
             if c.coarse_shots > 0 {
                 format!(
                     "; coarse pass {} of {} shots",

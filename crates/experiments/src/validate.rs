@@ -617,7 +617,7 @@ fn gpu_comparison(results: &[Validated]) -> Option<String> {
         format!(
             "The default on the GPU ({ON_GPU}, `--device`) against the CPU: {}. Each refines \
              its own mesh from its own coarse pass, so the two are compared at the sensor \
-             points; the lights' shots run on the CPU.",
+             points.",
             lines.join("; ")
         )
     })

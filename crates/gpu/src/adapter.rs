@@ -48,7 +48,9 @@ pub enum GpuError {
     },
 }
 
-/// An open device and its queue.
+/// An open device and its queue (a clone is another handle to the same
+/// device).
+#[derive(Clone)]
 pub struct Gpu {
     /// The device kernels and buffers are made on.
     pub device: wgpu::Device,

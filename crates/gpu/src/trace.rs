@@ -129,21 +129,11 @@ pub struct GpuDispatch {
     pub pad1: u32,
 }
 
-/// A shadow segment: does a surface other than `skip`'s cross the open
-/// segment `from -> to`?
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Segment {
-    /// Start (world coordinates).
-    pub from: DVec3,
-    /// End.
-    pub to: DVec3,
-    /// Surface ids not to test (the source's and the receiver's).
-    pub skip: [u32; 2],
-}
+pub use radiosity::solver::device::Segment;
 
 /// The scene's triangles and their BVH on the device, ready to trace.
-pub struct SceneTracer<'g> {
-    gpu: &'g Gpu,
+pub struct SceneTracer {
+    gpu: Gpu,
     origin: DVec3,
     pipeline: wgpu::ComputePipeline,
     nodes: wgpu::Buffer,
@@ -238,13 +228,13 @@ pub(crate) fn centre_and_scale(surfaces: &[Surface]) -> (DVec3, f64) {
     }
 }
 
-impl<'g> SceneTracer<'g> {
+impl SceneTracer {
     /// Uploads `surfaces`' triangles and their BVH to `gpu`.
     ///
     /// # Errors
     ///
     /// When the device refuses the buffers or the kernel.
-    pub fn new(gpu: &'g Gpu, surfaces: &[Surface]) -> Result<SceneTracer<'g>, GpuError> {
+    pub fn new(gpu: &Gpu, surfaces: &[Surface]) -> Result<SceneTracer, GpuError> {
         let (origin, scale) = centre_and_scale(surfaces);
         let triangles = triangles(surfaces, origin);
         // A few f32 round-offs of the scene's size: the slab test's error.
@@ -285,7 +275,7 @@ impl<'g> SceneTracer<'g> {
             return Err(gpu.failed(e));
         }
         Ok(SceneTracer {
-            gpu,
+            gpu: gpu.clone(),
             origin,
             pipeline,
             nodes,
@@ -326,7 +316,7 @@ impl<'g> SceneTracer<'g> {
 
     /// [`SceneTracer::occluded`] for segments that fit one upload.
     fn occluded_chunk(&self, segments: &[Segment]) -> Result<Vec<bool>, GpuError> {
-        let gpu = self.gpu;
+        let gpu = &self.gpu;
         let gpu_segments: Vec<GpuSegment> = segments
             .iter()
             .map(|s| {
@@ -424,6 +414,18 @@ impl<'g> SceneTracer<'g> {
         let view = slice.get_mapped_range().map_err(|e| gpu.failed(e))?;
         let words: &[u32] = bytemuck::cast_slice(&view);
         Ok(words.iter().map(|&w| w != 0).collect())
+    }
+}
+
+/// The lights' shadow segments of a solve on the GPU
+/// ([`radiosity::solver::device::Segments`]).
+impl radiosity::solver::device::Segments for SceneTracer {
+    fn occluded(
+        &self,
+        segments: &[Segment],
+    ) -> Result<Vec<bool>, radiosity::solver::device::DeviceError> {
+        SceneTracer::occluded(self, segments)
+            .map_err(|e| radiosity::solver::device::DeviceError(e.to_string()))
     }
 }
 

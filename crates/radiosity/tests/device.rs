@@ -25,6 +25,13 @@ impl Backend for Tiny {
         panic!("a solve it cannot hold must not start on it")
     }
 
+    fn segments(
+        &self,
+        _: &Scene,
+    ) -> Result<Box<dyn radiosity::solver::device::Segments>, DeviceError> {
+        Err(DeviceError("no segments on this device".into()))
+    }
+
     fn check(&self, _: &Scene, mesh: &Mesh, receivers: usize) -> Result<u64, DeviceError> {
         Err(DeviceError(format!(
             "{} elements and {receivers} receivers do not fit",

@@ -201,8 +201,8 @@ fn device_paragraph(report: &mut Report, cases: &[Case]) {
             let run = case.result.as_ref().ok()?;
             (run.device != "cpu").then(|| {
                 format!(
-                    "{} on {}: {} of {} shots on the GPU ({} of the coarse pass's), the rest \
-                     the lights' (on the CPU); mesh {} (the coarse pass included), solve {} \
+                    "{} on {}: {} of {} shots on the GPU ({} of the coarse pass's); mesh {} \
+                     (the coarse pass included), solve {} \
                      (of which the GPU's shots: upload {}, kernels {}, readback {}; \
                      book-keeping on the host {})",
                     case.scene,

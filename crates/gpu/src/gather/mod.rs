@@ -143,6 +143,15 @@ impl Backend for GpuBackend {
         Ok(total)
     }
 
+    fn segments(
+        &self,
+        scene: &radiosity::scene::Scene,
+    ) -> Result<Box<dyn radiosity::solver::device::Segments>, DeviceError> {
+        crate::trace::SceneTracer::new(&self.gpu, &scene.surfaces)
+            .map(|t| Box::new(t) as Box<dyn radiosity::solver::device::Segments>)
+            .map_err(|e| DeviceError(e.to_string()))
+    }
+
     fn adaptive(
         &self,
         solve: &AdaptiveSolve<'_>,

@@ -214,8 +214,8 @@ pub struct StatsFile {
     /// The device the transfers ran on: `cpu`, or the GPU adapter's name
     /// and backend.
     pub device: String,
-    /// Shots whose transfers ran on that device (a GPU: every surface's
-    /// shot unless it failed; the lights shoot on the CPU).
+    /// Shots that ran on that device (a GPU: every shot unless it failed;
+    /// a light's shot draws its points on the host and traces them there).
     pub device_shots: u64,
     /// Why the device stopped being used, when it failed (`null`
     /// otherwise): the solve went on on the CPU.

@@ -57,6 +57,37 @@ pub trait Backend: Send + Sync {
     ///
     /// When the solve would not fit.
     fn check(&self, scene: &Scene, mesh: &Mesh, receivers: usize) -> Result<u64, DeviceError>;
+
+    /// The scene's surfaces on the device, to answer shadow segments many
+    /// at a time: the lights' shots (made on the host, which draws their
+    /// points and directions, as on the CPU) send it theirs.
+    ///
+    /// # Errors
+    ///
+    /// When the device cannot hold or run them.
+    fn segments(&self, scene: &Scene) -> Result<Box<dyn Segments>, DeviceError>;
+}
+
+/// A shadow segment: is it crossed by a surface other than those of
+/// `skip` (as [`crate::accel::Occluder::occluded`])?
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// Start.
+    pub from: DVec3,
+    /// End.
+    pub to: DVec3,
+    /// Surface ids not to test.
+    pub skip: [u32; 2],
+}
+
+/// Shadow segments answered many at a time, on a device.
+pub trait Segments: Send + Sync {
+    /// Whether each segment is blocked.
+    ///
+    /// # Errors
+    ///
+    /// When the device fails.
+    fn occluded(&self, segments: &[Segment]) -> Result<Vec<bool>, DeviceError>;
 }
 
 /// What adaptive shooting's transfers keep for a whole solve.

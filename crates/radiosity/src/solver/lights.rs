@@ -17,7 +17,12 @@
 //!
 //! Receivers are independent (a sky's directions come from a generator
 //! seeded by the receiver's index), so the result does not depend on the
-//! number of threads.
+//! number of threads. A shot works a chunk of receivers (or elements) at a
+//! time: every point and direction drawn first, then all their shadow
+//! segments answered at once, by the scene's occluder or by a device that
+//! traces them in bulk ([`crate::solver::device::Segments`], the GPU), then
+//! each receiver's sum in its own order: the same answer either way, to the
+//! device's round-off.
 
 use std::time::Instant;
 
@@ -25,6 +30,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Stats;
+use super::device::{DeviceError, Segment, Segments};
 use super::method::ShotInputs;
 use crate::accel;
 use crate::scene::{Light, LightKind, Scene, sky};
@@ -68,20 +74,91 @@ pub struct LightShot {
 }
 
 /// `light`'s shot: its irradiance at every receiver ([`gather`]) and the
-/// elements integrated across its edges ([`element_means`]); `None` if the
-/// shot's abort fired.
-pub fn shoot(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<LightShot> {
-    let irradiance = gather(light, inputs, stats)?;
-    let element_means = element_means(light, inputs, &irradiance, stats)?;
-    Some(LightShot {
+/// elements integrated across its edges ([`element_means`]); `Ok(None)` if
+/// the shot's abort fired. Its shadow segments are answered by `device`,
+/// many at a time, when one is given (an error when it fails: the shot can
+/// be made again without it), else by the scene's occluder.
+///
+/// # Errors
+///
+/// When `device` fails.
+pub fn shoot(
+    light: &Light,
+    inputs: &ShotInputs<'_>,
+    device: Option<&dyn Segments>,
+    stats: &mut Stats,
+) -> Result<Option<LightShot>, DeviceError> {
+    let mut counted = Stats::default();
+    let Some(irradiance) = gather(light, inputs, device, &mut counted)? else {
+        return Ok(None);
+    };
+    let Some(element_means) = element_means(light, inputs, &irradiance, device, &mut counted)?
+    else {
+        return Ok(None);
+    };
+    stats.pairs += counted.pairs;
+    stats.rays_cast += counted.rays_cast;
+    stats.gather_time += counted.gather_time;
+    Ok(Some(LightShot {
         irradiance,
         element_means,
-    })
+    }))
 }
 
-/// The irradiance `light` sends to each receiver, or `None` if the shot's
-/// abort fired first.
-pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Vec<DVec3>> {
+/// Whether each segment is blocked: by `device`, or by the scene's
+/// occluder (in parallel).
+fn answer(
+    inputs: &ShotInputs<'_>,
+    device: Option<&dyn Segments>,
+    segments: &[Segment],
+) -> Result<Vec<bool>, DeviceError> {
+    match device {
+        Some(device) => device.occluded(segments),
+        None => Ok(segments
+            .par_iter()
+            .map(|s| inputs.occluder.occluded(s.from, s.to, s.skip))
+            .collect()),
+    }
+}
+
+/// The shadow segment from `from` (a light, or for a distant light a point
+/// beyond the scene) to `point`, clear when no surface but those of `skip`
+/// crosses it.
+fn segment(from: DVec3, point: DVec3, skip: [u32; 2], distant: bool) -> Segment {
+    let (a, b) = if distant {
+        // The far end lies outside the scene. The receiver's end stays
+        // where it is: moved towards the sky it could step through a
+        // surface meeting the receiver's at an edge (a ceiling over a wall's
+        // top vertices, which lie only the gathering nudge below it). It
+        // lies off every other surface already: the nudge moves it well
+        // inside its own, away from any neighbour's edge tolerance, and its
+        // own surface id is skipped.
+        (from, point)
+    } else {
+        accel::shorten(from, point)
+    };
+    Segment {
+        from: a,
+        to: b,
+        skip,
+    }
+}
+
+/// The irradiance `light` sends to each receiver, or `Ok(None)` if the
+/// shot's abort fired first. A chunk of receivers at a time: what each
+/// would receive unblocked and its shadow segments, then every segment of
+/// the chunk answered at once ([`answer`]), then each receiver's sum in its
+/// own order.
+///
+/// # Errors
+///
+/// When `device` fails.
+pub fn gather(
+    light: &Light,
+    inputs: &ShotInputs<'_>,
+    device: Option<&dyn Segments>,
+    stats: &mut Stats,
+) -> Result<Option<Vec<DVec3>>, DeviceError> {
     let start = Instant::now();
     let reach = sun_reach(inputs.scene);
     let distant = light.position().is_none();
@@ -99,83 +176,62 @@ pub fn gather(light: &Light, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Opti
         .zip(irradiance.chunks_mut(CHUNK))
     {
         if inputs.abort.fired() {
-            return None;
+            return Ok(None);
         }
         let first = chunk_start;
-        let counts = chunk
+        // Each receiver's unblocked irradiances and their segments.
+        let candidates: Vec<Vec<(DVec3, Segment)>> = chunk
             .par_iter()
-            .zip(out.par_iter_mut())
             .enumerate()
-            .map(|(k, (r, e))| {
+            .map(|(k, r)| {
                 // A point light skips no surface; the sun's or the sky's
                 // far end none either (it lies outside the scene).
                 let skip = [NO_SURFACE, r.group];
-                let unblocked = |(unblocked, from): (DVec3, DVec3)| {
-                    if unblocked == DVec3::ZERO {
-                        return None;
-                    }
-                    let seen = sees(inputs.occluder, from, r.point, skip, distant);
-                    Some(seen.then_some(unblocked))
+                let candidate = |(unblocked, from): (DVec3, DVec3)| {
+                    (unblocked != DVec3::ZERO)
+                        .then(|| (unblocked, segment(from, r.point, skip, distant)))
                 };
                 if patches.is_empty() {
-                    return match unblocked(light.irradiance(r.point, r.normal, reach)) {
-                        None => (0, 0),
-                        Some(seen) => {
-                            *e = seen.unwrap_or(DVec3::ZERO);
-                            (1, 1)
-                        }
-                    };
+                    return candidate(light.irradiance(r.point, r.normal, reach))
+                        .into_iter()
+                        .collect();
                 }
                 let mut random = Stream::new((first + k) as u64);
-                let mut rays = 0;
-                let mut sum = DVec3::ZERO;
-                for patch in &patches {
-                    let uv = (random.next(), random.next());
-                    if let Some(seen) =
-                        unblocked(light.sky_sample(patch, uv, r.point, r.normal, reach))
-                    {
-                        rays += 1;
-                        sum += seen.unwrap_or(DVec3::ZERO);
-                    }
-                }
-                *e = sum;
-                (u64::from(rays > 0), rays)
+                patches
+                    .iter()
+                    .filter_map(|patch| {
+                        let uv = (random.next(), random.next());
+                        candidate(light.sky_sample(patch, uv, r.point, r.normal, reach))
+                    })
+                    .collect()
             })
-            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+            .collect();
+        let segments: Vec<Segment> = candidates.iter().flatten().map(|c| c.1).collect();
+        let blocked = answer(inputs, device, &segments)?;
+        let mut next = 0;
+        for (e, list) in out.iter_mut().zip(&candidates) {
+            let mut sum = DVec3::ZERO;
+            for (unblocked, _) in list {
+                if !blocked[next] {
+                    sum += *unblocked;
+                }
+                next += 1;
+            }
+            *e = sum;
+            pairs += u64::from(!list.is_empty());
+            rays += list.len() as u64;
+        }
         chunk_start += chunk.len();
-        pairs += counts.0;
-        rays += counts.1;
     }
     stats.pairs += pairs;
     stats.rays_cast += rays;
     stats.gather_time += start.elapsed();
-    Some(irradiance)
+    Ok(Some(irradiance))
 }
 
-/// Whether the shadow segment from `from` (a light, or for a distant light
-/// a point beyond the scene) to `point` is clear of every surface but those
-/// of `skip`.
-fn sees(
-    occluder: &dyn crate::accel::Occluder,
-    from: DVec3,
-    point: DVec3,
-    skip: [u32; 2],
-    distant: bool,
-) -> bool {
-    let (a, b) = if distant {
-        // The far end lies outside the scene. The receiver's end stays
-        // where it is: moved towards the sky it could step through a
-        // surface meeting the receiver's at an edge (a ceiling over a wall's
-        // top vertices, which lie only the gathering nudge below it). It
-        // lies off every other surface already: the nudge moves it well
-        // inside its own, away from any neighbour's edge tolerance, and its
-        // own surface id is skipped.
-        (from, point)
-    } else {
-        accel::shorten(from, point)
-    };
-    !occluder.occluded(a, b, skip)
-}
+/// An element's grid of points: each one's weighted unblocked irradiance
+/// and shadow segment, and the sum of every point's weight.
+type Grid = (Vec<(DVec3, Segment)>, f64);
 
 /// Points per side of an element integrated across a light's edge.
 const SIDE: usize = 8;
@@ -187,16 +243,22 @@ const SIDE: usize = 8;
 /// The mean of an element's corners is what the element reflects in the
 /// end: across a sun patch's edge it errs by the share of the element lit,
 /// which over a whole patch edge does not cancel (a window's sun patch
-/// lost 6% of its power at the default mesh). `Some(None)` for a sky, whose
-/// shadows are soft; `None` if the shot's abort fired.
+/// lost 6% of its power at the default mesh). `Ok(Some(None))` for a sky,
+/// whose shadows are soft; `Ok(None)` if the shot's abort fired. The
+/// segments of a chunk of elements are answered at once ([`answer`]).
+///
+/// # Errors
+///
+/// When `device` fails.
 pub fn element_means(
     light: &Light,
     inputs: &ShotInputs<'_>,
     vertex_irradiance: &[DVec3],
+    device: Option<&dyn Segments>,
     stats: &mut Stats,
-) -> Option<Option<Vec<DVec3>>> {
+) -> Result<Option<Option<Vec<DVec3>>>, DeviceError> {
     if matches!(light.kind, LightKind::Sky { .. }) {
-        return Some(None);
+        return Ok(Some(None));
     }
     let start = Instant::now();
     let (scene, mesh) = (inputs.scene, inputs.mesh);
@@ -210,7 +272,10 @@ pub fn element_means(
             .sum::<DVec3>()
             / corners.len() as f64
     };
-    let integrate = |e: &crate::mesh::Element| {
+    // An element's grid: the weighted unblocked irradiance of each point
+    // and its segment, and the sum of all the points' weights; `None` when
+    // its corners' mean is kept.
+    let grid = |e: &crate::mesh::Element| -> Option<Grid> {
         let corners = e.vertices();
         let values = corners
             .iter()
@@ -219,7 +284,7 @@ pub fn element_means(
             (lo.min(v), hi.max(v))
         });
         if !(max > 0.0 && min < 0.5 * max) {
-            return (corner_mean(e), 0);
+            return None;
         }
         let surface = &scene.surfaces[e.surface as usize];
         let skip = [NO_SURFACE, surface.group];
@@ -227,7 +292,8 @@ pub fn element_means(
             .iter()
             .map(|&c| mesh.vertices[c as usize].position)
             .collect();
-        let (mut sum, mut weights, mut rays) = (DVec3::ZERO, 0.0, 0);
+        let mut points = Vec::with_capacity(SIDE * SIDE);
+        let mut weights = 0.0;
         for i in 0..SIDE {
             for j in 0..SIDE {
                 let u = (i as f64 + 0.5) / SIDE as f64;
@@ -258,28 +324,49 @@ pub fn element_means(
                 if unblocked == DVec3::ZERO {
                     continue;
                 }
-                rays += 1;
-                if sees(inputs.occluder, from, point, skip, distant) {
-                    sum += unblocked * weight;
-                }
+                points.push((unblocked * weight, segment(from, point, skip, distant)));
             }
         }
-        if weights > 0.0 {
-            (sum / weights, rays)
-        } else {
-            (corner_mean(e), rays)
-        }
+        Some((points, weights))
     };
-    let mut integrated: Vec<(DVec3, u64)> = Vec::with_capacity(mesh.elements.len());
+    let mut integrated: Vec<DVec3> = Vec::with_capacity(mesh.elements.len());
+    let mut rays = 0u64;
     for chunk in mesh.elements.chunks(CHUNK) {
         if inputs.abort.fired() {
-            return None;
+            return Ok(None);
         }
-        integrated.par_extend(chunk.par_iter().map(integrate));
+        let grids: Vec<Option<Grid>> = chunk.par_iter().map(grid).collect();
+        let segments: Vec<Segment> = grids
+            .iter()
+            .flatten()
+            .flat_map(|(points, _)| points.iter().map(|p| p.1))
+            .collect();
+        let blocked = answer(inputs, device, &segments)?;
+        rays += segments.len() as u64;
+        let mut next = 0;
+        for (e, g) in chunk.iter().zip(&grids) {
+            integrated.push(match g {
+                None => corner_mean(e),
+                Some((points, weights)) => {
+                    let mut sum = DVec3::ZERO;
+                    for (value, _) in points {
+                        if !blocked[next] {
+                            sum += *value;
+                        }
+                        next += 1;
+                    }
+                    if *weights > 0.0 {
+                        sum / *weights
+                    } else {
+                        corner_mean(e)
+                    }
+                }
+            });
+        }
     }
-    stats.rays_cast += integrated.iter().map(|r| r.1).sum::<u64>();
+    stats.rays_cast += rays;
     stats.gather_time += start.elapsed();
-    Some(Some(integrated.into_iter().map(|r| r.0).collect()))
+    Ok(Some(Some(integrated)))
 }
 
 /// Sight lines cast from a point or spot light to tell whether it is shut

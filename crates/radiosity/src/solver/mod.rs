@@ -195,6 +195,13 @@ pub struct Solver<'a> {
     saved: (Energy, Stats),
     /// When the device's state was last read back.
     synced: Instant,
+    /// The lights' shadow segments on the device (`None`: on the CPU);
+    /// set up at the first light's shot.
+    light_segments: Option<Box<dyn device::Segments>>,
+    /// Lights whose segments the device answered.
+    light_device_shots: u64,
+    /// Why the lights' segments went back to the CPU, if they did.
+    light_fault: Option<String>,
 }
 
 /// How often the state of a solve on a device is read back: what the live
@@ -272,6 +279,9 @@ impl<'a> Solver<'a> {
             light_power: vec![DVec3::ZERO; scene.lights.len()],
             saved: (Energy::default(), Stats::default()),
             synced: Instant::now(),
+            light_segments: None,
+            light_device_shots: 0,
+            light_fault: None,
         };
         solver.energy.emitted = solver.unshot_power();
         solver.saved = (solver.energy, solver.stats.clone());
@@ -351,12 +361,21 @@ impl<'a> Solver<'a> {
             .map(|(_, c)| c)
     }
 
-    /// Where the shots' transfers ran: the device asked for, how many shots
-    /// ran on it, and why it stopped being used if it did. The lights'
-    /// shots ([`lights`]) run on the CPU.
+    /// Where the shots ran: the device asked for, how many shots ran on it
+    /// (a light's when the device answered its shadow segments, [`lights`];
+    /// the method's when it made them), and why it stopped being used if it
+    /// did.
     #[must_use]
     pub fn device_report(&self) -> device::DeviceReport {
-        self.shooter.device()
+        let mut report = self.shooter.device();
+        if report.name.is_none() {
+            report.name = self.settings.device.get().map(|b| b.name());
+        }
+        report.device_shots += self.light_device_shots;
+        if report.fault.is_none() {
+            report.fault.clone_from(&self.light_fault);
+        }
+        report
     }
 
     /// The method's own count called `name`; 0 if it keeps none.
@@ -577,10 +596,33 @@ impl<'a> Solver<'a> {
             abort,
         };
         let light = self.lights_pending.first().copied();
+        if light.is_some()
+            && self.light_segments.is_none()
+            && self.light_fault.is_none()
+            && let Some(backend) = self.settings.device.get()
+        {
+            match backend.segments(self.scene) {
+                Ok(segments) => self.light_segments = Some(segments),
+                Err(e) => self.light_fault = Some(e.0),
+            }
+        }
         let (irradiance, element_means, power, selection_time) = match light {
             Some(index) => {
                 let light = &self.scene.lights[index];
-                let Some(shot) = lights::shoot(light, &context, &mut self.stats) else {
+                let on_device = self.light_segments.as_deref();
+                let shot = match lights::shoot(light, &context, on_device, &mut self.stats) {
+                    Ok(shot) => {
+                        self.light_device_shots += u64::from(on_device.is_some() && shot.is_some());
+                        shot
+                    }
+                    // The device failed: this light and the rest on the CPU.
+                    Err(e) => {
+                        self.light_fault = Some(e.0);
+                        self.light_segments = None;
+                        lights::shoot(light, &context, None, &mut self.stats).unwrap_or(None)
+                    }
+                };
+                let Some(shot) = shot else {
                     return false;
                 };
                 (

@@ -45,6 +45,10 @@ impl Backend for Stand {
         "stand-in".into()
     }
 
+    fn segments(&self, _: &Scene) -> Result<Box<dyn crate::solver::device::Segments>, DeviceError> {
+        Err(DeviceError("no segments on this device".into()))
+    }
+
     fn check(&self, _: &Scene, _: &Mesh, _: usize) -> Result<u64, DeviceError> {
         Ok(0)
     }
