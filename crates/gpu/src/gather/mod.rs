@@ -32,6 +32,7 @@ use radiosity::solver::hierarchy::Tree;
 
 mod buffers;
 mod memory;
+mod scene;
 mod transfers;
 
 pub use self::buffers::{

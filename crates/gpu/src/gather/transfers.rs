@@ -21,13 +21,11 @@ use radiosity::solver::hierarchy::sources::outer;
 use radiosity::solver::method::Received;
 use wgpu::util::DeviceExt;
 
-use super::buffers::{
-    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuShot,
-    GpuSurface, GpuTreeNode,
-};
+use super::buffers::{GpuBin, GpuBook, GpuNodeSource, GpuPartial, GpuShot};
+use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
-use crate::trace::{self, entry, nonempty, split, storage};
+use crate::trace::{entry, nonempty, split, storage};
 
 /// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
 /// `book.wgsl`; the shooters' powers take 64).
@@ -177,110 +175,18 @@ impl GpuTransfers {
                 "the element tree is {tree_depth} deep; the GPU's walk holds {MAX_TREE_DEPTH}"
             )));
         }
-        let scene = solve.scene;
-        let mesh = solve.mesh;
-        let (origin, scale) = trace::centre_and_scale(&scene.surfaces);
-        let triangles = trace::triangles(&scene.surfaces, origin);
-        let (bvh_nodes, ordered) = trace::tree(&triangles, 8.0 * f64::from(f32::EPSILON) * scale);
-
-        let gpu_tree: Vec<GpuTreeNode> = tree
-            .nodes
-            .iter()
-            .map(|n| {
-                let (centre, centre_lo) = split(n.centre, origin);
-                let first = tree.items[n.first as usize];
-                GpuTreeNode {
-                    centre,
-                    radius: n.radius as f32,
-                    centre_lo,
-                    second: n.second,
-                    group: n.group,
-                    surface: mesh.elements[first as usize].surface,
-                    element: if n.is_leaf() { first } else { NONE },
-                    pad0: 0,
-                }
-            })
-            .collect();
-        let leaf_element = gpu_tree.iter().map(|n| n.element).collect();
-        let surfaces: Vec<GpuSurface> = scene
-            .surfaces
-            .iter()
-            .map(|s| {
-                let (corner, corner_lo) =
-                    split(s.polygon.first().copied().unwrap_or_default(), origin);
-                GpuSurface {
-                    normal: s.normal.as_vec3().to_array(),
-                    group: s.group,
-                    corner,
-                    corner_lo,
-                    ..GpuSurface::default()
-                }
-            })
-            .collect();
-        let elements: Vec<GpuElement> = mesh
-            .elements
-            .iter()
-            .zip(&solve.hierarchy.centroids)
-            .map(|(e, &c)| {
-                let mut out = GpuElement {
-                    surface: e.surface,
-                    count: u32::from(e.corner_count),
-                    area: e.area as f32,
-                    ..GpuElement::default()
-                };
-                for (k, &v) in e.vertices().iter().enumerate() {
-                    let (hi, lo) = split(mesh.vertices[v as usize].position, origin);
-                    out.corners[k] = [hi[0], hi[1], hi[2], 0.0];
-                    out.corners_lo[k] = [lo[0], lo[1], lo[2], 0.0];
-                }
-                (out.centroid, out.centroid_lo) = split(c, origin);
-                out
-            })
-            .collect();
-        let receivers: Vec<GpuReceiver> = solve
-            .order
-            .iter()
-            .map(|&r| {
-                let r = &solve.receivers[r as usize];
-                let (point, point_lo) = split(r.point, origin);
-                GpuReceiver {
-                    point,
-                    group: r.group,
-                    point_lo,
-                    normal: r.normal.as_vec3().to_array(),
-                    ..GpuReceiver::default()
-                }
-            })
-            .collect();
-
-        let mut device_index = vec![0u32; solve.receivers.len()];
-        for (i, &r) in solve.order.iter().enumerate() {
-            device_index[r as usize] = i as u32;
-        }
-        let element_book: Vec<GpuElementBook> = mesh
-            .elements
-            .iter()
-            .map(|e| {
-                let mut corners = [0u32; 4];
-                for (k, &v) in e.vertices().iter().enumerate() {
-                    corners[k] = device_index[v as usize];
-                }
-                GpuElementBook {
-                    corners,
-                    rho: scene.surfaces[e.surface as usize].rho.as_vec3().to_array(),
-                    area: e.area as f32,
-                }
-            })
-            .collect();
-        let shooter_items: Vec<[u32; 2]> = solve
-            .hierarchy
-            .shooters
-            .iter()
-            .map(|&n| {
-                let node = &tree.nodes[n as usize];
-                [node.first, node.last]
-            })
-            .collect();
+        let SceneData {
+            origin,
+            bvh_nodes,
+            triangles,
+            tree: gpu_tree,
+            leaf_element,
+            surfaces,
+            elements,
+            receivers,
+            element_book,
+            shooter_items,
+        } = SceneData::of(solve);
         let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
 
         let uncaptured = Arc::new(Mutex::new(None));
@@ -325,7 +231,7 @@ impl GpuTransfers {
             shooter_powers: pipeline("shooter_powers"),
         };
         let r = receivers.len() as u64;
-        let e = mesh.elements.len() as u64;
+        let e = elements.len() as u64;
         let s = shooter_items.len() as u64;
         let vec4_bytes = 16u64;
         let partial_count = e.div_ceil(u64::from(BOOK_WORKGROUP)).max(1);
@@ -345,7 +251,7 @@ impl GpuTransfers {
             dispatch_receivers,
             pipelines,
             nodes: storage(&gpu, "nodes", &nonempty(bvh_nodes)),
-            triangles: storage(&gpu, "triangles", &nonempty(ordered)),
+            triangles: storage(&gpu, "triangles", &nonempty(triangles)),
             tree: storage(&gpu, "element tree", &nonempty(gpu_tree)),
             surfaces: storage(&gpu, "surfaces", &nonempty(surfaces)),
             element_buffer: storage(&gpu, "elements", &nonempty(elements)),

@@ -21,6 +21,12 @@
 //! reflect as unshot light of its own. Receivers are
 //! processed in parallel in chunks of a fixed size, each one's sum in a
 //! fixed order, so the result does not depend on the number of threads.
+//!
+//! A solve may run on a device ([`device`], the GPU): the method then
+//! keeps the receivers' irradiance and its unshot radiosity there, books
+//! each shot there and reports the ledger's sums; the loop's rules stay
+//! here, and the state comes back at checkpoints ([`CHECKPOINT_INTERVAL`]),
+//! which a device's failure goes back to.
 
 pub mod adaptive;
 pub mod cuts;

@@ -1,0 +1,161 @@
+//! What a solve of adaptive shooting (the per-receiver source subdivision
+//! of Wallace, Elmquist & Haines 1989, section 4, beyond the paper's
+//! CPU-only solver) sends the GPU once, in the kernels' layouts: the
+//! scene's triangles and their BVH, the element tree, the surfaces' planes,
+//! the elements with their book-keeping data, the receivers in the
+//! device's order and each shooter's elements. Points are two `f32`s
+//! relative to the scene's centre ([`crate::trace`]).
+
+use glam::DVec3;
+use radiosity::solver::device::AdaptiveSolve;
+use radiosity::solver::hierarchy::NONE;
+
+use super::buffers::{GpuElement, GpuElementBook, GpuReceiver, GpuSurface, GpuTreeNode};
+use crate::trace::{self, GpuNode, GpuTriangle, split};
+
+/// A solve's data for the device.
+pub(super) struct SceneData {
+    /// The scene's centre, the origin of the device's coordinates.
+    pub(super) origin: DVec3,
+    /// The triangles' BVH.
+    pub(super) bvh_nodes: Vec<GpuNode>,
+    /// The triangles, in its leaves' order.
+    pub(super) triangles: Vec<GpuTriangle>,
+    /// The element tree.
+    pub(super) tree: Vec<GpuTreeNode>,
+    /// Each tree node's element if a leaf, else `NONE`.
+    pub(super) leaf_element: Vec<u32>,
+    /// The surfaces' planes.
+    pub(super) surfaces: Vec<GpuSurface>,
+    /// The elements.
+    pub(super) elements: Vec<GpuElement>,
+    /// The receivers, in the device's order.
+    pub(super) receivers: Vec<GpuReceiver>,
+    /// The elements' book-keeping data.
+    pub(super) element_book: Vec<GpuElementBook>,
+    /// Each shooter's items in the element tree's order, `first..last`.
+    pub(super) shooter_items: Vec<[u32; 2]>,
+}
+
+impl SceneData {
+    /// `solve`'s data.
+    pub(super) fn of(solve: &AdaptiveSolve<'_>) -> SceneData {
+        let tree = &solve.hierarchy.tree;
+        let scene = solve.scene;
+        let mesh = solve.mesh;
+        let (origin, scale) = trace::centre_and_scale(&scene.surfaces);
+        let triangles = trace::triangles(&scene.surfaces, origin);
+        let (bvh_nodes, ordered) = trace::tree(&triangles, 8.0 * f64::from(f32::EPSILON) * scale);
+
+        let gpu_tree: Vec<GpuTreeNode> = tree
+            .nodes
+            .iter()
+            .map(|n| {
+                let (centre, centre_lo) = split(n.centre, origin);
+                let first = tree.items[n.first as usize];
+                GpuTreeNode {
+                    centre,
+                    radius: n.radius as f32,
+                    centre_lo,
+                    second: n.second,
+                    group: n.group,
+                    surface: mesh.elements[first as usize].surface,
+                    element: if n.is_leaf() { first } else { NONE },
+                    pad0: 0,
+                }
+            })
+            .collect();
+        let leaf_element = gpu_tree.iter().map(|n| n.element).collect();
+        let surfaces: Vec<GpuSurface> = scene
+            .surfaces
+            .iter()
+            .map(|s| {
+                let (corner, corner_lo) =
+                    split(s.polygon.first().copied().unwrap_or_default(), origin);
+                GpuSurface {
+                    normal: s.normal.as_vec3().to_array(),
+                    group: s.group,
+                    corner,
+                    corner_lo,
+                    ..GpuSurface::default()
+                }
+            })
+            .collect();
+        let elements: Vec<GpuElement> = mesh
+            .elements
+            .iter()
+            .zip(&solve.hierarchy.centroids)
+            .map(|(e, &c)| {
+                let mut out = GpuElement {
+                    surface: e.surface,
+                    count: u32::from(e.corner_count),
+                    area: e.area as f32,
+                    ..GpuElement::default()
+                };
+                for (k, &v) in e.vertices().iter().enumerate() {
+                    let (hi, lo) = split(mesh.vertices[v as usize].position, origin);
+                    out.corners[k] = [hi[0], hi[1], hi[2], 0.0];
+                    out.corners_lo[k] = [lo[0], lo[1], lo[2], 0.0];
+                }
+                (out.centroid, out.centroid_lo) = split(c, origin);
+                out
+            })
+            .collect();
+        let receivers: Vec<GpuReceiver> = solve
+            .order
+            .iter()
+            .map(|&r| {
+                let r = &solve.receivers[r as usize];
+                let (point, point_lo) = split(r.point, origin);
+                GpuReceiver {
+                    point,
+                    group: r.group,
+                    point_lo,
+                    normal: r.normal.as_vec3().to_array(),
+                    ..GpuReceiver::default()
+                }
+            })
+            .collect();
+
+        let mut device_index = vec![0u32; solve.receivers.len()];
+        for (i, &r) in solve.order.iter().enumerate() {
+            device_index[r as usize] = i as u32;
+        }
+        let element_book: Vec<GpuElementBook> = mesh
+            .elements
+            .iter()
+            .map(|e| {
+                let mut corners = [0u32; 4];
+                for (k, &v) in e.vertices().iter().enumerate() {
+                    corners[k] = device_index[v as usize];
+                }
+                GpuElementBook {
+                    corners,
+                    rho: scene.surfaces[e.surface as usize].rho.as_vec3().to_array(),
+                    area: e.area as f32,
+                }
+            })
+            .collect();
+        let shooter_items: Vec<[u32; 2]> = solve
+            .hierarchy
+            .shooters
+            .iter()
+            .map(|&n| {
+                let node = &tree.nodes[n as usize];
+                [node.first, node.last]
+            })
+            .collect();
+        SceneData {
+            origin,
+            bvh_nodes,
+            triangles: ordered,
+            tree: gpu_tree,
+            leaf_element,
+            surfaces,
+            elements,
+            receivers,
+            element_book,
+            shooter_items,
+        }
+    }
+}
