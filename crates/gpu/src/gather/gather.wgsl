@@ -140,8 +140,6 @@ const SEGMENT_EPSILON: f32 = 1e-6;
 // form_factor::analytic's DEGENERATE and ON_PLANE.
 const DEGENERATE: f32 = 1e-11;
 const ON_PLANE: f32 = 1e-12;
-// hierarchy::sources::TIE: a near tie goes to the first.
-const TIE: f32 = 1e-6;
 // The host checks the element tree is shallower than this.
 const WALK_STACK: u32 = 64u;
 
@@ -446,15 +444,14 @@ fn from_origin(r: Receiver) -> vec3<f32> {
 }
 
 // Transfer::representative: the element of the node's heaviest bin (the
-// first of near-equals, as hierarchy::sources::first_largest); NONE for a
-// node with no power.
+// last of equals, as Rust's max_by); NONE for a node with no power.
 fn representative(n: u32) -> u32 {
     let s = sources[n - shot.root];
     var best = NONE;
     var weight = 0.0;
     for (var k = 0u; k < s.bins; k += 1u) {
         let b = bins[s.first_bin + k];
-        if (best == NONE || b.weight > weight + TIE * abs(weight)) {
+        if (best == NONE || b.weight >= weight) {
             best = b.representative;
             weight = b.weight;
         }
@@ -535,7 +532,7 @@ fn dim_irradiance(n: u32, r: Receiver) -> vec3<f32> {
             continue;
         }
         let l = luminance(g.e[k]);
-        if (best == NONE || l > most + TIE * abs(most)) {
+        if (best == NONE || l >= most) {
             best = k;
             most = l;
         }

@@ -47,7 +47,7 @@ use glam::DVec3;
 
 use self::gather::{Counters, Gatherer};
 use super::device::{AdaptiveSolve, AdaptiveTransfers, DeviceReport};
-use super::hierarchy::sources::{Sources, first_largest};
+use super::hierarchy::sources::Sources;
 pub use super::hierarchy::transfer::FAR_RATIO;
 use super::hierarchy::transfer::Transfer;
 use super::hierarchy::{self, Hierarchy, Tree};
@@ -310,7 +310,13 @@ impl AdaptiveShooting {
     /// The node that shoots next: the shooter with the most unshot power
     /// (the first of equals).
     fn choose_shooting_node(&self) -> u32 {
-        let best = first_largest(self.shooter_power.iter().copied()).unwrap_or(0);
+        let (best, _) =
+            self.shooter_power
+                .iter()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
+                    if p > best.1 { (i, p) } else { best }
+                });
         self.hierarchy.shooters[best]
     }
 

@@ -78,7 +78,14 @@ impl AdaptiveShooting {
         let fresh = device.unshot(node.first, node.last)?;
         let items = self.hierarchy.tree.items_of(root);
         for (&e, u) in items.iter().zip(fresh) {
-            self.unshot[e as usize] = u;
+            // The device holds f32s: where its value is the host's rounded
+            // (an emitter not yet lit by anything), the host's exact value
+            // stands, so the sources are the CPU's to the last bit (a
+            // representative among equals is picked by round-off).
+            let host = &mut self.unshot[e as usize];
+            if u.as_vec3() != host.as_vec3() {
+                *host = u;
+            }
         }
         self.sources
             .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);

@@ -136,30 +136,6 @@ fn axis_of(normal: DVec3) -> u8 {
     2 * axis as u8 + u8::from(normal[axis] < 0.0)
 }
 
-/// Relative difference below which two candidates (representatives by
-/// distance, bins by power, shooters by power) are a tie, which goes to
-/// the first: a choice that round-off could tip (a symmetric grid of
-/// elements; a device's `f32` copy of the powers) is made the same way
-/// whatever the round-off, on the CPU as on a GPU.
-pub const TIE: f64 = 1e-6;
-
-/// The index of the largest of `values`, the first of near-equals
-/// ([`TIE`]); `None` for none.
-pub fn first_largest(values: impl IntoIterator<Item = f64>) -> Option<usize> {
-    let mut best: Option<(usize, f64)> = None;
-    for (i, v) in values.into_iter().enumerate() {
-        let better = match best {
-            None => true,
-            Some((_, b)) if b == f64::NEG_INFINITY => v > b,
-            Some((_, b)) => v > b + TIE * b.abs(),
-        };
-        if better {
-            best = Some((i, v));
-        }
-    }
-    best.map(|(i, _)| i)
-}
-
 /// The bins of a node from its children's (each sorted by axis).
 fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mut Vec<Bin>) {
     let (mut i, mut j) = (0, 0);
@@ -184,11 +160,7 @@ fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mu
                 normal: x.normal + y.normal,
                 position,
                 moment: x.moment + y.moment,
-                // The nearer of the two; a near tie (a symmetric grid of
-                // elements, whose centre's rounding would decide) goes to
-                // the first, so that round-off in the power (a device's
-                // f32 copy of it) cannot move the shadow rays' origin.
-                representative: if nearer(y) < nearer(x) * (1.0 - TIE) {
+                representative: if nearer(y) < nearer(x) {
                     y.representative
                 } else {
                     x.representative

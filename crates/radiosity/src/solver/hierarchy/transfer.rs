@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
-use super::sources::{Bin, NodeSource, Sources, first_largest, point_factor};
+use super::sources::{Bin, NodeSource, Sources, point_factor};
 use super::{Hierarchy, NONE, Node, Tree};
 use crate::accel::{self, Occluder};
 use crate::form_factor::{FormFactor, Source};
@@ -136,8 +136,10 @@ impl Transfer<'_> {
 
     /// The representative element of a source node's brightest bin.
     pub(crate) fn representative(&self, n: u32) -> Option<u32> {
-        let bins = self.bins_of(n);
-        first_largest(bins.iter().map(|b| b.weight)).map(|k| bins[k].representative)
+        self.bins_of(n)
+            .iter()
+            .max_by(|a, b| a.weight.total_cmp(&b.weight))
+            .map(|b| b.representative)
     }
 
     /// False when no point of `node` can send light to the receiver: its
@@ -192,18 +194,15 @@ impl Transfer<'_> {
         cost: &mut Cost,
     ) -> DVec3 {
         let geometry = self.node_geometry(n, r, scratch, cost);
-        let bins = self.bins_of(n);
-        let Some(k) = first_largest(geometry.iter().map(|g| {
-            if *g == DVec3::ZERO {
-                f64::NEG_INFINITY
-            } else {
-                luminance(*g)
-            }
-        }))
-        .filter(|&k| geometry[k] != DVec3::ZERO) else {
+        let Some((bin, _)) = self
+            .bins_of(n)
+            .iter()
+            .zip(&geometry)
+            .filter(|(_, g)| **g != DVec3::ZERO)
+            .max_by(|a, b| luminance(*a.1).total_cmp(&luminance(*b.1)))
+        else {
             return DVec3::ZERO;
         };
-        let bin = &bins[k];
         cost.pairs += 1;
         if self.visible_from(bin.representative, r, cost) {
             geometry.iter().sum()
