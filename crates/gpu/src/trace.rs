@@ -395,26 +395,43 @@ impl SceneTracer {
         if let Some(e) = out_of_memory.or(invalid) {
             return Err(gpu.failed(e));
         }
-        let slice = readback.slice(..);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = sender.send(r);
-        });
-        gpu.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| gpu.failed(e))?;
-        match receiver.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(gpu.failed(e)),
-            Err(_) => return Err(gpu.failed("the readback was never mapped")),
-        }
-        if let Some(message) = self.uncaptured.lock().ok().and_then(|s| s.clone()) {
-            return Err(gpu.failed(message));
-        }
-        let view = slice.get_mapped_range().map_err(|e| gpu.failed(e))?;
-        let words: &[u32] = bytemuck::cast_slice(&view);
+        let bytes = read_back(gpu, &readback, bytes, &self.uncaptured)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
         Ok(words.iter().map(|&w| w != 0).collect())
     }
+}
+
+/// The first `bytes` of `readback`, once the device has done what was
+/// submitted (the copy into it last); a device error on the way, or one
+/// reported outside a scope (`uncaptured`), is the caller's.
+pub(crate) fn read_back(
+    gpu: &Gpu,
+    readback: &wgpu::Buffer,
+    bytes: u64,
+    uncaptured: &Mutex<Option<String>>,
+) -> Result<Vec<u8>, GpuError> {
+    let slice = readback.slice(..bytes.max(4));
+    let (sender, receiver) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = sender.send(r);
+    });
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| gpu.failed(e))?;
+    match receiver.recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(gpu.failed(e)),
+        Err(_) => return Err(gpu.failed("the readback was never mapped")),
+    }
+    if let Some(message) = uncaptured.lock().ok().and_then(|s| s.clone()) {
+        return Err(gpu.failed(message));
+    }
+    let out = {
+        let view = slice.get_mapped_range().map_err(|e| gpu.failed(e))?;
+        view[..bytes as usize].to_vec()
+    };
+    readback.unmap();
+    Ok(out)
 }
 
 /// The lights' shadow segments of a solve on the GPU

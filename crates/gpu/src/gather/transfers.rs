@@ -25,7 +25,7 @@ use super::buffers::{GpuBin, GpuBook, GpuNodeSource, GpuPartial, GpuShot};
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
-use crate::trace::{entry, nonempty, split, storage};
+use crate::trace::{entry, nonempty, read_back, split, storage};
 
 /// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
 /// `book.wgsl`; the shooters' powers take 64).
@@ -330,28 +330,8 @@ impl GpuTransfers {
     fn finish(&self, encoder: wgpu::CommandEncoder, bytes: u64) -> Result<Vec<u8>, DeviceError> {
         let gpu = &self.gpu;
         gpu.queue.submit([encoder.finish()]);
-        let slice = self.readback.slice(..bytes.max(4));
-        let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = sender.send(r);
-        });
-        gpu.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| self.failed(e))?;
-        match receiver.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(self.failed(e)),
-            Err(_) => return Err(self.failed("the readback was never mapped")),
-        }
-        if let Some(message) = self.uncaptured.lock().ok().and_then(|s| s.clone()) {
-            return Err(self.failed(message));
-        }
-        let bytes = {
-            let view = slice.get_mapped_range().map_err(|e| self.failed(e))?;
-            view.to_vec()
-        };
-        self.readback.unmap();
-        Ok(bytes)
+        read_back(gpu, &self.readback, bytes, &self.uncaptured)
+            .map_err(|e| DeviceError(e.to_string()))
     }
 
     /// `f`, with the device's validation and memory errors caught.
