@@ -138,10 +138,17 @@ pub struct LoadArgs {
 
     /// Sky patches: Tregenza's 145 divided N x N each (Reinhart's scheme):
     /// 1 gives 145 directions per receiver, 2 gives 580, 4 gives 2320.
-    /// One direction is drawn in each patch per receiver: more patches,
-    /// less noise under small openings, more shadow rays.
+    /// One direction is drawn in each patch per receiver, apart from the
+    /// directions through the scene's openings, which are sampled where
+    /// they are.
     #[arg(long, value_name = "N", default_value_t = radiosity::scene::sky::DEFAULT_SUBDIVISION)]
     pub sky_subdivision: usize,
+
+    /// Reflectance of the ground below the sky's horizon, from 0 to below
+    /// 1: lit by the sky and the sun, it lights what sees below the
+    /// horizon (through a window, from a roof), as Radiance's gensky does.
+    #[arg(long, value_name = "RHO", default_value_t = radiosity::scene::sky::DEFAULT_GROUND_REFLECTANCE, requires = "sky")]
+    pub ground_reflectance: f64,
 }
 
 impl LoadArgs {
@@ -162,6 +169,7 @@ impl LoadArgs {
                     model: model.parse().unwrap_or(SkyModel::Uniform),
                     illuminance: self.sky_illuminance.unwrap_or(f64::NAN),
                     subdivision: self.sky_subdivision,
+                    ground_reflectance: self.ground_reflectance,
                 }),
             },
         }

@@ -26,7 +26,9 @@ use radiosity::app;
 use radiosity::export;
 use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
-use radiosity::scene::sky::{DEFAULT_SUBDIVISION, Daylight, SkySpec, SunSpec};
+use radiosity::scene::sky::{
+    DEFAULT_GROUND_REFLECTANCE, DEFAULT_SUBDIVISION, Daylight, SkySpec, SunSpec,
+};
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
 use radiosity::sensors::{self, SensorPoint};
 use radiosity::solver::{Flow, Preset, Settings, Solver, refine};
@@ -150,6 +152,7 @@ pub fn daylight(flags: &str) -> Result<Daylight, Error> {
             model,
             illuminance,
             subdivision: DEFAULT_SUBDIVISION,
+            ground_reflectance: DEFAULT_GROUND_REFLECTANCE,
         });
     }
     Ok(daylight)

@@ -11,7 +11,7 @@ use approx::assert_relative_eq;
 use glam::DVec3;
 use radiosity::mesh::Mesh;
 use radiosity::scene::light::cone;
-use radiosity::scene::sky::{Daylight, SkyModel, SkySpec, SunSpec};
+use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
 use radiosity::scene::{Light, LightKind, Scene, obj};
 use radiosity::sensors::{self, SensorPoint, lux};
 use radiosity::solver::{Preset, Settings, Solver};
@@ -442,6 +442,7 @@ fn sky_lights(
             model,
             illuminance,
             subdivision,
+            ground_reflectance: sky::DEFAULT_GROUND_REFLECTANCE,
         }),
     }
     .lights()
@@ -783,6 +784,7 @@ fn lights_and_daylight_give_the_same_solution_on_any_number_of_threads() {
             model: SkyModel::Clear,
             illuminance: 10_000.0,
             subdivision: 1,
+            ground_reflectance: sky::DEFAULT_GROUND_REFLECTANCE,
         }),
     }
     .lights()

@@ -11,6 +11,7 @@
 use glam::DVec3;
 
 pub mod clip;
+pub mod spherical;
 pub mod triangulate;
 
 /// Newell's normal of a polygon: twice the vector area, robust for slightly

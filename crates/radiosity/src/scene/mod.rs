@@ -22,6 +22,7 @@ pub mod merge;
 pub mod mtl;
 pub mod obj;
 pub mod polygon;
+pub mod portal;
 pub mod sky;
 pub mod text;
 

@@ -95,7 +95,7 @@ impl Patch {
     pub fn direction(&self, u: f64, v: f64) -> DVec3 {
         let s = self.sin_altitude.0 + u * (self.sin_altitude.1 - self.sin_altitude.0);
         let a = self.azimuth.0 + v * (self.azimuth.1 - self.azimuth.0);
-        towards(s.clamp(0.0, 1.0).asin(), a)
+        towards(s.clamp(-1.0, 1.0).asin(), a)
     }
 }
 
@@ -151,8 +151,22 @@ pub fn patches(subdivision: usize) -> Vec<Patch> {
     out
 }
 
-/// A sky: its model, the sun's direction for the clear sky, and the
-/// constant that makes its horizontal illuminance one lux.
+/// The ground's patches: the sky's of `subdivision` mirrored below the
+/// horizon.
+#[must_use]
+pub fn ground_patches(subdivision: usize) -> Vec<Patch> {
+    patches(subdivision)
+        .into_iter()
+        .map(|p| Patch {
+            sin_altitude: (-p.sin_altitude.1, -p.sin_altitude.0),
+            azimuth: p.azimuth,
+        })
+        .collect()
+}
+
+/// A sky: its model, the sun's direction for the clear sky, the constant
+/// that makes its horizontal illuminance one lux, and the ground's
+/// luminance below the horizon.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sky {
     /// The distribution.
@@ -162,6 +176,9 @@ pub struct Sky {
     /// Luminance at each direction per lux of horizontal illuminance is
     /// `scale` times the model's shape.
     scale: f64,
+    /// Luminance below the horizon per lux of the sky's horizontal
+    /// illuminance (1/sr).
+    ground: f64,
 }
 
 impl Sky {
@@ -174,6 +191,7 @@ impl Sky {
             model,
             sun,
             scale: 1.0,
+            ground: 0.0,
         };
         sky.scale = match model {
             SkyModel::Uniform => 1.0 / PI,
@@ -204,10 +222,31 @@ impl Sky {
         }
     }
 
+    /// The same sky over a ground whose luminance is `ground` per lux of
+    /// the sky's horizontal illuminance (1/sr): a diffuse ground of
+    /// reflectance `rho` lit by the sky alone has `rho / pi`, and
+    /// `rho (1 + E_sun / E_sky) / pi` with a sun giving `E_sun` on the
+    /// horizontal (Radiance's `gensky` ground).
+    #[must_use]
+    pub fn with_ground(mut self, ground: f64) -> Sky {
+        self.ground = ground;
+        self
+    }
+
+    /// The ground's luminance per lux of the sky's horizontal illuminance.
+    #[must_use]
+    pub fn ground(&self) -> f64 {
+        self.ground
+    }
+
     /// Luminance towards `direction` per lux of horizontal illuminance
-    /// (1/sr): integrated with the cosine over the upper hemisphere, 1.
+    /// (1/sr): integrated with the cosine over the upper hemisphere, 1;
+    /// below the horizon, the ground's.
     #[must_use]
     pub fn relative_luminance(&self, direction: DVec3) -> f64 {
+        if direction.y <= 0.0 {
+            return self.ground;
+        }
         self.scale * self.shape(direction)
     }
 
@@ -307,7 +346,14 @@ pub struct SkySpec {
     pub illuminance: f64,
     /// Patch subdivision, 1 to [`MAX_SUBDIVISION`].
     pub subdivision: usize,
+    /// Reflectance of the ground below the horizon, in `[0, 1)`
+    /// (`--ground-reflectance`, default [`DEFAULT_GROUND_REFLECTANCE`]).
+    pub ground_reflectance: f64,
 }
+
+/// Default `--ground-reflectance`, as daylighting tools take it (Radiance's
+/// `gensky`, Daysim).
+pub const DEFAULT_GROUND_REFLECTANCE: f64 = 0.2;
 
 /// Default `--sky-subdivision`: 580 patches.
 pub const DEFAULT_SUBDIVISION: usize = 2;
@@ -369,7 +415,24 @@ impl Daylight {
                     spec.subdivision
                 ));
             }
-            let sky = Sky::new(spec.model, towards_sun)?;
+            if !(spec.ground_reflectance.is_finite()
+                && (0.0..1.0).contains(&spec.ground_reflectance))
+            {
+                return Err(format!(
+                    "--ground-reflectance must be from 0 to below 1, not {}",
+                    spec.ground_reflectance
+                ));
+            }
+            // The ground is lit by the sky and the sun, in lux per lux of the
+            // sky's horizontal illuminance.
+            let sun_share = match (self.sun, spec.illuminance > 0.0) {
+                (Some(sun), true) => {
+                    sun.illuminance * sun.altitude.to_radians().sin() / spec.illuminance
+                }
+                _ => 0.0,
+            };
+            let sky = Sky::new(spec.model, towards_sun)?
+                .with_ground(spec.ground_reflectance * (1.0 + sun_share) / PI);
             lights.push(Light {
                 name: "the sky (--sky)".into(),
                 kind: LightKind::Sky {

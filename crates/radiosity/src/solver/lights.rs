@@ -12,8 +12,9 @@
 //! grid of points instead ([`element_means`]), so a sun patch sends on the
 //! power its opening lets in.
 //!
-//! A sky ([`crate::scene::sky`]) shoots the same way from one direction
-//! drawn in each of its patches per receiver: one shadow segment each.
+//! A sky ([`crate::scene::sky`]) shoots the same way from many directions
+//! per receiver, drawn through the scene's openings and over the rest of
+//! the sky ([`super::sky`]): one shadow segment each.
 //!
 //! Receivers are independent (a sky's directions come from a generator
 //! seeded by the receiver's index), so the result does not depend on the
@@ -32,8 +33,9 @@ use rayon::prelude::*;
 use super::Stats;
 use super::device::{DeviceError, Segment, Segments};
 use super::method::ShotInputs;
+use super::sky::SkyPlan;
 use crate::accel;
-use crate::scene::{Light, LightKind, Scene, sky};
+use crate::scene::{Light, LightKind, Scene};
 
 /// Receivers gathered between two checks of the shot's abort.
 const CHUNK: usize = 4096;
@@ -166,10 +168,7 @@ pub fn gather(
     let mut pairs = 0u64;
     let mut rays = 0u64;
     let mut chunk_start = 0;
-    let patches = match &light.kind {
-        LightKind::Sky { subdivision, .. } => sky::patches(*subdivision),
-        _ => Vec::new(),
-    };
+    let plan = SkyPlan::new(light, inputs.scene, inputs.occluder);
     for (chunk, out) in inputs
         .receivers
         .chunks(CHUNK)
@@ -191,19 +190,16 @@ pub fn gather(
                     (unblocked != DVec3::ZERO)
                         .then(|| (unblocked, segment(from, r.point, skip, distant)))
                 };
-                if patches.is_empty() {
-                    return candidate(light.irradiance(r.point, r.normal, reach))
+                match &plan {
+                    None => candidate(light.irradiance(r.point, r.normal, reach))
                         .into_iter()
-                        .collect();
+                        .collect(),
+                    Some(plan) => plan
+                        .candidates(light, (first + k) as u64, r.point, r.normal, reach)
+                        .into_iter()
+                        .filter_map(candidate)
+                        .collect(),
                 }
-                let mut random = Stream::new((first + k) as u64);
-                patches
-                    .iter()
-                    .filter_map(|patch| {
-                        let uv = (random.next(), random.next());
-                        candidate(light.sky_sample(patch, uv, r.point, r.normal, reach))
-                    })
-                    .collect()
             })
             .collect();
         let segments: Vec<Segment> = candidates.iter().flatten().map(|c| c.1).collect();
@@ -402,25 +398,4 @@ pub fn enclosed(
         behind += usize::from(normal.dot(direction) > 0.0);
     }
     4 * behind >= 3 * ENCLOSURE_RAYS
-}
-
-/// A stream of numbers in `[0, 1)` seeded by a receiver's index
-/// (SplitMix64, Steele et al. 2014): each receiver draws its own, so the
-/// sky's samples do not depend on the number of threads.
-struct Stream(u64);
-
-impl Stream {
-    fn new(seed: u64) -> Stream {
-        Stream(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03)
-    }
-
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        // The top 53 bits, as a fraction.
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
 }

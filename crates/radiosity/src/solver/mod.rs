@@ -38,6 +38,7 @@ pub mod patches;
 pub mod refine;
 pub mod registry;
 mod settings;
+pub mod sky;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

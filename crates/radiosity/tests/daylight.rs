@@ -1,0 +1,381 @@
+//! Daylight through openings at the default settings, against closed
+//! forms: sensors under a skylight, facing a window, behind a 1 cm slit and
+//! in a courtyard, for the uniform, overcast and clear skies and the
+//! ground below the horizon, each within 1% or 0.5 lux of the sky's
+//! luminance integrated over the opening (rooms of black walls, so nothing
+//! else lights them); a floor corner where black walls meet; a vertex at a
+//! sensor's point reading what the sensor reads.
+
+mod common;
+
+use std::path::Path;
+
+use glam::DVec3;
+use radiosity::mesh::Mesh;
+use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
+use radiosity::scene::{LightKind, Scene, Surface};
+use radiosity::sensors::{self, SensorPoint, lux};
+use radiosity::solver::{Settings, Solver};
+
+use common::{quad, scene_of};
+
+/// The sky's horizontal illuminance in every case, lux.
+const SKY_LUX: f64 = 10_000.0;
+
+/// A rectangle `origin + s u + t v`, `(s, t)` in `[0, 1]^2`, black, facing
+/// `u x v`.
+fn black(origin: DVec3, u: DVec3, v: DVec3, face: u32) -> Surface {
+    quad(origin, u, v, 0.0, 0.0, face)
+}
+
+/// The rectangle `origin + s u + t v` less the hole `s0..s1, t0..t1`
+/// (fractions), as four black quads around it.
+fn with_hole(
+    origin: DVec3,
+    u: DVec3,
+    v: DVec3,
+    (s0, s1, t0, t1): (f64, f64, f64, f64),
+    face: u32,
+) -> Vec<Surface> {
+    let at = |s: f64, t: f64| origin + u * s + v * t;
+    vec![
+        black(at(0.0, 0.0), u, v * t0, face),
+        black(at(0.0, t1), u, v * (1.0 - t1), face + 1),
+        black(at(0.0, t0), u * s0, v * (t1 - t0), face + 2),
+        black(at(s1, t0), u * (1.0 - s1), v * (t1 - t0), face + 3),
+    ]
+}
+
+/// A closed black room `[0, w] x [0, h] x [0, d]`, faces inward, with the
+/// ceiling or the south wall (z = d) replaced by `ceiling` or `south`.
+fn room(ceiling: Option<Vec<Surface>>, south: Option<Vec<Surface>>) -> Vec<Surface> {
+    let (w, h, d) = (4.0, 3.0, 4.0);
+    let mut s = vec![
+        black(DVec3::ZERO, DVec3::Z * d, DVec3::X * w, 0),
+        black(DVec3::ZERO, DVec3::Y * h, DVec3::Z * d, 1),
+        black(DVec3::X * w, DVec3::Z * d, DVec3::Y * h, 2),
+        black(DVec3::ZERO, DVec3::X * w, DVec3::Y * h, 3),
+    ];
+    s.extend(south.unwrap_or_else(|| {
+        vec![black(
+            DVec3::new(0.0, 0.0, d),
+            DVec3::Y * h,
+            DVec3::X * w,
+            4,
+        )]
+    }));
+    s.extend(ceiling.unwrap_or_else(|| {
+        vec![black(
+            DVec3::new(0.0, h, 0.0),
+            DVec3::X * w,
+            DVec3::Z * d,
+            5,
+        )]
+    }));
+    s
+}
+
+/// An opening: a rectangle `origin + s u + t v`.
+#[derive(Clone, Copy)]
+struct Opening {
+    origin: DVec3,
+    u: DVec3,
+    v: DVec3,
+}
+
+/// The skylight room: a 1 x 1 m hole in the ceiling over [1.5, 2.5]^2.
+fn skylight() -> (Vec<Surface>, Opening) {
+    let ceiling = with_hole(
+        DVec3::new(0.0, 3.0, 0.0),
+        DVec3::X * 4.0,
+        DVec3::Z * 4.0,
+        (0.375, 0.625, 0.375, 0.625),
+        10,
+    );
+    let opening = Opening {
+        origin: DVec3::new(1.5, 3.0, 1.5),
+        u: DVec3::X,
+        v: DVec3::Z,
+    };
+    (room(Some(ceiling), None), opening)
+}
+
+/// The window room: a 1.5 x 1.2 m window in the south wall, sill 0.9 m.
+fn window() -> (Vec<Surface>, Opening) {
+    let south = with_hole(
+        DVec3::new(0.0, 0.0, 4.0),
+        DVec3::Y * 3.0,
+        DVec3::X * 4.0,
+        (0.3, 0.7, 0.3125, 0.6875),
+        10,
+    );
+    let opening = Opening {
+        origin: DVec3::new(1.25, 0.9, 4.0),
+        u: DVec3::X * 1.5,
+        v: DVec3::Y * 1.2,
+    };
+    (room(None, Some(south)), opening)
+}
+
+/// The slit room: a 1 cm x 1 m vertical slit in the south wall, and a
+/// black board 40 cm wide 1 m in front of it, facing it.
+fn slit() -> (Vec<Surface>, Opening) {
+    let south = with_hole(
+        DVec3::new(0.0, 0.0, 4.0),
+        DVec3::Y * 3.0,
+        DVec3::X * 4.0,
+        (1.0 / 3.0, 2.0 / 3.0, 0.49875, 0.50125),
+        10,
+    );
+    let opening = Opening {
+        origin: DVec3::new(1.995, 1.0, 4.0),
+        u: DVec3::X * 0.01,
+        v: DVec3::Y,
+    };
+    let mut surfaces = room(None, Some(south));
+    surfaces.push(black(
+        DVec3::new(1.8, 1.3, 3.0),
+        DVec3::X * 0.4,
+        DVec3::Y * 0.4,
+        20,
+    ));
+    (surfaces, opening)
+}
+
+/// The courtyard: four black walls 3 m high round a 4 x 4 m floor, open
+/// to the sky.
+fn courtyard() -> (Vec<Surface>, Opening) {
+    let mut surfaces = room(None, None);
+    surfaces.pop();
+    let opening = Opening {
+        origin: DVec3::new(0.0, 3.0, 0.0),
+        u: DVec3::X * 4.0,
+        v: DVec3::Z * 4.0,
+    };
+    (surfaces, opening)
+}
+
+/// The sky of `model` (the clear sky around a sun placed, of no light, at
+/// 40 degrees up, azimuth 160), with the default ground.
+fn daylight(model: SkyModel) -> Daylight {
+    Daylight {
+        sun: (model == SkyModel::Clear).then_some(SunSpec {
+            altitude: 40.0,
+            azimuth: 160.0,
+            illuminance: 0.0,
+        }),
+        sky: Some(SkySpec {
+            model,
+            illuminance: SKY_LUX,
+            subdivision: sky::DEFAULT_SUBDIVISION,
+            ground_reflectance: sky::DEFAULT_GROUND_REFLECTANCE,
+        }),
+    }
+}
+
+/// The scene: `surfaces` under the sky of `model` (its sun, of no light,
+/// left out).
+fn scene(surfaces: Vec<Surface>, model: SkyModel) -> Scene {
+    let mut scene = scene_of(surfaces);
+    scene.lights = daylight(model).lights().unwrap();
+    scene
+        .lights
+        .retain(|l| matches!(l.kind, LightKind::Sky { .. }));
+    scene
+}
+
+/// The closed form: the sky's (and ground's) luminance integrated over
+/// the opening seen from `point` with `normal`, by a fine midpoint rule,
+/// lux.
+fn through(model: SkyModel, opening: Opening, point: DVec3, normal: DVec3) -> f64 {
+    let scene = scene(Vec::new(), model);
+    let LightKind::Sky { sky, .. } = &scene.lights[0].kind else {
+        unreachable!()
+    };
+    let n_u = if opening.u.length() < 0.1 { 20 } else { 600 };
+    let n_v = 600;
+    let area_normal = opening.u.cross(opening.v);
+    let da = area_normal.length() / f64::from(n_u * n_v);
+    let plane = area_normal.normalize();
+    let mut sum = 0.0;
+    for i in 0..n_u {
+        for j in 0..n_v {
+            let q = opening.origin
+                + opening.u * ((f64::from(i) + 0.5) / f64::from(n_u))
+                + opening.v * ((f64::from(j) + 0.5) / f64::from(n_v));
+            let d = q - point;
+            let r2 = d.length_squared();
+            let towards = d / r2.sqrt();
+            let cos_r = normal.dot(towards);
+            if cos_r <= 0.0 {
+                continue;
+            }
+            let cos_o = plane.dot(towards).abs();
+            sum += sky.relative_luminance(towards) * cos_r * cos_o / r2 * da;
+        }
+    }
+    sum * SKY_LUX
+}
+
+/// Lux at `points` (position, normal) and the solver, at the default
+/// settings.
+fn lux_at(scene: &Scene, points: &[(DVec3, DVec3)]) -> Vec<f64> {
+    let sensor_points: Vec<SensorPoint> = points
+        .iter()
+        .enumerate()
+        .map(|(i, &(position, normal))| SensorPoint {
+            position,
+            normal,
+            line: i + 1,
+        })
+        .collect();
+    let receivers = sensors::receivers(scene, &sensor_points, Path::new("points")).unwrap();
+    let settings = Settings::adaptive();
+    let mesh = Mesh::build(scene, &settings.mesh.sized_for(scene)).unwrap();
+    let mut solver = Solver::with_sensors(scene, &mesh, settings, receivers);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    solver.sensor_irradiance().iter().map(|&e| lux(e)).collect()
+}
+
+/// Every case's sensors within 1% or 0.5 lux of the closed form.
+fn check(name: &str, build: fn() -> (Vec<Surface>, Opening), points: &[(DVec3, DVec3)]) {
+    let mut failures = Vec::new();
+    for model in [SkyModel::Uniform, SkyModel::Overcast, SkyModel::Clear] {
+        let (surfaces, opening) = build();
+        let got = lux_at(&scene(surfaces, model), points);
+        for (&(p, n), got) in points.iter().zip(got) {
+            let exact = through(model, opening, p, n);
+            let error = got - exact;
+            let ok = error.abs() <= f64::max(0.01 * exact, 0.5);
+            println!(
+                "{name} {model:?} at {p} facing {n}: {got:.3} lux, exact {exact:.3} ({:+.2}%){}",
+                100.0 * error / exact,
+                if ok { "" } else { "  <- out" }
+            );
+            if !ok {
+                failures.push(format!("{name} {model:?} at {p}: {got} lux, exact {exact}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+#[test]
+fn under_a_skylight() {
+    check(
+        "skylight",
+        skylight,
+        &[
+            (DVec3::new(2.0, 0.0, 2.0), DVec3::Y),
+            (DVec3::new(3.1, 0.0, 2.0), DVec3::Y),
+            (DVec3::new(2.6, 0.0, 1.7), DVec3::Y),
+            // The floor corner where three black walls meet: no light may
+            // leak in along the edges.
+            (DVec3::new(0.0, 0.0, 0.0), DVec3::Y),
+        ],
+    );
+}
+
+#[test]
+fn facing_a_window() {
+    check(
+        "window",
+        window,
+        &[
+            (DVec3::new(2.0, 1.5, 0.0), DVec3::Z),
+            (DVec3::new(1.0, 0.0, 2.5), DVec3::Y),
+            (DVec3::new(4.0, 1.5, 3.0), -DVec3::X),
+        ],
+    );
+}
+
+#[test]
+fn behind_a_slit() {
+    check(
+        "slit",
+        slit,
+        &[
+            (DVec3::new(2.0, 1.5, 3.0), DVec3::Z),
+            (DVec3::new(1.0, 1.0, 0.0), DVec3::Z),
+            (DVec3::new(2.0, 0.0, 3.0), DVec3::Y),
+        ],
+    );
+}
+
+#[test]
+fn in_a_courtyard() {
+    check(
+        "courtyard",
+        courtyard,
+        &[
+            (DVec3::new(2.0, 0.0, 2.0), DVec3::Y),
+            (DVec3::new(0.3, 0.0, 3.2), DVec3::Y),
+            (DVec3::new(0.0, 1.5, 2.0), DVec3::X),
+        ],
+    );
+}
+
+#[test]
+fn a_vertex_at_a_sensors_point_reads_what_the_sensor_reads() {
+    // One estimator for every receiver: the floor's vertices under the
+    // skylight, each against a sensor put at its own point.
+    let (surfaces, _) = skylight();
+    let scene = scene(surfaces, SkyModel::Overcast);
+    let settings = Settings::adaptive();
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+    let under: Vec<usize> = (0..mesh.vertices.len())
+        .filter(|&i| {
+            let p = mesh.vertices[i].position;
+            p.y == 0.0 && (1.0..=3.0).contains(&p.x) && (1.0..=3.0).contains(&p.z)
+        })
+        .collect();
+    assert!(
+        under.len() >= 4,
+        "{} floor vertices under the opening",
+        under.len()
+    );
+    let points: Vec<(DVec3, DVec3)> = under
+        .iter()
+        .map(|&i| (mesh.vertices[i].position, DVec3::Y))
+        .collect();
+    let sensors = lux_at(&scene, &points);
+    let mut solver = Solver::new(&scene, &mesh, settings);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    for (&i, sensor) in under.iter().zip(sensors) {
+        let vertex = lux(solver.irradiance()[i]);
+        assert!(
+            (vertex - sensor).abs() <= f64::max(0.01 * sensor, 0.5),
+            "vertex {i} at {}: {vertex} lux, the sensor there {sensor}",
+            mesh.vertices[i].position
+        );
+    }
+}
+
+#[test]
+fn a_wall_under_an_open_sky_sees_half_the_sky_and_the_ground() {
+    // A free-standing black board facing east on no floor: half the
+    // uniform sky, E_h / 2, and half the ground of reflectance rho lit by
+    // that sky, rho E_h / 2.
+    for rho in [0.0, 0.2, 0.5] {
+        let board = black(DVec3::new(0.0, 1.0, 0.0), DVec3::Y, DVec3::Z, 0);
+        let mut scene = scene_of(vec![board]);
+        scene.lights = Daylight {
+            sun: None,
+            sky: Some(SkySpec {
+                model: SkyModel::Uniform,
+                illuminance: SKY_LUX,
+                subdivision: sky::DEFAULT_SUBDIVISION,
+                ground_reflectance: rho,
+            }),
+        }
+        .lights()
+        .unwrap();
+        let got = lux_at(&scene, &[(DVec3::new(0.0, 1.5, 0.5), DVec3::X)]);
+        let exact = SKY_LUX * (1.0 + rho) / 2.0;
+        assert!(
+            (got[0] - exact).abs() <= 0.01 * exact,
+            "rho {rho}: {} lux, exact {exact}",
+            got[0]
+        );
+    }
+}
