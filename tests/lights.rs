@@ -167,6 +167,18 @@ fn bad_lights_and_daylight_get_one_error_and_no_output() {
             &["--sky", "uniform", "--sky-illuminance", "nan"][..],
             "--sky-illuminance must be a finite number of lux at least 0",
         ),
+        (
+            floor(""),
+            &[
+                "--sky",
+                "uniform",
+                "--sky-illuminance",
+                "10000",
+                "--ground-reflectance",
+                "1.5",
+            ][..],
+            "--ground-reflectance must be from 0 to below 1, not 1.5",
+        ),
     ] {
         let dir = case(&obj);
         let mut args = vec!["render", "scene.obj", "--output", "out.png"];
@@ -178,4 +190,53 @@ fn bad_lights_and_daylight_get_one_error_and_no_output() {
         assert_eq!(stderr.matches("error:").count(), 1, "{stderr}");
         assert!(!dir.path().join("out.png").exists(), "{says}");
     }
+}
+
+#[test]
+fn an_overcast_sky_alone_gives_the_daylight_factor_and_a_sun_refuses_it() {
+    let dir = case(&floor(""));
+    std::fs::write(dir.path().join("points.txt"), "0 0 0 0 1 0\n1 0 1 0 1 0\n").unwrap();
+    let overcast = ["--sky", "overcast", "--sky-illuminance", "10000"];
+    let out = render_with_sensors(dir.path(), &overcast);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.path().join("lux.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("x,y,z,nx,ny,nz,er,eg,eb,br,bg,bb,lux,daylight_factor")
+    );
+    for line in lines {
+        // The open floor: the factor is the lux over 10,000, in percent,
+        // near 100.
+        let columns: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+        let (lux, factor) = (columns[12], columns[13]);
+        assert!((factor - lux / 100.0).abs() < 1e-9 * factor, "{line}");
+        assert!((factor - 100.0).abs() < 1.0, "{line}");
+    }
+    // Asked for with a sun: one error, no output.
+    std::fs::remove_file(dir.path().join("lux.csv")).unwrap();
+    let mut flags = overcast.to_vec();
+    flags.extend(["--sun", "30", "120", "60000", "--daylight-factor"]);
+    let out = render_with_sensors(dir.path(), &flags);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--daylight-factor: the daylight factor is defined without the sun"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("lux.csv").exists());
+    // Without it, a sun just leaves the column out.
+    let mut flags = overcast.to_vec();
+    flags.extend(["--sun", "30", "120", "60000"]);
+    let out = render_with_sensors(dir.path(), &flags);
+    assert!(out.status.success());
+    let csv = std::fs::read_to_string(dir.path().join("lux.csv")).unwrap();
+    assert!(
+        csv.starts_with("x,y,z,nx,ny,nz,er,eg,eb,br,bg,bb,lux\n"),
+        "{csv}"
+    );
 }

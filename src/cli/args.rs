@@ -309,9 +309,17 @@ pub struct RenderArgs {
     /// input order: x,y,z,nx,ny,nz (as given, normal normalised),
     /// er,eg,eb (irradiance E, W/m^2), br,bg,bb (radiosity B = Ke + Kd E
     /// of the surface, W/m^2), lux (Radiance's 179 x (0.265 R + 0.670 G +
-    /// 0.065 B) of E).
+    /// 0.065 B) of E); under an overcast sky alone, a last column
+    /// daylight_factor (lux over the sky's unobstructed horizontal
+    /// illuminance, percent).
     #[arg(long, value_name = "FILE.csv", requires = "sensors")]
     pub sensors_out: Option<PathBuf>,
+
+    /// Require the daylight_factor column of --sensors-out: an error unless
+    /// the scene is lit by an overcast sky alone (no sun, no lights, no
+    /// emitting faces), where the daylight factor is defined.
+    #[arg(long, requires = "sensors_out")]
+    pub daylight_factor: bool,
 
     #[command(flatten)]
     pub load: LoadArgs,

@@ -172,6 +172,7 @@ impl RenderArgs {
                     points: points.clone(),
                     out: out.clone(),
                     max_points: self.max_sensors.unwrap_or(sensors::DEFAULT_MAX_SENSORS),
+                    daylight_factor: self.daylight_factor,
                 }),
                 _ => None,
             },

@@ -183,23 +183,33 @@ pub fn write_vertices_csv(
 /// The CSV header of `--sensors-out`.
 pub const SENSOR_CSV_HEADER: &str = "x,y,z,nx,ny,nz,er,eg,eb,br,bg,bb,lux";
 
+/// The last column `--sensors-out` gains under an overcast sky alone.
+pub const DAYLIGHT_FACTOR_COLUMN: &str = "daylight_factor";
+
 /// Writes one row per sensor point, in input order: the position and unit
 /// normal as given, the irradiance `E` (W/m^2), the radiosity `B = Ke + Kd
 /// E` of the surface the point lies on (W/m^2) and the illuminance in lux
 /// as Radiance computes it ([`crate::sensors::lux`]). Like the vertex CSV,
-/// `E` and `B` hold the light shot so far (no ambient term).
+/// `E` and `B` hold the light shot so far (no ambient term). With
+/// `daylight` (the overcast sky's unobstructed horizontal illuminance, lux),
+/// a last column [`DAYLIGHT_FACTOR_COLUMN`]: the illuminance as a
+/// percentage of it.
 pub fn write_sensors_csv(
     out: &mut impl Write,
     scene: &Scene,
     points: &[crate::sensors::SensorPoint],
     receivers: &[crate::solver::Receiver],
     irradiance: &[DVec3],
+    daylight: Option<f64>,
 ) -> io::Result<()> {
-    writeln!(out, "{SENSOR_CSV_HEADER}")?;
+    match daylight {
+        Some(_) => writeln!(out, "{SENSOR_CSV_HEADER},{DAYLIGHT_FACTOR_COLUMN}")?,
+        None => writeln!(out, "{SENSOR_CSV_HEADER}")?,
+    }
     for ((point, receiver), e) in points.iter().zip(receivers).zip(irradiance) {
         let (p, n) = (point.position, point.normal);
         let b = crate::sensors::radiosity(scene, receiver, *e);
-        writeln!(
+        write!(
             out,
             "{},{},{},{},{},{},{},{},{},{},{},{},{}",
             p.x,
@@ -216,6 +226,10 @@ pub fn write_sensors_csv(
             b.z,
             crate::sensors::lux(*e)
         )?;
+        match daylight {
+            Some(horizontal) => writeln!(out, ",{}", 100.0 * crate::sensors::lux(*e) / horizontal)?,
+            None => writeln!(out)?,
+        }
     }
     Ok(())
 }

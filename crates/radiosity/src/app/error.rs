@@ -84,6 +84,10 @@ pub enum Error {
         /// What stands in the way.
         message: String,
     },
+    /// `--daylight-factor` where the scene is not lit by an overcast sky
+    /// alone.
+    #[error("--daylight-factor: {0}")]
+    DaylightFactor(String),
     /// `--max-sensors 0`.
     #[error("--max-sensors must be at least 1")]
     NoSensors,

@@ -92,6 +92,10 @@ pub struct SensorJob {
     pub out: PathBuf,
     /// Most points the file may hold (`--max-sensors`).
     pub max_points: usize,
+    /// `--daylight-factor`: the CSV must have the `daylight_factor` column
+    /// (an error when the scene is not lit by an overcast sky alone); it
+    /// has it anyway when the scene is.
+    pub daylight_factor: bool,
 }
 
 /// `--bake`: light baked into glTF, as vertex colours of the element mesh

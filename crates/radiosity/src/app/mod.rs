@@ -83,6 +83,14 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         Some(s) => sensors::receivers(&scene, &sensor_points, &s.points)?,
         None => Vec::new(),
     };
+    let daylight_factor = match &job.sensors {
+        Some(s) => match (sensors::overcast_sky_alone(&scene), s.daylight_factor) {
+            (Ok(lux), _) => Some(lux),
+            (Err(why), true) => return Err(Error::DaylightFactor(why)),
+            (Err(_), false) => None,
+        },
+        None => None,
+    };
     let suggested = scene.default_mesh_sizes();
     let mut settings = job.settings_for(&suggested);
     let mut device_notes = Vec::new();
@@ -295,6 +303,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                 &sensor_points,
                 &sensor_receivers,
                 solver.sensor_irradiance(),
+                daylight_factor,
             )
         })?);
     }
