@@ -25,17 +25,21 @@ Lights (photometric, 179 lm/W per channel, colour = linear RGB multiplier):
   #@light sun DX DY DZ LUX [R G B]       (DX DY DZ = where the light goes)
   --sun ALT AZ LUX: a white sun towards (sin az cos alt, sin alt, -cos az cos alt)
   --sky uniform|overcast|clear --sky-illuminance E_h (lux, unobstructed
-        horizontal illuminance of the sky alone; nothing below the horizon)
+        horizontal illuminance of the sky alone)
+  --ground-reflectance RHO (0.2): below the horizon, with a sky, a ground of
+        luminance RHO (E_h + E_sun sin(altitude)) / pi (gensky's ground)
 
 Radiance models:
   point : sphere of radius r (--point-radius, 1 mm) with `light` radiance
           I/(pi r^2) (a Lambertian sphere has intensity L pi r^2 exactly);
   spot  : the same sphere, its `light` modified by a `brightfunc` of the
           emission direction -D (rl_spot.cal);
-  sun   : distant `source` of --sun-diameter (0.5 deg) with `light`
-          radiance E_n / (2 pi (1 - cos(diam/2)));
+  sun   : distant `source` of --sun-diameter (0.01 deg: parallel, as the
+          renderer's sun; 0.53 is the real sun's) with `light` radiance
+          E_n / (2 pi (1 - cos(diam/2)));
   sky   : `glow` on a 180-degree `source` about +y with a `brightfunc`
-          (rl_sky.cal) in our axes (y up, north -z, east +x).
+          (rl_sky.cal) in our axes (y up, north -z, east +x); the ground a
+          uniform `glow` on a 180-degree `source` about -y.
   Point, spot and sun lights are Radiance light sources: sampled directly
   (next-event estimation) at every path vertex and invisible to path rays
   (-dv-).  Radiance never samples a distant `glow` directly (it is skipped
@@ -226,9 +230,14 @@ def sky_text(sky):
         return ""
     fn = {"uniform": "sky_uniform", "overcast": "sky_overcast", "clear": "sky_clear"}[sky["kind"]]
     args = "3 %s" % obj2rad.fmt3(sky["sun"]) if sky["kind"] == "clear" else "0"
-    return ("void brightfunc rl_skyf\n2 %s rl_sky.cal\n0\n%s\n"
+    text = ("void brightfunc rl_skyf\n2 %s rl_sky.cal\n0\n%s\n"
             "rl_skyf glow rl_skyg\n0\n0\n4 %s 0\n"
             "rl_skyg source rl_sky\n0\n0\n4 0 1 0 180\n" % (fn, args, obj2rad.fmt3(sky["L"])))
+    if sky.get("ground") is not None and np.any(sky["ground"] > 0):
+        text += ("void glow rl_groundg\n0\n0\n4 %s 0\n"
+                 "rl_groundg source rl_ground\n0\n0\n4 0 -1 0 180\n"
+                 % obj2rad.fmt3(sky["ground"]))
+    return text
 
 
 def black_materials(scene):
@@ -368,7 +377,10 @@ def main(argv=None):
                          "(a square number; 0: only the continuation ray)")
     ap.add_argument("--point-radius", type=float, default=1e-3,
                     help="radius of the spheres standing for point and spot lights (m)")
-    ap.add_argument("--sun-diameter", type=float, default=0.5, help="degrees")
+    ap.add_argument("--sun-diameter", type=float, default=0.01,
+                    help="degrees (0.01: parallel, as the renderer's sun)")
+    ap.add_argument("--ground-reflectance", type=float, default=0.2,
+                    help="the ground below the horizon, with a sky (gensky's)")
     ap.add_argument("--procs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--offset", type=float, default=1e-4)
@@ -398,7 +410,10 @@ def main(argv=None):
         sun_vec = -lights[-1]["dir"] if a.sun else None
         K = sky_horizontal_integral(a.sky, sun_vec)
         lum = a.sky_illuminance / EFFICACY / K
-        sky = dict(kind=a.sky, sun=sun_vec, K=K, L=np.full(3, lum))
+        sun_h = a.sun[2] * math.sin(math.radians(a.sun[0])) if a.sun else 0.0
+        ground = a.ground_reflectance * (a.sky_illuminance + sun_h) / math.pi / EFFICACY
+        sky = dict(kind=a.sky, sun=sun_vec, K=K, L=np.full(3, lum), ground=np.full(3, ground))
+        log("ground: reflectance %g, glow radiance %.6g W/m^2/sr" % (a.ground_reflectance, ground))
         log("sky %s: E_h %.6g lux, shape integral %.9g, glow radiance %.6g W/m^2/sr"
             % (a.sky, a.sky_illuminance, K, lum))
     for L in lights:

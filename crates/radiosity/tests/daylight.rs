@@ -12,6 +12,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use radiosity::mesh::Mesh;
+use radiosity::scene::glass::Pane;
 use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
 use radiosity::scene::{LightKind, Scene, Surface};
 use radiosity::sensors::{self, SensorPoint, lux};
@@ -377,5 +378,119 @@ fn a_wall_under_an_open_sky_sees_half_the_sky_and_the_ground() {
             "rho {rho}: {} lux, exact {exact}",
             got[0]
         );
+    }
+}
+
+/// `text` (OBJ) loaded with the MTL library `m.mtl` holding `mtl`.
+fn load_obj(text: &str, mtl: &str) -> Result<Scene, String> {
+    radiosity::scene::obj::parse_bytes(
+        "t",
+        Path::new("t.obj"),
+        text.as_bytes(),
+        &radiosity::scene::Limits::default(),
+        &mut |_: &str| Ok(("m.mtl".into(), mtl.as_bytes().to_vec())),
+    )
+    .map_err(|e| e.to_string())
+}
+
+#[test]
+fn glass_in_a_window_lets_its_transmittance_through() {
+    // The window room with a pane in the opening: the sky (uniform and
+    // clear) and the sun at every sensor, times the pane's transmittance.
+    let tau = DVec3::new(0.8, 0.7, 0.6);
+    let (surfaces, opening) = window();
+    let corners = vec![
+        opening.origin,
+        opening.origin + opening.u,
+        opening.origin + opening.u + opening.v,
+        opening.origin + opening.v,
+    ];
+    let pane = Pane::new(corners, tau, "glass").unwrap();
+    let points = [
+        (DVec3::new(2.0, 1.5, 0.0), DVec3::Z),
+        (DVec3::new(1.0, 0.0, 2.5), DVec3::Y),
+    ];
+    for model in [SkyModel::Uniform, SkyModel::Clear] {
+        let mut clear = scene(surfaces.clone(), model);
+        let open = lux_at(&clear, &points);
+        clear.panes.push(pane.clone());
+        let glazed = lux_at(&clear, &points);
+        for ((&(p, n), open), glazed) in points.iter().zip(open).zip(glazed) {
+            let exact = through(model, opening, p, n);
+            let expected = exact * (lux(tau) / 179.0);
+            assert!(
+                (glazed - expected).abs() <= 0.01 * expected,
+                "{model:?} at {p}: {glazed} lux behind glass, {expected} expected ({open} open)"
+            );
+        }
+    }
+    // The sun through it: a floor point in the sun patch.
+    let mut lights = Daylight {
+        sun: Some(SunSpec {
+            altitude: 40.0,
+            azimuth: 180.0,
+            illuminance: 50_000.0,
+        }),
+        sky: None,
+    }
+    .lights()
+    .unwrap();
+    let mut sunny = scene_of(surfaces);
+    sunny.lights.append(&mut lights);
+    sunny.panes.push(pane);
+    // The sun 40 degrees up in the south (+z) through the window (sill 0.9
+    // m, head 2.1 m at z = 4) lands 1.07 to 2.50 m inside.
+    let lit = lux_at(&sunny, &[(DVec3::new(2.0, 0.0, 2.2), DVec3::Y)]);
+    let expected = 50_000.0 * 40f64.to_radians().sin() * (lux(tau) / 179.0);
+    assert!(
+        (lit[0] - expected).abs() <= 1e-6 * expected,
+        "{} lux in the sun behind glass, {expected} expected",
+        lit[0]
+    );
+}
+
+#[test]
+fn glass_is_read_from_mtl_and_bad_transparency_is_named() {
+    let obj = "mtllib m.mtl\nusemtl wall\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n\
+               usemtl pane\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 5 6 7 8\n";
+    let mtl = "newmtl wall\nKd 0.5 0.5 0.5\nd 1\nTf 1 1 1\n\
+               newmtl pane\nKd 0 0 0\nTf 0.9 0.8 0.7\nd 0.2\n";
+    let scene = load_obj(obj, mtl).unwrap();
+    assert_eq!(
+        scene.surfaces.len(),
+        1,
+        "the opaque wall alone is a surface"
+    );
+    assert_eq!(scene.panes.len(), 1);
+    let t = scene.panes[0].transmittance;
+    assert!(
+        (t - DVec3::new(0.72, 0.64, 0.56)).abs().max_element() < 1e-12,
+        "{t}"
+    );
+    assert_eq!(scene.panes[0].material, "pane");
+    // Tr is 1 - d.
+    let scene = load_obj(obj, "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl pane\nTr 0.9\n").unwrap();
+    assert!(
+        (scene.panes[0].transmittance - DVec3::splat(0.9))
+            .abs()
+            .max_element()
+            < 1e-12
+    );
+    for (mtl, says) in [
+        (
+            "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl pane\nd 1.5\n",
+            "m.mtl:4: 'd' of material 'pane' must be from 0 to 1, not 1.5",
+        ),
+        (
+            "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl pane\nTf 0.5 0.5\n",
+            "m.mtl:4: 'Tf' takes 1 number (grey) or 3 (r g b), found 2 numbers",
+        ),
+        (
+            "d 0.5\nnewmtl wall\nKd 0.5 0.5 0.5\n",
+            "m.mtl:1: 'd' before any 'newmtl'",
+        ),
+    ] {
+        let error = load_obj(obj, mtl).unwrap_err();
+        assert!(error.contains(says), "{error}");
     }
 }

@@ -565,3 +565,63 @@ fn mutated_files_never_panic() {
         assert!(result.is_ok(), "round {round} panicked");
     }
 }
+
+#[test]
+fn transmission_makes_glass_and_alpha_blending_is_named() {
+    let (mut doc, bin) = triangle();
+    doc["nodes"] = json!([{"mesh": 0}, {"mesh": 1}, {"mesh": 2}]);
+    doc["scenes"] = json!([{"nodes": [0, 1, 2]}]);
+    doc["meshes"] = json!([
+        {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
+        {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 1}]},
+        {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 2}]},
+    ]);
+    doc["materials"] = json!([
+        {"name": "glow", "emissiveFactor": [1, 1, 1]},
+        {"name": "window", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.9, 1.0, 1.0]},
+         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.9}}},
+        {"name": "veil", "alphaMode": "BLEND", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 0.4]}},
+    ]);
+    doc["extensionsUsed"] = json!(["KHR_materials_transmission"]);
+    let bytes = serde_json::to_vec(&doc).unwrap();
+    let (scene, _) = gltf::load_slice(
+        "glass",
+        Path::new("glass.gltf"),
+        &bytes,
+        &mut |_: &str| Ok(bin.clone()),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        scene.surfaces.len(),
+        2,
+        "the glow and the veil are surfaces"
+    );
+    assert_eq!(scene.panes.len(), 1);
+    let t = scene.panes[0].transmittance;
+    assert!(
+        (t - DVec3::new(0.72, 0.81, 0.9)).abs().max_element() < 1e-6,
+        "{t}"
+    );
+    assert!(
+        scene.panes[0].material.contains("window"),
+        "{}",
+        scene.panes[0].material
+    );
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("'veil'") && w.contains("transparent by its alpha")),
+        "{:?}",
+        scene.warnings
+    );
+    // A factor outside [0, 1] is an error naming the material.
+    doc["materials"][1]["extensions"]["KHR_materials_transmission"]["transmissionFactor"] =
+        json!(1.5);
+    let error = load_error(&doc, &bin);
+    assert!(
+        error.contains("transmissionFactor 1.5 is not from 0 to 1"),
+        "{error}"
+    );
+}

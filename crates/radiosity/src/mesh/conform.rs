@@ -352,6 +352,7 @@ mod tests {
             name: "t".into(),
             surfaces: vec![Surface::new(polygon, DVec3::splat(0.5), DVec3::ONE, 0).unwrap()],
             lights: Vec::new(),
+            panes: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

@@ -605,6 +605,7 @@ mod tests {
                 .map(|(i, p)| Surface::new(p, DVec3::splat(0.5), DVec3::ONE, i as u32).unwrap())
                 .collect(),
             lights: Vec::new(),
+            panes: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

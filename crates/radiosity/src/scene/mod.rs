@@ -15,6 +15,7 @@
 //! lines with.)
 
 pub mod builtin;
+pub mod glass;
 pub mod gltf;
 pub mod ies;
 pub mod light;
@@ -218,6 +219,9 @@ pub struct Scene {
     /// Lights that are not surfaces: point, spot and sun lights
     /// ([`light`]).
     pub lights: Vec<Light>,
+    /// Glass: transparent panes, not surfaces of the solve, that dim the
+    /// shadow rays of lights and daylight crossing them ([`glass`]).
+    pub panes: Vec<glass::Pane>,
     /// The camera the scene file suggests, if any.
     pub camera: Option<Camera>,
     /// The mesh sizes the scene file suggests (`#@mesh PATCH ELEMENT`).
@@ -504,6 +508,19 @@ pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, Sc
             message,
         })?;
     scene.lights.extend(daylight);
+    if !scene.panes.is_empty() {
+        let mut materials: Vec<&str> = scene.panes.iter().map(|p| p.material.as_str()).collect();
+        materials.dedup();
+        materials.truncate(5);
+        scene.warnings.push(format!(
+            "{}: {} glass pane(s) ({}): they dim the light of lights, the sun and the sky that \
+             crosses them by their transmittance; light from one surface to another passes them \
+             undimmed",
+            path.display(),
+            scene.panes.len(),
+            materials.join(", ")
+        ));
+    }
     if scene.lights.is_empty() && !scene.surfaces.iter().any(Surface::is_emitter) {
         let emitters = if is_gltf(path) {
             "no material has an emissiveFactor > 0 and no node has a KHR_lights_punctual light"

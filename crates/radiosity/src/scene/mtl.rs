@@ -1,9 +1,12 @@
 //! Wavefront MTL material libraries (design.md sections 6 and 7): `newmtl`
 //! names a material, `Kd` is its reflectance (1 number for grey or 3 for
 //! r g b, each channel in [0, 1)) and `Ke` its emitted radiant exitance in
-//! W/m^2 (not negative). The statements of the format that carry nothing a
-//! radiosity solve uses (specular terms, transparency, texture maps, ...)
-//! are skipped without a word; any other statement is named in one warning
+//! W/m^2 (not negative); dissolve `d` (or `Tr`, its complement) below 1
+//! makes the material glass of transmittance `(1 - d) Tf`
+//! ([`super::glass`]; `Tf`, 1 or 3 numbers, white when absent; each value
+//! in [0, 1]). The statements of the format that carry nothing a radiosity
+//! solve uses (specular terms, texture maps, ...) are skipped without a
+//! word; any other statement is named in one warning
 //! per file. Every problem is an error naming the file and line. The text
 //! is read as [`super::text`] says; [`parse_mtl`] works from bytes, so the
 //! fuzzers in `fuzz/` reach the same code as the command line.
@@ -23,18 +26,18 @@ pub struct Material {
     pub rho: DVec3,
     /// `Ke`: emitted radiant exitance, W/m^2.
     pub emission: DVec3,
+    /// Glass: the fraction of light let through, `(1 - d) Tf`; zero for an
+    /// opaque material ([`crate::scene::glass`]).
+    pub transmittance: DVec3,
 }
 
 /// MTL statements that carry nothing a radiosity solve uses: skipped
 /// without a word. Anything else unknown is named in a warning.
-const MTL_SKIPPED: [&str; 21] = [
+const MTL_SKIPPED: [&str; 18] = [
     "Ka",
     "Ks",
     "Ns",
     "Ni",
-    "d",
-    "Tr",
-    "Tf",
     "illum",
     "sharpness",
     "bump",
@@ -80,6 +83,8 @@ pub(super) fn parse_mtl_into(
     };
     let mut current: Option<String> = None;
     let mut ignored: Vec<String> = Vec::new();
+    // Each material's dissolve and transmission filter as read so far.
+    let mut glass: HashMap<String, (f64, DVec3)> = HashMap::new();
     for line in logical_lines(path, text, limits) {
         let (line_no, line) = line?;
         let content = line.split('#').next().unwrap_or("").trim();
@@ -99,8 +104,10 @@ pub(super) fn parse_mtl_into(
                     Material {
                         rho: DVec3::ZERO,
                         emission: DVec3::ZERO,
+                        transmittance: DVec3::ZERO,
                     },
                 );
+                glass.insert(name.clone(), (1.0, DVec3::ONE));
                 current = Some(name);
             }
             "Kd" | "Ke" => {
@@ -158,6 +165,66 @@ pub(super) fn parse_mtl_into(
                         ));
                     }
                     material.emission = value;
+                }
+            }
+            "d" | "Tr" | "Tf" => {
+                let Some(name) = &current else {
+                    return Err(error(line_no, format!("'{keyword}' before any 'newmtl'")));
+                };
+                // `d -halo F`: the halo form dissolves by angle; taken as F.
+                let values: Vec<&str> = args.iter().copied().filter(|a| *a != "-halo").collect();
+                if values
+                    .first()
+                    .is_some_and(|a| *a == "spectral" || *a == "xyz")
+                {
+                    return Err(error(
+                        line_no,
+                        format!("'{keyword} {}' is not supported: give r g b", values[0]),
+                    ));
+                }
+                let wanted = if keyword == "Tf" { [1, 3] } else { [1, 1] };
+                if !wanted.contains(&values.len()) {
+                    return Err(error(
+                        line_no,
+                        format!(
+                            "'{keyword}' takes {}, found {} numbers",
+                            if keyword == "Tf" {
+                                "1 number (grey) or 3 (r g b)"
+                            } else {
+                                "1 number"
+                            },
+                            values.len()
+                        ),
+                    ));
+                }
+                let mut rgb = [0.0; 3];
+                for (i, slot) in rgb.iter_mut().enumerate() {
+                    let token = values.get(i).unwrap_or(&values[0]);
+                    *slot = number(token).map_err(|m| error(line_no, m))?;
+                }
+                if rgb.iter().any(|v| !(0.0..=1.0).contains(v)) {
+                    return Err(error(
+                        line_no,
+                        format!(
+                            "'{keyword}' of material {} must be from 0 to 1, not {}",
+                            quoted(name),
+                            values.join(" ")
+                        ),
+                    ));
+                }
+                let entry = glass.entry(name.clone()).or_insert((1.0, DVec3::ONE));
+                match keyword {
+                    "d" => entry.0 = rgb[0],
+                    "Tr" => entry.0 = 1.0 - rgb[0],
+                    _ => entry.1 = DVec3::from_array(rgb),
+                }
+                let (dissolve, filter) = *entry;
+                if let Some(material) = materials.get_mut(name) {
+                    material.transmittance = if dissolve < 1.0 {
+                        filter * (1.0 - dissolve)
+                    } else {
+                        DVec3::ZERO
+                    };
                 }
             }
             other if MTL_SKIPPED.contains(&other) || other.starts_with("map_") => {}

@@ -111,6 +111,8 @@ pub fn parse_bytes(
         warped: Vec::new(),
         camera: None,
         lights: Vec::new(),
+        panes: Vec::new(),
+        current_name: String::new(),
         profiles: HashMap::new(),
         mesh_hint: None,
         ignored: Vec::new(),
@@ -175,6 +177,10 @@ struct ObjParser<'a> {
     warped: Vec<(usize, Warp)>,
     camera: Option<Camera>,
     lights: Vec<Light>,
+    /// Glass faces ([`super::glass`]).
+    panes: Vec<super::glass::Pane>,
+    /// The name of the material of [`ObjParser::current`].
+    current_name: String,
     /// Photometric profiles read so far, by the name `#@light ies` gave.
     profiles: HashMap<String, std::sync::Arc<super::ies::Profile>>,
     mesh_hint: Option<MeshHint>,
@@ -335,6 +341,7 @@ impl ObjParser<'_> {
                     )
                 })?;
                 self.current = Some(material);
+                self.current_name = name;
             }
             "mtllib" => {
                 if args.is_empty() {
@@ -502,6 +509,17 @@ impl ObjParser<'_> {
                     self.warped.push((line_no, warp));
                 }
                 for piece in pieces.polygons {
+                    if material.transmittance != DVec3::ZERO {
+                        // Glass: a pane, not a surface.
+                        if let Some(p) = super::glass::Pane::new(
+                            piece,
+                            material.transmittance,
+                            &self.current_name,
+                        ) {
+                            self.panes.push(p);
+                        }
+                        continue;
+                    }
                     // convex_pieces only returns pieces with area.
                     if let Some(s) = Surface::new(piece, material.rho, material.emission, face) {
                         self.surfaces.push(s);
@@ -627,6 +645,7 @@ impl ObjParser<'_> {
             name: name.to_string(),
             surfaces,
             lights: self.lights,
+            panes: self.panes,
             camera: self.camera,
             mesh_hint: self.mesh_hint,
             warnings,

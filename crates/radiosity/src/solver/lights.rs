@@ -35,7 +35,7 @@ use super::device::{DeviceError, Segment, Segments};
 use super::method::ShotInputs;
 use super::sky::SkyPlan;
 use crate::accel;
-use crate::scene::{Light, LightKind, Scene};
+use crate::scene::{Light, LightKind, Scene, glass};
 
 /// Receivers gathered between two checks of the shot's abort.
 const CHUNK: usize = 4096;
@@ -107,20 +107,36 @@ pub fn shoot(
     }))
 }
 
-/// Whether each segment is blocked: by `device`, or by the scene's
-/// occluder (in parallel).
+/// What passes along each segment, per channel: 0 where a surface blocks
+/// it (asked of `device`, or of the scene's occluder, in parallel), else
+/// the transmittance of the glass it crosses ([`glass::transmittance`]),
+/// 1 through none.
 fn answer(
     inputs: &ShotInputs<'_>,
     device: Option<&dyn Segments>,
     segments: &[Segment],
-) -> Result<Vec<bool>, DeviceError> {
-    match device {
-        Some(device) => device.occluded(segments),
-        None => Ok(segments
+) -> Result<Vec<DVec3>, DeviceError> {
+    let blocked = match device {
+        Some(device) => device.occluded(segments)?,
+        None => segments
             .par_iter()
             .map(|s| inputs.occluder.occluded(s.from, s.to, s.skip))
-            .collect()),
-    }
+            .collect(),
+    };
+    let panes = &inputs.scene.panes;
+    Ok(segments
+        .par_iter()
+        .zip(blocked)
+        .map(|(s, blocked)| {
+            if blocked {
+                DVec3::ZERO
+            } else if panes.is_empty() {
+                DVec3::ONE
+            } else {
+                glass::transmittance(panes, s.from, s.to)
+            }
+        })
+        .collect())
 }
 
 /// The shadow segment from `from` (a light, or for a distant light a point
@@ -203,13 +219,13 @@ pub fn gather(
             })
             .collect();
         let segments: Vec<Segment> = candidates.iter().flatten().map(|c| c.1).collect();
-        let blocked = answer(inputs, device, &segments)?;
+        let passed = answer(inputs, device, &segments)?;
         let mut next = 0;
         for (e, list) in out.iter_mut().zip(&candidates) {
             let mut sum = DVec3::ZERO;
             for (unblocked, _) in list {
-                if !blocked[next] {
-                    sum += *unblocked;
+                if passed[next] != DVec3::ZERO {
+                    sum += *unblocked * passed[next];
                 }
                 next += 1;
             }
@@ -337,7 +353,7 @@ pub fn element_means(
             .flatten()
             .flat_map(|(points, _)| points.iter().map(|p| p.1))
             .collect();
-        let blocked = answer(inputs, device, &segments)?;
+        let passed = answer(inputs, device, &segments)?;
         rays += segments.len() as u64;
         let mut next = 0;
         for (e, g) in chunk.iter().zip(&grids) {
@@ -346,8 +362,8 @@ pub fn element_means(
                 Some((points, weights)) => {
                     let mut sum = DVec3::ZERO;
                     for (value, _) in points {
-                        if !blocked[next] {
-                            sum += *value;
+                        if passed[next] != DVec3::ZERO {
+                            sum += *value * passed[next];
                         }
                         next += 1;
                     }

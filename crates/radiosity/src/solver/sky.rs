@@ -84,10 +84,20 @@ impl SkyPlan {
         } else {
             Vec::new()
         };
-        let portals = portal::openings(&scene.surfaces, occluder)
+        // The openings, and the glass (a pane in an opening found from the
+        // geometry overlaps it: each direction is counted by the nearer, or
+        // the first listed).
+        let mut portals: Vec<Prepared> = portal::openings(&scene.surfaces, occluder)
             .iter()
             .map(prepare)
             .collect();
+        portals.extend(scene.panes.iter().map(|pane| {
+            prepare(&Portal {
+                pieces: vec![pane.polygon.clone()],
+                normal: pane.normal,
+                area: geometry::area(&pane.polygon),
+            })
+        }));
         Some(SkyPlan {
             patches: sky::patches(*subdivision),
             ground,
@@ -150,8 +160,13 @@ impl SkyPlan {
                     return 0.0;
                 }
                 let here = crossing(&a.pieces, point, towards).unwrap_or(f64::INFINITY);
+                // Nearer, or as near (a pane in an opening) and listed
+                // first.
                 let nearer = active.iter().enumerate().any(|(m, b)| {
-                    m != k && crossing(&b.pieces, point, towards).is_some_and(|s| s < here)
+                    m != k
+                        && crossing(&b.pieces, point, towards).is_some_and(|s| {
+                            s < here - 1e-9 * here || (s <= here + 1e-9 * here && m < k)
+                        })
                 });
                 if nearer {
                     0.0

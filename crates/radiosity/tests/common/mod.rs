@@ -118,6 +118,7 @@ pub fn scene_of(surfaces: Vec<Surface>) -> Scene {
         name: "test".into(),
         surfaces,
         lights: Vec::new(),
+        panes: Vec::new(),
         camera: None,
         mesh_hint: None,
         warnings: Vec::new(),

@@ -433,6 +433,7 @@ mod tests {
             name: "test".into(),
             surfaces: vec![square, floor],
             lights: Vec::new(),
+            panes: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

@@ -13,8 +13,9 @@ use super::{Loader, Resolver, SceneError, label};
 
 /// Extensions a file may list as required that this loader honours (or
 /// whose absence of support changes nothing for radiosity).
-const SUPPORTED_REQUIRED: [&str; 5] = [
+const SUPPORTED_REQUIRED: [&str; 6] = [
     "KHR_materials_emissive_strength",
+    "KHR_materials_transmission",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
     "KHR_materials_unlit",

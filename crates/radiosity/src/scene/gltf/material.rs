@@ -24,6 +24,9 @@ pub(super) struct MaterialInfo {
     pub(super) rho: DVec3,
     pub(super) emission: DVec3,
     pub(super) double_sided: bool,
+    /// Glass (`KHR_materials_transmission`): `transmissionFactor` times the
+    /// base colour; zero for an opaque material.
+    pub(super) transmittance: DVec3,
 }
 
 /// The standard sRGB decoding curve.
@@ -82,6 +85,7 @@ impl Loader<'_> {
                 rho: DVec3::ONE,
                 emission: DVec3::ZERO,
                 double_sided: false,
+                transmittance: DVec3::ZERO,
             },
             Some(i) => {
                 let Some(m) = self.root.materials.get(i) else {
@@ -137,10 +141,41 @@ impl Loader<'_> {
                         }
                     }
                 }
+                let transmission = m
+                    .extensions
+                    .as_ref()
+                    .and_then(|e| e.transmission.as_ref())
+                    .map_or(0.0, |t| widen(t.transmission_factor.0));
+                if !(0.0..=1.0).contains(&transmission) {
+                    return Err(self.error(format!(
+                        "{what}: KHR_materials_transmission's transmissionFactor {transmission} \
+                         is not from 0 to 1"
+                    )));
+                }
+                let transmittance = if transmission > 0.0 {
+                    rho.clamp(DVec3::ZERO, DVec3::ONE) * transmission
+                } else {
+                    DVec3::ZERO
+                };
+                if transmission == 0.0
+                    && m.alpha_mode
+                        == gltf_json::validation::Checked::Valid(
+                            gltf_json::material::AlphaMode::Blend,
+                        )
+                    && f[3] < 1.0
+                {
+                    self.warnings.push(format!(
+                        "{}: {what} is transparent by its alpha ({}), which radiosity does not \
+                         model: it is opaque here (glass is KHR_materials_transmission)",
+                        self.path.display(),
+                        f[3]
+                    ));
+                }
                 MaterialInfo {
                     rho,
                     emission,
                     double_sided: m.double_sided,
+                    transmittance,
                 }
             }
         };

@@ -202,6 +202,7 @@ pub fn load_slice(
         degenerate: 0,
         camera: None,
         lights: Vec::new(),
+        panes: Vec::new(),
         profiles: HashMap::new(),
         capped: Vec::new(),
     };
@@ -252,6 +253,8 @@ struct Loader<'a> {
     degenerate: usize,
     camera: Option<Camera>,
     lights: Vec<Light>,
+    /// Glass ([`crate::scene::glass`]).
+    panes: Vec<crate::scene::glass::Pane>,
     /// Photometric profiles read so far, by URI.
     profiles: HashMap<String, std::sync::Arc<super::ies::Profile>>,
     capped: Vec<String>,
@@ -355,6 +358,7 @@ impl Loader<'_> {
             name: name.to_string(),
             surfaces,
             lights: std::mem::take(&mut self.lights),
+            panes: std::mem::take(&mut self.panes),
             camera: self.camera,
             mesh_hint,
             warnings,

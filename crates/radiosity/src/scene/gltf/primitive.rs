@@ -329,6 +329,21 @@ impl Loader<'_> {
                 return Ok(());
             }
         };
+        if material.transmittance != DVec3::ZERO {
+            // Glass: panes, not surfaces.
+            let name = match material_index {
+                Some(i) => super::label("material", i, self.root.materials[i].name.as_ref()),
+                None => "the default material".to_string(),
+            };
+            for piece in pieces {
+                if let Some(pane) =
+                    crate::scene::glass::Pane::new(piece, material.transmittance, &name)
+                {
+                    self.panes.push(pane);
+                }
+            }
+            return Ok(());
+        }
         let rho = self.cap(material.rho * source.colour, material_index);
         for piece in pieces {
             let uvs: Vec<Vec<[f64; 2]>> = source
