@@ -353,6 +353,7 @@ mod tests {
             surfaces: vec![Surface::new(polygon, DVec3::splat(0.5), DVec3::ONE, 0).unwrap()],
             lights: Vec::new(),
             panes: Vec::new(),
+            portals: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

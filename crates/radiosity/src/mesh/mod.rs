@@ -606,6 +606,7 @@ mod tests {
                 .collect(),
             lights: Vec::new(),
             panes: Vec::new(),
+            portals: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

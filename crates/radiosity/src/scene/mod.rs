@@ -222,6 +222,10 @@ pub struct Scene {
     /// Glass: transparent panes, not surfaces of the solve, that dim the
     /// shadow rays of lights and daylight crossing them ([`glass`]).
     pub panes: Vec<glass::Pane>,
+    /// Openings the file marks for the sky to be sampled through
+    /// (`#@portal MATERIAL`, a glTF material's `extras`), not surfaces
+    /// ([`portal`]).
+    pub portals: Vec<portal::Marked>,
     /// The camera the scene file suggests, if any.
     pub camera: Option<Camera>,
     /// The mesh sizes the scene file suggests (`#@mesh PATCH ELEMENT`).
@@ -508,6 +512,24 @@ pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, Sc
             message,
         })?;
     scene.lights.extend(daylight);
+    if !scene.portals.is_empty() {
+        if scene
+            .lights
+            .iter()
+            .any(|l| matches!(l.kind, LightKind::Sky { .. }))
+        {
+            let occluder = crate::accel::Accel::Bvh.build(&scene.surfaces);
+            let (lo, hi) = bounds_of(&scene.surfaces);
+            let reach = 2.0 * (hi - lo).length() + 1.0;
+            portal::check_marked(&scene.portals, occluder.as_ref(), reach)?;
+        } else {
+            scene.warnings.push(format!(
+                "{}: {} portal face(s): portals serve the sky (--sky), and there is none",
+                path.display(),
+                scene.portals.len()
+            ));
+        }
+    }
     if !scene.panes.is_empty() {
         let mut materials: Vec<&str> = scene.panes.iter().map(|p| p.material.as_str()).collect();
         materials.dedup();

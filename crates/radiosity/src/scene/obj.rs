@@ -112,7 +112,9 @@ pub fn parse_bytes(
         camera: None,
         lights: Vec::new(),
         panes: Vec::new(),
+        portals: Vec::new(),
         current_name: String::new(),
+        portal_materials: Vec::new(),
         profiles: HashMap::new(),
         mesh_hint: None,
         ignored: Vec::new(),
@@ -179,8 +181,12 @@ struct ObjParser<'a> {
     lights: Vec<Light>,
     /// Glass faces ([`super::glass`]).
     panes: Vec<super::glass::Pane>,
+    portals: Vec<crate::scene::portal::Marked>,
     /// The name of the material of [`ObjParser::current`].
     current_name: String,
+    /// `#@portal MATERIAL`: the material, the directive's line, and
+    /// whether a face used it.
+    portal_materials: Vec<(String, usize, bool)>,
     /// Photometric profiles read so far, by the name `#@light ies` gave.
     profiles: HashMap<String, std::sync::Arc<super::ies::Profile>>,
     mesh_hint: Option<MeshHint>,
@@ -237,6 +243,18 @@ impl ObjParser<'_> {
                     .map_err(|m| self.error(line_no, format!("bad #@light directive: {m}")))?
             };
             self.lights.push(light);
+            return Ok(());
+        }
+        if let Some(rest) = trimmed.strip_prefix("#@portal") {
+            let name = rest.trim();
+            if name.is_empty() {
+                return Err(self.error(
+                    line_no,
+                    "bad #@portal directive: give the material whose faces are portals",
+                ));
+            }
+            self.portal_materials
+                .push((name.to_string(), line_no, false));
             return Ok(());
         }
         if let Some(rest) = trimmed.strip_prefix("#@mesh") {
@@ -508,6 +526,21 @@ impl ObjParser<'_> {
                 if let Some(warp) = pieces.warp {
                     self.warped.push((line_no, warp));
                 }
+                let portal = self
+                    .portal_materials
+                    .iter_mut()
+                    .find(|(name, _, _)| *name == self.current_name);
+                if let Some((_, _, used)) = portal {
+                    *used = true;
+                    for piece in pieces.polygons {
+                        self.portals.push(super::portal::Marked {
+                            polygon: piece,
+                            material: self.current_name.clone(),
+                            location: Location::line(self.path, line_no),
+                        });
+                    }
+                    return Ok(());
+                }
                 for piece in pieces.polygons {
                     if material.transmittance != DVec3::ZERO {
                         // Glass: a pane, not a surface.
@@ -639,6 +672,15 @@ impl ObjParser<'_> {
                 self.ignored.join(", ")
             ));
         }
+        if let Some((name, line, _)) = self.portal_materials.iter().find(|p| !p.2) {
+            return Err(SceneError::Invalid {
+                location: Location::line(self.path, *line),
+                message: format!(
+                    "bad #@portal directive: no face uses material {}",
+                    quoted(name)
+                ),
+            });
+        }
         let mut surfaces = self.surfaces;
         super::merge::group_by_face(&mut surfaces);
         Ok(Scene {
@@ -646,6 +688,7 @@ impl ObjParser<'_> {
             surfaces,
             lights: self.lights,
             panes: self.panes,
+            portals: self.portals,
             camera: self.camera,
             mesh_hint: self.mesh_hint,
             warnings,

@@ -13,15 +13,18 @@
 //! included; a crease, where two surfaces meet at an angle, is covered). A
 //! loop that is planar and not filled by a surface (a free-standing board's
 //! outline is filled by the board) is an opening. Walls modelled with
-//! thickness, whose openings are tunnels without boundary edges, have none:
-//! the sky's refinement of directions handles those.
+//! thickness, whose openings are tunnels without boundary edges, have none;
+//! there a user marks the opening with faces of a portal material
+//! ([`Marked`]: `#@portal MATERIAL` in OBJ, `"extras": {"radiosity":
+//! {"portal": true}}` on a glTF material), as pbrt-v4's, Mitsuba's and
+//! Cycles' portals are marked.
 
 use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::Surface;
 use super::polygon::convex_pieces;
+use super::{Location, SceneError, Surface};
 use crate::accel::Occluder;
 use crate::geometry;
 
@@ -96,6 +99,82 @@ fn opening(outline: &[DVec3], occluder: &dyn Occluder, tolerance: f64) -> Option
         normal,
         area,
     })
+}
+
+/// An opening the scene file marks: a planar convex face of a portal
+/// material, not a surface of the solve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marked {
+    /// Corners, in order.
+    pub polygon: Vec<DVec3>,
+    /// The material's name.
+    pub material: String,
+    /// Where the face is, for messages.
+    pub location: Location,
+}
+
+impl Marked {
+    /// As a [`Portal`].
+    #[must_use]
+    pub fn portal(&self) -> Option<Portal> {
+        Some(Portal {
+            pieces: vec![self.polygon.clone()],
+            normal: geometry::normal(&self.polygon)?,
+            area: geometry::area(&self.polygon),
+        })
+    }
+}
+
+/// Directions cast from a marked portal's centre, on each side, to find
+/// the sky through it.
+const PROBES: usize = 64;
+
+/// Checks that daylight can come through each marked portal: from its
+/// centre, some direction on one side or the other reaches past every
+/// surface (`reach` metres out). A portal buried in a wall or shut in a
+/// closed room samples nothing and is an error naming its face.
+///
+/// # Errors
+///
+/// The first misplaced portal, at its face's line.
+pub fn check_marked(
+    marked: &[Marked],
+    occluder: &dyn Occluder,
+    reach: f64,
+) -> Result<(), SceneError> {
+    for m in marked {
+        let Some(normal) = geometry::normal(&m.polygon) else {
+            continue;
+        };
+        let centre = geometry::centroid(&m.polygon);
+        let size = geometry::diameter(&m.polygon);
+        let open = (0..PROBES).any(|k| {
+            // Fibonacci directions over the sphere: both sides at once.
+            let z = 1.0 - (2.0 * k as f64 + 1.0) / PROBES as f64;
+            let phi = k as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let r = (1.0 - z * z).sqrt();
+            let d = DVec3::new(r * phi.cos(), z, r * phi.sin());
+            let side = if d.dot(normal) >= 0.0 {
+                normal
+            } else {
+                -normal
+            };
+            let from = centre + side * (1e-6 * size);
+            !occluder.occluded(from, from + d * reach, [u32::MAX; 2])
+        });
+        if !open {
+            return Err(SceneError::Invalid {
+                location: m.location.clone(),
+                message: format!(
+                    "the portal face (material {}) sees no sky on either side: a portal must fill \
+                     an opening to the outside (a window, a skylight), not lie inside a wall or a \
+                     closed room",
+                    super::text::quoted(&m.material)
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// A straight piece of a boundary.

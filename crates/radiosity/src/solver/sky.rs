@@ -69,6 +69,35 @@ struct Active {
     cumulative: Vec<f64>,
     pieces: Vec<Piece>,
     power: f64,
+    /// A cone holding every direction through it: its axis and the cosine
+    /// of its half-angle (-1: the whole sphere).
+    axis: DVec3,
+    cos_half: f64,
+}
+
+impl Active {
+    /// Whether `towards` may cross the portal: inside its cone.
+    fn may_cross(&self, towards: DVec3) -> bool {
+        towards.dot(self.axis) >= self.cos_half
+    }
+
+    /// Where the ray from `point` along `towards` crosses it, if it does.
+    fn crossing(&self, point: DVec3, towards: DVec3) -> Option<f64> {
+        if self.may_cross(towards) {
+            crossing(&self.pieces, point, towards)
+        } else {
+            None
+        }
+    }
+
+    /// Whether some direction may cross both this portal and `other`.
+    fn overlaps(&self, other: &Active) -> bool {
+        if self.cos_half <= 0.0 || other.cos_half <= 0.0 {
+            return true;
+        }
+        let between = self.axis.dot(other.axis).clamp(-1.0, 1.0).acos();
+        between <= self.cos_half.acos() + other.cos_half.acos()
+    }
 }
 
 impl SkyPlan {
@@ -84,13 +113,20 @@ impl SkyPlan {
         } else {
             Vec::new()
         };
-        // The openings, and the glass (a pane in an opening found from the
-        // geometry overlaps it: each direction is counted by the nearer, or
-        // the first listed).
+        // The openings, those marked, and the glass (a pane in an opening
+        // found from the geometry overlaps it: each direction is counted by
+        // the nearer, or the first listed).
         let mut portals: Vec<Prepared> = portal::openings(&scene.surfaces, occluder)
             .iter()
             .map(prepare)
             .collect();
+        portals.extend(
+            scene
+                .portals
+                .iter()
+                .filter_map(|m| m.portal())
+                .map(|p| prepare(&p)),
+        );
         portals.extend(scene.panes.iter().map(|pane| {
             prepare(&Portal {
                 pieces: vec![pane.polygon.clone()],
@@ -148,6 +184,12 @@ impl SkyPlan {
         }
         let total: f64 = active.iter().map(|a| a.power).sum();
         for (k, a) in active.iter().enumerate() {
+            // The other portals some direction through this one may cross.
+            let others: Vec<(usize, &Active)> = active
+                .iter()
+                .enumerate()
+                .filter(|&(m, b)| m != k && a.overlaps(b))
+                .collect();
             let share = (PORTAL_RAYS as f64 * a.power / total).round() as usize;
             let n = share.max(MIN_PORTAL_RAYS);
             let columns = (n as f64).sqrt().ceil() as usize;
@@ -159,14 +201,16 @@ impl SkyPlan {
                 if cos <= 0.0 {
                     return 0.0;
                 }
+                if others.is_empty() {
+                    return sky.relative_luminance(towards) * cos;
+                }
                 let here = crossing(&a.pieces, point, towards).unwrap_or(f64::INFINITY);
                 // Nearer, or as near (a pane in an opening) and listed
                 // first.
-                let nearer = active.iter().enumerate().any(|(m, b)| {
-                    m != k
-                        && crossing(&b.pieces, point, towards).is_some_and(|s| {
-                            s < here - 1e-9 * here || (s <= here + 1e-9 * here && m < k)
-                        })
+                let nearer = others.iter().any(|&(m, b)| {
+                    b.crossing(point, towards).is_some_and(|s| {
+                        s < here - 1e-9 * here || (s <= here + 1e-9 * here && m < k)
+                    })
                 });
                 if nearer {
                     0.0
@@ -176,6 +220,7 @@ impl SkyPlan {
             };
             // The rays: stratified in the portal's solid angle.
             let first = out.len();
+            let omega = *a.cumulative.last().unwrap_or(&0.0);
             let mut drawn = 0.0;
             for i in 0..columns {
                 for j in 0..rows {
@@ -201,15 +246,20 @@ impl SkyPlan {
                 for (t, &cumulative) in a.triangles.iter().zip(&a.cumulative) {
                     let size = cumulative - before;
                     before = cumulative;
+                    // Twice as many points a side as the triangle's rays,
+                    // 2 to QUADRATURE.
+                    let rays = (columns * rows) as f64 * size / omega;
+                    let m = ((2.0 * rays.sqrt()).ceil() as usize).clamp(2, QUADRATURE);
                     let mut sum = 0.0;
-                    for i in 0..QUADRATURE {
-                        for j in 0..QUADRATURE {
-                            let u = (i as f64 + 0.5) / QUADRATURE as f64;
-                            let v = (j as f64 + 0.5) / QUADRATURE as f64;
+                    for i in 0..m {
+                        for j in 0..m {
+                            let u = (i as f64 + 0.5) / m as f64;
+                            let v = (j as f64 + 0.5) / m as f64;
                             sum += value(spherical::sample_triangle(t[0], t[1], t[2], size, u, v));
                         }
                     }
-                    unblocked += sum * size / (QUADRATURE * QUADRATURE) as f64;
+                    let sum = sum / (m * m) as f64;
+                    unblocked += sum * size;
                 }
                 let scale = unblocked / drawn;
                 for c in &mut out[first..] {
@@ -238,6 +288,8 @@ impl SkyPlan {
                 cumulative: Vec::new(),
                 pieces: Vec::new(),
                 power: 0.0,
+                axis: DVec3::ZERO,
+                cos_half: -1.0,
             };
             let mut omega = 0.0;
             for piece in &p.pieces {
@@ -273,6 +325,20 @@ impl SkyPlan {
                 });
             }
             if a.power > 0.0 {
+                // The cone: about the corners' mean direction, out to the
+                // farthest corner (a cap holding the corners holds their
+                // spherical hull, the pieces, when under a hemisphere), a
+                // little wider for round-off.
+                let corners = a.pieces.iter().flat_map(|p| &p.corners);
+                let sum: DVec3 = corners.clone().map(|&c| (c - point).normalize()).sum();
+                let axis = sum.normalize_or_zero();
+                if axis != DVec3::ZERO {
+                    let cos = corners
+                        .map(|&c| (c - point).normalize().dot(axis))
+                        .fold(1.0, f64::min);
+                    a.axis = axis;
+                    a.cos_half = if cos > 0.0 { cos - 1e-9 } else { -1.0 };
+                }
                 out.push(a);
             }
         }

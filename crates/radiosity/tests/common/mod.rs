@@ -119,6 +119,7 @@ pub fn scene_of(surfaces: Vec<Surface>) -> Scene {
         surfaces,
         lights: Vec::new(),
         panes: Vec::new(),
+        portals: Vec::new(),
         camera: None,
         mesh_hint: None,
         warnings: Vec::new(),

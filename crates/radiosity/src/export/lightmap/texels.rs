@@ -434,6 +434,7 @@ mod tests {
             surfaces: vec![square, floor],
             lights: Vec::new(),
             panes: Vec::new(),
+            portals: Vec::new(),
             camera: None,
             mesh_hint: None,
             warnings: Vec::new(),

@@ -27,6 +27,8 @@ pub(super) struct MaterialInfo {
     /// Glass (`KHR_materials_transmission`): `transmissionFactor` times the
     /// base colour; zero for an opaque material.
     pub(super) transmittance: DVec3,
+    /// A portal of the sky (`"extras": {"radiosity": {"portal": true}}`).
+    pub(super) portal: bool,
 }
 
 /// The standard sRGB decoding curve.
@@ -86,6 +88,7 @@ impl Loader<'_> {
                 emission: DVec3::ZERO,
                 double_sided: false,
                 transmittance: DVec3::ZERO,
+                portal: false,
             },
             Some(i) => {
                 let Some(m) = self.root.materials.get(i) else {
@@ -171,11 +174,22 @@ impl Loader<'_> {
                         f[3]
                     ));
                 }
+                let portal =
+                    match radiosity_extras(&m.extras).and_then(|e| e.get("portal").cloned()) {
+                        None => false,
+                        Some(serde_json::Value::Bool(b)) => b,
+                        Some(other) => {
+                            return Err(self.error(format!(
+                                "{what}: extras radiosity.portal must be true or false, not {other}"
+                            )));
+                        }
+                    };
                 MaterialInfo {
                     rho,
                     emission,
                     double_sided: m.double_sided,
                     transmittance,
+                    portal,
                 }
             }
         };

@@ -203,6 +203,7 @@ pub fn load_slice(
         camera: None,
         lights: Vec::new(),
         panes: Vec::new(),
+        portals: Vec::new(),
         profiles: HashMap::new(),
         capped: Vec::new(),
     };
@@ -255,6 +256,7 @@ struct Loader<'a> {
     lights: Vec<Light>,
     /// Glass ([`crate::scene::glass`]).
     panes: Vec<crate::scene::glass::Pane>,
+    portals: Vec<crate::scene::portal::Marked>,
     /// Photometric profiles read so far, by URI.
     profiles: HashMap<String, std::sync::Arc<super::ies::Profile>>,
     capped: Vec<String>,
@@ -359,6 +361,7 @@ impl Loader<'_> {
             surfaces,
             lights: std::mem::take(&mut self.lights),
             panes: std::mem::take(&mut self.panes),
+            portals: std::mem::take(&mut self.portals),
             camera: self.camera,
             mesh_hint,
             warnings,

@@ -329,12 +329,24 @@ impl Loader<'_> {
                 return Ok(());
             }
         };
+        let name = || match material_index {
+            Some(i) => super::label("material", i, self.root.materials[i].name.as_ref()),
+            None => "the default material".to_string(),
+        };
+        if material.portal {
+            let (material, location) = (name(), crate::scene::Location::file(&self.path));
+            for piece in pieces {
+                self.portals.push(crate::scene::portal::Marked {
+                    polygon: piece,
+                    material: material.clone(),
+                    location: location.clone(),
+                });
+            }
+            return Ok(());
+        }
         if material.transmittance != DVec3::ZERO {
             // Glass: panes, not surfaces.
-            let name = match material_index {
-                Some(i) => super::label("material", i, self.root.materials[i].name.as_ref()),
-                None => "the default material".to_string(),
-            };
+            let name = name();
             for piece in pieces {
                 if let Some(pane) =
                     crate::scene::glass::Pane::new(piece, material.transmittance, &name)
