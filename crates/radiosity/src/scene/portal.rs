@@ -79,20 +79,27 @@ fn opening(outline: &[DVec3], occluder: &dyn Occluder, tolerance: f64) -> Option
     if area <= 1e3 * tolerance * size {
         return None;
     }
-    // Filled: a surface lies in the loop's plane at its largest piece's
-    // centroid.
-    let largest = pieces
-        .polygons
-        .iter()
-        .max_by(|a, b| geometry::area(a).total_cmp(&geometry::area(b)))?;
-    let centre = geometry::centroid(largest);
+    // Filled: a surface lies in the loop's plane at one of a few points
+    // spread over it (each piece's centroid and the points half and nine
+    // tenths of the way from it to each corner): the outline of a surface
+    // with a hole in it has its centroid in the hole.
     let reach = 1e3 * tolerance;
-    if occluder.occluded(
-        centre + normal * reach,
-        centre - normal * reach,
-        [u32::MAX; 2],
-    ) {
-        return None;
+    for piece in &pieces.polygons {
+        let centre = geometry::centroid(piece);
+        let probes = std::iter::once(centre).chain(
+            piece
+                .iter()
+                .flat_map(|&c| [0.5, 0.9].map(|f| centre + (c - centre) * f)),
+        );
+        for probe in probes {
+            if occluder.occluded(
+                probe + normal * reach,
+                probe - normal * reach,
+                [u32::MAX; 2],
+            ) {
+                return None;
+            }
+        }
     }
     Some(Portal {
         pieces: pieces.polygons,

@@ -194,44 +194,39 @@ pub fn gather(
             return Ok(None);
         }
         let first = chunk_start;
-        // Each receiver's unblocked irradiances and their segments.
-        let candidates: Vec<Vec<(DVec3, Segment)>> = chunk
+        if let Some(plan) = &plan {
+            let (chunk_pairs, chunk_rays) =
+                gather_sky(plan, light, inputs, device, chunk, first, out)?;
+            pairs += chunk_pairs;
+            rays += chunk_rays;
+            chunk_start += chunk.len();
+            continue;
+        }
+        // Each receiver's unblocked irradiance and its segment.
+        let candidates: Vec<Option<(DVec3, Segment)>> = chunk
             .par_iter()
-            .enumerate()
-            .map(|(k, r)| {
-                // A point light skips no surface; the sun's or the sky's
-                // far end none either (it lies outside the scene).
+            .map(|r| {
+                // A point light skips no surface; the sun's far end none
+                // either (it lies outside the scene).
                 let skip = [NO_SURFACE, r.group];
-                let candidate = |(unblocked, from): (DVec3, DVec3)| {
-                    (unblocked != DVec3::ZERO)
-                        .then(|| (unblocked, segment(from, r.point, skip, distant)))
-                };
-                match &plan {
-                    None => candidate(light.irradiance(r.point, r.normal, reach))
-                        .into_iter()
-                        .collect(),
-                    Some(plan) => plan
-                        .candidates(light, (first + k) as u64, r.point, r.normal, reach)
-                        .into_iter()
-                        .filter_map(candidate)
-                        .collect(),
-                }
+                let (unblocked, from) = light.irradiance(r.point, r.normal, reach);
+                (unblocked != DVec3::ZERO)
+                    .then(|| (unblocked, segment(from, r.point, skip, distant)))
             })
             .collect();
         let segments: Vec<Segment> = candidates.iter().flatten().map(|c| c.1).collect();
         let passed = answer(inputs, device, &segments)?;
         let mut next = 0;
-        for (e, list) in out.iter_mut().zip(&candidates) {
-            let mut sum = DVec3::ZERO;
-            for (unblocked, _) in list {
+        for (e, candidate) in out.iter_mut().zip(&candidates) {
+            *e = DVec3::ZERO;
+            if let Some((unblocked, _)) = candidate {
                 if passed[next] != DVec3::ZERO {
-                    sum += *unblocked * passed[next];
+                    *e = *unblocked * passed[next];
                 }
                 next += 1;
+                pairs += 1;
+                rays += 1;
             }
-            *e = sum;
-            pairs += u64::from(!list.is_empty());
-            rays += list.len() as u64;
         }
         chunk_start += chunk.len();
     }
@@ -239,6 +234,74 @@ pub fn gather(
     stats.rays_cast += rays;
     stats.gather_time += start.elapsed();
     Ok(Some(irradiance))
+}
+
+/// A chunk of receivers' sky ([`super::sky`]): every receiver's first
+/// round of rays answered at once, then its second round (the portal cells
+/// to refine), then each receiver's irradiance into `out`. Returns the
+/// receivers that drew a ray and the rays.
+fn gather_sky(
+    plan: &SkyPlan,
+    light: &Light,
+    inputs: &ShotInputs<'_>,
+    device: Option<&dyn Segments>,
+    chunk: &[super::Receiver],
+    first: usize,
+    out: &mut [DVec3],
+) -> Result<(u64, u64), DeviceError> {
+    let reach = sun_reach(inputs.scene);
+    // The sky's far ends lie outside the scene: a segment skips the
+    // receiver's own surface only.
+    let segments = |draws: &[super::sky::SkyDraw], refined: bool| -> Vec<Segment> {
+        draws
+            .iter()
+            .zip(chunk)
+            .flat_map(|(d, r)| {
+                let rays = if refined { &d.refined } else { &d.rays };
+                rays.iter()
+                    .map(move |&(_, from)| segment(from, r.point, [NO_SURFACE, r.group], true))
+            })
+            .collect()
+    };
+    let split =
+        |passed: &[DVec3], draws: &[super::sky::SkyDraw], refined: bool| -> Vec<Vec<DVec3>> {
+            let mut next = 0;
+            draws
+                .iter()
+                .map(|d| {
+                    let n = if refined {
+                        d.refined.len()
+                    } else {
+                        d.rays.len()
+                    };
+                    next += n;
+                    passed[next - n..next].to_vec()
+                })
+                .collect()
+        };
+    let mut draws: Vec<super::sky::SkyDraw> = chunk
+        .par_iter()
+        .enumerate()
+        .map(|(k, r)| plan.pilot(light, (first + k) as u64, r.point, r.normal, reach))
+        .collect();
+    let first_round = segments(&draws, false);
+    let passed = split(&answer(inputs, device, &first_round)?, &draws, false);
+    draws
+        .par_iter_mut()
+        .zip(&passed)
+        .for_each(|(d, p)| plan.refine(light, d, p));
+    let second_round = segments(&draws, true);
+    let refined = if second_round.is_empty() {
+        vec![Vec::new(); draws.len()]
+    } else {
+        split(&answer(inputs, device, &second_round)?, &draws, true)
+    };
+    let mut pairs = 0;
+    for (((e, d), p), q) in out.iter_mut().zip(&draws).zip(&passed).zip(&refined) {
+        *e = plan.finish(d, p, q);
+        pairs += u64::from(!d.rays.is_empty());
+    }
+    Ok((pairs, (first_round.len() + second_round.len()) as u64))
 }
 
 /// An element's grid of points: each one's weighted unblocked irradiance

@@ -37,6 +37,12 @@ pub const PORTAL_RAYS: usize = 64;
 /// unblocked light over each of its spherical triangles.
 const QUADRATURE: usize = 16;
 
+/// A refined portal cell's rays per side.
+pub const REFINE: usize = 4;
+
+/// Most portal cells refined at one receiver.
+pub const MAX_REFINED_CELLS: usize = 48;
+
 /// Fewest directions drawn through an active portal.
 pub const MIN_PORTAL_RAYS: usize = 4;
 
@@ -147,127 +153,254 @@ impl SkyPlan {
         self.portals.len()
     }
 
-    /// The receiver's candidates: each an unblocked irradiance (W/m^2 per
-    /// channel) and the far end of its shadow segment, `reach` metres out.
-    /// `index` seeds the receiver's random numbers.
+    /// The receiver's first round of rays ([`SkyDraw::rays`]): one in each
+    /// of the sky's and the ground's patches that crosses no active portal,
+    /// and a stratified grid of cells over each active portal. `index`
+    /// seeds the receiver's random numbers; the rays reach `reach` metres
+    /// out.
     #[must_use]
-    pub fn candidates(
+    pub fn pilot(
         &self,
         light: &Light,
         index: u64,
         point: DVec3,
         normal: DVec3,
         reach: f64,
-    ) -> Vec<(DVec3, DVec3)> {
+    ) -> SkyDraw {
+        let mut draw = SkyDraw {
+            rays: Vec::new(),
+            refined: Vec::new(),
+            patch_rays: 0,
+            portals: Vec::new(),
+            active: Vec::new(),
+            index,
+            point,
+            normal,
+            reach,
+        };
         let LightKind::Sky { sky, .. } = &light.kind else {
-            return Vec::new();
+            return draw;
         };
         let radiometric = light.radiometric();
         let mut random = Stream::new(index);
-        let active = self.active(sky, point, normal);
-        let mut out = Vec::new();
+        draw.active = self.active(sky, point, normal);
+        let active = &draw.active;
         for patch in self.patches.iter().chain(&self.ground) {
             let uv = (random.next(), random.next());
             let towards = patch.direction(uv.0, uv.1);
             let cos = normal.dot(towards);
-            if cos <= 0.0
-                || active
-                    .iter()
-                    .any(|a| crossing(&a.pieces, point, towards).is_some())
-            {
+            if cos <= 0.0 || active.iter().any(|a| a.crossing(point, towards).is_some()) {
                 continue;
             }
             let weight = sky.relative_luminance(towards) * cos * patch.solid_angle();
             if weight > 0.0 {
-                out.push((radiometric * weight, point + towards * reach));
+                draw.rays
+                    .push((radiometric * weight, point + towards * reach));
             }
         }
+        draw.patch_rays = draw.rays.len();
         let total: f64 = active.iter().map(|a| a.power).sum();
-        for (k, a) in active.iter().enumerate() {
-            // The other portals some direction through this one may cross.
-            let others: Vec<(usize, &Active)> = active
-                .iter()
-                .enumerate()
-                .filter(|&(m, b)| m != k && a.overlaps(b))
-                .collect();
+        for k in 0..active.len() {
+            let a = &active[k];
             let share = (PORTAL_RAYS as f64 * a.power / total).round() as usize;
             let n = share.max(MIN_PORTAL_RAYS);
-            let columns = (n as f64).sqrt().ceil() as usize;
-            let rows = n.div_ceil(columns);
-            // What a direction through this portal brings, per steradian
-            // (0 where a nearer active portal counts it).
-            let value = |towards: DVec3| {
-                let cos = normal.dot(towards);
-                if cos <= 0.0 {
-                    return 0.0;
-                }
-                if others.is_empty() {
-                    return sky.relative_luminance(towards) * cos;
-                }
-                let here = crossing(&a.pieces, point, towards).unwrap_or(f64::INFINITY);
-                // Nearer, or as near (a pane in an opening) and listed
-                // first.
-                let nearer = others.iter().any(|&(m, b)| {
-                    b.crossing(point, towards).is_some_and(|s| {
-                        s < here - 1e-9 * here || (s <= here + 1e-9 * here && m < k)
-                    })
-                });
-                if nearer {
-                    0.0
-                } else {
-                    sky.relative_luminance(towards) * cos
-                }
-            };
-            // The rays: stratified in the portal's solid angle.
-            let first = out.len();
+            let value = |towards: DVec3| value(sky, active, k, point, normal, towards);
             let omega = *a.cumulative.last().unwrap_or(&0.0);
-            let mut drawn = 0.0;
-            for i in 0..columns {
-                for j in 0..rows {
-                    let u = (i as f64 + random.next()) / columns as f64;
-                    let v = (j as f64 + random.next()) / rows as f64;
-                    let towards = a.direction(u, v);
-                    let f = value(towards);
-                    if f > 0.0 {
-                        drawn += f;
-                        out.push((radiometric * f, point + towards * reach));
+            let mut grids = Vec::with_capacity(a.triangles.len());
+            let mut unblocked = 0.0;
+            let mut before = 0.0;
+            for (t, &cumulative) in a.cumulative.iter().enumerate() {
+                let size = cumulative - before;
+                before = cumulative;
+                // Each spherical triangle its own grid of cells, one ray in
+                // each: its outline, where a frame or a reveal cuts the
+                // light, is the grid's border.
+                let rays = ((n as f64 * size / omega).round() as usize).max(1);
+                let columns = (rays as f64).sqrt().ceil() as usize;
+                let rows = rays.div_ceil(columns);
+                let mut cells = Vec::with_capacity(columns * rows);
+                for i in 0..columns {
+                    for j in 0..rows {
+                        let u = (i as f64 + random.next()) / columns as f64;
+                        let v = (j as f64 + random.next()) / rows as f64;
+                        let towards = a.in_triangle(t, u, v);
+                        let f = value(towards);
+                        let ray = (f > 0.0).then(|| {
+                            draw.rays.push((radiometric * f, point + towards * reach));
+                            draw.rays.len() - 1
+                        });
+                        cells.push(Cell {
+                            ray,
+                            f,
+                            refined: None,
+                        });
+                    }
+                }
+                // The triangle's unblocked light, found without rays by the
+                // midpoint rule on a grid of directions over it (twice its
+                // rays' points a side, 2 to QUADRATURE): the rays then
+                // estimate only the fraction blocked, which is exact where
+                // nothing is (a ratio estimator).
+                let m = ((2.0 * (rays as f64).sqrt()).ceil() as usize).clamp(2, QUADRATURE);
+                let mut sum = 0.0;
+                for i in 0..m {
+                    for j in 0..m {
+                        let u = (i as f64 + 0.5) / m as f64;
+                        let v = (j as f64 + 0.5) / m as f64;
+                        sum += value(a.in_triangle(t, u, v));
+                    }
+                }
+                unblocked += sum / (m * m) as f64 * size;
+                grids.push(Grid {
+                    columns,
+                    rows,
+                    cells,
+                    weight: size / (columns * rows) as f64,
+                });
+            }
+            draw.portals.push(PortalDraw { grids, unblocked });
+        }
+        draw
+    }
+
+    /// The second round ([`SkyDraw::refined`]), from what passed along each
+    /// first-round ray (`passed`, per channel, 0 where blocked): a portal's
+    /// cell whose neighbours disagree (some see the sky through it, some do
+    /// not: a reveal's, a frame's or an obstruction's edge crosses it), or
+    /// on the border of a portal that other rays found partly blocked, is
+    /// drawn again, [`REFINE`] x [`REFINE`] rays stratified in it, its first
+    /// ray set aside. The choice never looks at the cell's own ray, so the
+    /// estimate stays unbiased.
+    pub fn refine(&self, light: &Light, draw: &mut SkyDraw, passed: &[DVec3]) {
+        let LightKind::Sky { sky, .. } = &light.kind else {
+            return;
+        };
+        let radiometric = light.radiometric();
+        let mut random = Stream::new(draw.index ^ 0x5DEE_CE66_D1CE_4E5B);
+        let (point, normal, reach) = (draw.point, draw.normal, draw.reach);
+        // The cells to refine, in order, at most MAX_REFINED_CELLS.
+        let mut chosen = Vec::new();
+        'portals: for (k, portal) in draw.portals.iter().enumerate() {
+            let seen = |grid: &Grid, i: usize, j: usize| -> Option<bool> {
+                let ray = grid.cells[i * grid.rows + j].ray?;
+                Some(passed[ray] != DVec3::ZERO)
+            };
+            // How many first rays through this portal passed and how many
+            // were blocked.
+            let (mut open, mut shut) = (0usize, 0usize);
+            for grid in &portal.grids {
+                for cell in &grid.cells {
+                    if let Some(ray) = cell.ray {
+                        if passed[ray] != DVec3::ZERO {
+                            open += 1;
+                        } else {
+                            shut += 1;
+                        }
                     }
                 }
             }
-            if drawn > 0.0 {
-                // Each ray's share of the unblocked integral, found without
-                // rays by the midpoint rule on a grid of directions over
-                // each spherical triangle (smooth there; not across two,
-                // where the map from `u` jumps): the rays then estimate only
-                // the fraction blocked, which is exact where nothing is (a
-                // ratio estimator).
-                let mut unblocked = 0.0;
-                let mut before = 0.0;
-                for (t, &cumulative) in a.triangles.iter().zip(&a.cumulative) {
-                    let size = cumulative - before;
-                    before = cumulative;
-                    // Twice as many points a side as the triangle's rays,
-                    // 2 to QUADRATURE.
-                    let rays = (columns * rows) as f64 * size / omega;
-                    let m = ((2.0 * rays.sqrt()).ceil() as usize).clamp(2, QUADRATURE);
-                    let mut sum = 0.0;
-                    for i in 0..m {
-                        for j in 0..m {
-                            let u = (i as f64 + 0.5) / m as f64;
-                            let v = (j as f64 + 0.5) / m as f64;
-                            sum += value(spherical::sample_triangle(t[0], t[1], t[2], size, u, v));
+            for (g, grid) in portal.grids.iter().enumerate() {
+                let (columns, rows) = (grid.columns, grid.rows);
+                for i in 0..columns {
+                    for j in 0..rows {
+                        // Partly blocked without this cell's own ray: the
+                        // opening's frame, a reveal or an obstruction cuts
+                        // it, most often along its outline, the border of a
+                        // triangle's grid.
+                        let own = seen(grid, i, j);
+                        let others_open = open - usize::from(own == Some(true));
+                        let others_shut = shut - usize::from(own == Some(false));
+                        let border = i == 0 || j == 0 || i + 1 == columns || j + 1 == rows;
+                        let partly = others_open > 0 && others_shut > 0;
+                        let mut neighbours = [
+                            (i > 0).then(|| seen(grid, i - 1, j)).flatten(),
+                            (i + 1 < columns).then(|| seen(grid, i + 1, j)).flatten(),
+                            (j > 0).then(|| seen(grid, i, j - 1)).flatten(),
+                            (j + 1 < rows).then(|| seen(grid, i, j + 1)).flatten(),
+                        ]
+                        .into_iter()
+                        .flatten();
+                        let disagree = neighbours
+                            .next()
+                            .is_some_and(|first| !neighbours.all(|n| n == first));
+                        if !(disagree || (border && partly)) {
+                            continue;
                         }
+                        if chosen.len() == MAX_REFINED_CELLS {
+                            break 'portals;
+                        }
+                        chosen.push((k, g, i, j));
                     }
-                    let sum = sum / (m * m) as f64;
-                    unblocked += sum * size;
-                }
-                let scale = unblocked / drawn;
-                for c in &mut out[first..] {
-                    c.0 *= scale;
                 }
             }
         }
-        out
+        for (k, g, i, j) in chosen {
+            let (columns, rows) = (
+                draw.portals[k].grids[g].columns,
+                draw.portals[k].grids[g].rows,
+            );
+            let start = draw.refined.len();
+            let a = &draw.active[k];
+            let mut f_sum = 0.0;
+            for p in 0..REFINE {
+                for q in 0..REFINE {
+                    let u =
+                        (i as f64 + (p as f64 + random.next()) / REFINE as f64) / columns as f64;
+                    let v = (j as f64 + (q as f64 + random.next()) / REFINE as f64) / rows as f64;
+                    let towards = a.in_triangle(g, u, v);
+                    let f = value(sky, &draw.active, k, point, normal, towards);
+                    if f > 0.0 {
+                        f_sum += f;
+                        draw.refined
+                            .push((radiometric * f, point + towards * reach));
+                    }
+                }
+            }
+            let count = draw.refined.len() - start;
+            draw.portals[k].grids[g].cells[i * rows + j].refined = Some((start, count, f_sum));
+        }
+    }
+
+    /// The receiver's irradiance (W/m^2 per channel) from what passed along
+    /// each ray of both rounds.
+    #[must_use]
+    pub fn finish(&self, draw: &SkyDraw, passed: &[DVec3], passed_refined: &[DVec3]) -> DVec3 {
+        let mut sum = DVec3::ZERO;
+        for (ray, through) in draw.rays[..draw.patch_rays].iter().zip(passed) {
+            if *through != DVec3::ZERO {
+                sum += ray.0 * *through;
+            }
+        }
+        let per_cell = (REFINE * REFINE) as f64;
+        for portal in &draw.portals {
+            // What passes and what comes, over the cells (each of its
+            // triangle's solid angle over its cell count).
+            let (mut through, mut all) = (DVec3::ZERO, 0.0);
+            for grid in &portal.grids {
+                for cell in &grid.cells {
+                    match cell.refined {
+                        Some((start, count, f_sum)) => {
+                            let mut passing = DVec3::ZERO;
+                            for r in start..start + count {
+                                passing += draw.refined[r].0 * passed_refined[r];
+                            }
+                            through += passing * (grid.weight / per_cell);
+                            all += f_sum * grid.weight / per_cell;
+                        }
+                        None => {
+                            if let Some(r) = cell.ray {
+                                through += draw.rays[r].0 * passed[r] * grid.weight;
+                            }
+                            all += cell.f * grid.weight;
+                        }
+                    }
+                }
+            }
+            if all > 0.0 {
+                sum += through * (portal.unblocked / all);
+            }
+        }
+        sum
     }
 
     /// The portals in front of the receiver, the most light first, at most
@@ -348,25 +481,90 @@ impl SkyPlan {
     }
 }
 
-impl Active {
-    /// The direction at `(u, v)` in `[0, 1)^2`: `u` picks a triangle by its
-    /// share of the solid angle and its place in it, `v` the rest.
-    fn direction(&self, u: f64, v: f64) -> DVec3 {
-        let omega = *self.cumulative.last().unwrap_or(&0.0);
-        let target = u * omega;
-        let k = self
-            .cumulative
-            .partition_point(|&c| c < target)
-            .min(self.triangles.len() - 1);
-        let before = if k == 0 { 0.0 } else { self.cumulative[k - 1] };
-        let size = self.cumulative[k] - before;
-        let local = if size > 0.0 {
-            ((target - before) / size).clamp(0.0, 1.0)
-        } else {
-            0.5
+/// What the direction `towards` through active portal `k` brings per
+/// steradian, per lux of the sky: its luminance times the receiver's
+/// cosine, or 0 where a nearer active portal (or one as near and listed
+/// first: a pane in an opening) counts it.
+fn value(
+    sky: &sky::Sky,
+    active: &[Active],
+    k: usize,
+    point: DVec3,
+    normal: DVec3,
+    towards: DVec3,
+) -> f64 {
+    let cos = normal.dot(towards);
+    if cos <= 0.0 {
+        return 0.0;
+    }
+    let a = &active[k];
+    let mut here = None;
+    for (m, b) in active.iter().enumerate() {
+        if m == k || !a.overlaps(b) {
+            continue;
+        }
+        let Some(s) = b.crossing(point, towards) else {
+            continue;
         };
-        let [a, b, c] = self.triangles[k];
-        spherical::sample_triangle(a, b, c, size, local, v)
+        let here = *here
+            .get_or_insert_with(|| crossing(&a.pieces, point, towards).unwrap_or(f64::INFINITY));
+        if s < here - 1e-9 * here || (s <= here + 1e-9 * here && m < k) {
+            return 0.0;
+        }
+    }
+    sky.relative_luminance(towards) * cos
+}
+
+/// One receiver's rays and how they combine ([`SkyPlan::pilot`],
+/// [`SkyPlan::refine`], [`SkyPlan::finish`]).
+pub struct SkyDraw {
+    /// The first round: each ray's value if it passes (W/m^2 per channel)
+    /// and the far end of its shadow segment.
+    pub rays: Vec<(DVec3, DVec3)>,
+    /// The second round, the same way.
+    pub refined: Vec<(DVec3, DVec3)>,
+    patch_rays: usize,
+    portals: Vec<PortalDraw>,
+    active: Vec<Active>,
+    index: u64,
+    point: DVec3,
+    normal: DVec3,
+    reach: f64,
+}
+
+/// A portal at one receiver: a grid of cells over each of its spherical
+/// triangles, and its unblocked light.
+struct PortalDraw {
+    grids: Vec<Grid>,
+    unblocked: f64,
+}
+
+/// A spherical triangle's cells, `columns` x `rows`, each of solid angle
+/// `weight`.
+struct Grid {
+    columns: usize,
+    rows: usize,
+    cells: Vec<Cell>,
+    weight: f64,
+}
+
+/// A cell of a portal's grid: its first ray (none where it brings
+/// nothing) and what it brings, and where refined, its second-round rays
+/// (first, count) and the sum of what they bring.
+struct Cell {
+    ray: Option<usize>,
+    f: f64,
+    refined: Option<(usize, usize, f64)>,
+}
+
+impl Active {
+    /// The direction at `(u, v)` in `[0, 1)^2` of spherical triangle `t`,
+    /// uniform in solid angle.
+    fn in_triangle(&self, t: usize, u: f64, v: f64) -> DVec3 {
+        let before = if t == 0 { 0.0 } else { self.cumulative[t - 1] };
+        let size = self.cumulative[t] - before;
+        let [a, b, c] = self.triangles[t];
+        spherical::sample_triangle(a, b, c, size, u, v)
     }
 }
 
