@@ -70,7 +70,7 @@ cp ../tests/data/blender-cornell.glb generated-seeds/gltf/
 case "$target" in
     # OBJ targets share the OBJ seeds.
     obj | load_mesh) seeds=(seeds/obj generated-seeds/obj) ;;
-    mtl) seeds=(generated-seeds/mtl) ;;
+    mtl) seeds=(seeds/mtl generated-seeds/mtl) ;;
     # The lightmap rewrite reads glTF, as the loader does.
     gltf | lightmap) seeds=(seeds/gltf generated-seeds/gltf) ;;
     *) seeds=(); [ -d "seeds/$target" ] && seeds=("seeds/$target") ;;

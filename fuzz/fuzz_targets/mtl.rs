@@ -12,6 +12,7 @@ fuzz_target!(|data: &[u8]| {
             for m in materials.values() {
                 assert!(m.rho.min_element() >= 0.0 && m.rho.max_element() < 1.0);
                 assert!(m.emission.min_element() >= 0.0 && m.emission.is_finite());
+                assert!(m.transmittance.min_element() >= 0.0 && m.transmittance.max_element() <= 1.0);
             }
         }
         Err(error) => radiosity_fuzz::check_error(&error),

@@ -46,6 +46,14 @@ pub fn load_obj(data: &[u8]) -> Result<Scene, SceneError> {
 /// materials in range, and messages that are short enough to read.
 pub fn check_scene(scene: &Scene) {
     assert!(!scene.surfaces.is_empty());
+    for pane in &scene.panes {
+        assert!(pane.polygon.len() >= 3 && pane.polygon.iter().all(|p| p.is_finite()));
+        let t = pane.transmittance;
+        assert!(t.min_element() >= 0.0 && t.max_element() <= 1.0, "{}", pane.material);
+    }
+    for portal in &scene.portals {
+        assert!(portal.polygon.len() >= 3 && portal.polygon.iter().all(|p| p.is_finite()));
+    }
     for light in &scene.lights {
         assert_eq!(light.validate(), Ok(()), "{}", light.name);
         if let Some(flux) = light.flux() {

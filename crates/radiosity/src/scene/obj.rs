@@ -626,6 +626,12 @@ impl ObjParser<'_> {
         if self.faces == 0 {
             return Err(file_error("the file has no faces ('f' lines)".into()));
         }
+        if self.surfaces.is_empty() && !(self.panes.is_empty() && self.portals.is_empty()) {
+            return Err(file_error(format!(
+                "all {} faces are glass or portals: the scene has no surface to light",
+                self.faces
+            )));
+        }
         if self.surfaces.is_empty() {
             return Err(file_error(format!(
                 "all {} faces are degenerate (no area)",

@@ -380,10 +380,11 @@ impl SkyPlan {
                 for cell in &grid.cells {
                     match cell.refined {
                         Some((start, count, f_sum)) => {
-                            let mut passing = DVec3::ZERO;
-                            for r in start..start + count {
-                                passing += draw.refined[r].0 * passed_refined[r];
-                            }
+                            let passing: DVec3 = draw.refined[start..start + count]
+                                .iter()
+                                .zip(&passed_refined[start..start + count])
+                                .map(|(ray, through)| ray.0 * *through)
+                                .sum();
                             through += passing * (grid.weight / per_cell);
                             all += f_sum * grid.weight / per_cell;
                         }

@@ -334,6 +334,12 @@ impl Loader<'_> {
         if self.faces == 0 {
             return Err(self.error("the scene has no triangles".into()));
         }
+        if self.surfaces.is_empty() && !(self.panes.is_empty() && self.portals.is_empty()) {
+            return Err(self.error(format!(
+                "all {} triangles are glass or portals: the scene has no surface to light",
+                self.faces
+            )));
+        }
         if self.surfaces.is_empty() {
             return Err(self.error(format!(
                 "all {} triangles are degenerate (no area)",
