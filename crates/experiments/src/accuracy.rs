@@ -39,12 +39,14 @@ pub const SCENES: [SceneCase; 2] = [
         source: "cornell",
         shared: false,
         lights: None,
+        reference: "",
     },
     SceneCase {
         name: "cornell_box",
         source: "cornell_box/cornell_box.obj",
         shared: true,
         lights: None,
+        reference: "",
     },
 ];
 

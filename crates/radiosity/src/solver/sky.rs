@@ -79,6 +79,8 @@ struct Active {
     /// of its half-angle (-1: the whole sphere).
     axis: DVec3,
     cos_half: f64,
+    /// The other active portals some direction through this one may cross.
+    others: Vec<usize>,
 }
 
 impl Active {
@@ -424,6 +426,7 @@ impl SkyPlan {
                 power: 0.0,
                 axis: DVec3::ZERO,
                 cos_half: -1.0,
+                others: Vec::new(),
             };
             let mut omega = 0.0;
             for piece in &p.pieces {
@@ -478,6 +481,12 @@ impl SkyPlan {
         }
         out.sort_by(|a, b| b.power.total_cmp(&a.power));
         out.truncate(MAX_ACTIVE);
+        for k in 0..out.len() {
+            let others = (0..out.len())
+                .filter(|&m| m != k && out[k].overlaps(&out[m]))
+                .collect();
+            out[k].others = others;
+        }
         out
     }
 }
@@ -500,11 +509,8 @@ fn value(
     }
     let a = &active[k];
     let mut here = None;
-    for (m, b) in active.iter().enumerate() {
-        if m == k || !a.overlaps(b) {
-            continue;
-        }
-        let Some(s) = b.crossing(point, towards) else {
+    for &m in &a.others {
+        let Some(s) = active[m].crossing(point, towards) else {
             continue;
         };
         let here = *here
