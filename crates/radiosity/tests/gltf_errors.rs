@@ -379,8 +379,9 @@ fn every_bad_input_gets_its_error() {
             with(&|d| d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"])),
             bin.clone(),
             "the file requires extension KHR_draco_mesh_compression, which radiosity does not \
-             support (supported: KHR_materials_emissive_strength, KHR_mesh_quantization, \
-             KHR_texture_transform, KHR_materials_unlit, KHR_lights_punctual)",
+             support (supported: KHR_materials_emissive_strength, KHR_materials_transmission, \
+             KHR_mesh_quantization, KHR_texture_transform, KHR_materials_unlit, \
+             KHR_lights_punctual)",
         ),
         (
             with(&|d| d["asset"]["version"] = json!("1.0")),
@@ -622,6 +623,41 @@ fn transmission_makes_glass_and_alpha_blending_is_named() {
     let error = load_error(&doc, &bin);
     assert!(
         error.contains("transmissionFactor 1.5 is not from 0 to 1"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_material_marked_as_a_portal_gives_portals_not_surfaces() {
+    let (mut doc, bin) = triangle();
+    doc["nodes"] = json!([{"mesh": 0}, {"mesh": 1}]);
+    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+    doc["meshes"] = json!([
+        {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
+        {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 1}]},
+    ]);
+    doc["materials"] = json!([
+        {"name": "glow", "emissiveFactor": [1, 1, 1]},
+        {"name": "opening", "extras": {"radiosity": {"portal": true}}},
+    ]);
+    let bytes = serde_json::to_vec(&doc).unwrap();
+    let (scene, _) = gltf::load_slice(
+        "portal",
+        Path::new("portal.gltf"),
+        &bytes,
+        &mut |_: &str| Ok(bin.clone()),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(scene.surfaces.len(), 1);
+    assert_eq!(scene.portals.len(), 1);
+    assert!(scene.portals[0].material.contains("opening"));
+    // Anything but true or false is an error naming the material.
+    doc["materials"][1]["extras"]["radiosity"]["portal"] = json!("yes");
+    let error = load_error(&doc, &bin);
+    assert!(
+        error.contains("'opening'")
+            && error.contains("extras radiosity.portal must be true or false"),
         "{error}"
     );
 }
