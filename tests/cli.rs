@@ -416,6 +416,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "scene",
             "settings",
             "shots",
+            "sky_portals",
             "solve_seconds",
             "stop_reason",
             "subsources",

@@ -171,6 +171,13 @@ pub fn print_summary(o: &Outcome) {
                 .join(", "),
             lumens
         );
+        if o.lights.iter().any(|l| l.kind == "sky") {
+            println!(
+                "the sky: sampled through {} opening(s) (found in the geometry, marked with \
+                 #@portal, or glass), the rest over its patches",
+                o.stats.sky_portals
+            );
+        }
     }
     println!(
         "solved: {} shots, {} subsources, {} rays, unshot {:.2}% ({}) in {:.2} s on {} thread(s)",

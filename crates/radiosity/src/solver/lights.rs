@@ -100,6 +100,7 @@ pub fn shoot(
     };
     stats.pairs += counted.pairs;
     stats.rays_cast += counted.rays_cast;
+    stats.sky_portals = stats.sky_portals.max(counted.sky_portals);
     stats.gather_time += counted.gather_time;
     Ok(Some(LightShot {
         irradiance,
@@ -185,6 +186,9 @@ pub fn gather(
     let mut rays = 0u64;
     let mut chunk_start = 0;
     let plan = SkyPlan::new(light, inputs.scene, inputs.occluder);
+    if let Some(plan) = &plan {
+        stats.sky_portals = stats.sky_portals.max(plan.portal_count() as u64);
+    }
     for (chunk, out) in inputs
         .receivers
         .chunks(CHUNK)

@@ -258,6 +258,9 @@ pub struct Stats {
     pub pairs: u64,
     /// Shadow segments traced.
     pub rays_cast: u64,
+    /// Openings a sky's light was sampled through ([`super::sky`]): found
+    /// in the geometry, marked, and glass panes.
+    pub sky_portals: u64,
     /// Wall time gathering at receivers (the three phases below, in
     /// parallel).
     #[serde(rename = "gather_seconds", serialize_with = "super::seconds")]
