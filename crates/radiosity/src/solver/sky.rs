@@ -15,8 +15,17 @@
 //! the estimate is unbiased whatever the portals; where daylight comes in
 //! through openings (a window, a skylight, a slit, a courtyard) it is
 //! sampled where it is, not found by a handful of patches that happen to
-//! see it. Random numbers come from a generator seeded by the receiver's
-//! index: the same answer on any number of threads.
+//! see it.
+//!
+//! A portal's light unblocked is integrated without rays (a midpoint rule
+//! over each spherical triangle, split at the receiver's horizon where the
+//! luminance jumps to the ground's); its rays, one in each cell of a grid
+//! over each triangle, only measure the share blocked (a ratio estimator:
+//! exact where nothing blocks). Where something does, the cells whose
+//! neighbours disagree, or on the outline of a portal found partly blocked,
+//! are drawn again in a second round ([`SkyPlan::refine`]), chosen without
+//! looking at their own rays. Random numbers come from a generator seeded
+//! by the receiver's index: the same answer on any number of threads.
 
 use glam::DVec3;
 
@@ -33,8 +42,9 @@ pub const MAX_ACTIVE: usize = 16;
 /// by the light each passes (at least [`MIN_PORTAL_RAYS`] each).
 pub const PORTAL_RAYS: usize = 64;
 
-/// Points per side of the midpoint rule that integrates a portal's
-/// unblocked light over each of its spherical triangles.
+/// Most points per side of the midpoint rule that integrates a portal's
+/// unblocked light over each of its spherical triangles (twice the side of
+/// the triangle's grid of rays, at least 2).
 const QUADRATURE: usize = 16;
 
 /// A refined portal cell's rays per side.
