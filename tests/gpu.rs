@@ -345,3 +345,59 @@ fn lights_shoot_through_the_gpu() {
         );
     }
 }
+
+/// A scene with glass: `--device gpu` refuses it by name (the GPU's
+/// transfers between surfaces do not dim light through glass), `auto`
+/// solves it on the CPU (with a note where it found a real GPU).
+#[test]
+fn glass_is_refused_by_the_gpu_and_solved_on_the_cpu() {
+    if !adapter() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("glass.obj"),
+        "mtllib glass.mtl\nv -2 0 -2\nv -2 0 2\nv 2 0 2\nv 2 0 -2\n\
+         v -0.5 2 -0.5\nv 0.5 2 -0.5\nv 0.5 2 0.5\nv -0.5 2 0.5\n\
+         v -3 1 -3\nv 3 1 -3\nv 3 1 3\nv -3 1 3\n\
+         usemtl floor\nf 1 2 3 4\nusemtl lamp\nf 5 6 7 8\nusemtl pane\nf 9 10 11 12\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("glass.mtl"),
+        "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl lamp\nKe 10 10 10\nnewmtl pane\nd 0.2\n",
+    )
+    .unwrap();
+    let base = [
+        "render",
+        "glass.obj",
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "--stats",
+        "s.json",
+    ];
+    let mut args = base.to_vec();
+    args.extend(["--device", "gpu"]);
+    let out = run(dir.path(), &args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("--device gpu: the scene has glass (1 pane(s), material pane)"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("s.json").exists());
+    let out = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "auto")
+        .current_dir(dir.path())
+        .args(base)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(stats(&dir.path().join("s.json"))["device"], "cpu");
+}

@@ -699,3 +699,70 @@ fn portal_directives_are_read_and_misplaced_ones_named() {
         assert!(error.contains(says), "{error}");
     }
 }
+
+#[test]
+fn glass_between_two_surfaces_dims_what_one_sends_the_other() {
+    // A 1 m lamp 2 m over a black floor, a large pane half-way: every
+    // sensor under it reads the pane's transmittance times what it reads
+    // without the pane, per channel, and the ledger still balances (the
+    // pane's share is booked as escaped).
+    let tau = DVec3::new(0.8, 0.7, 0.6);
+    let surfaces = common::lamp_over_floor(0.0, 1.0, 2.0, 100.0);
+    let points: Vec<(DVec3, DVec3)> = [(0.0, 0.0), (0.6, 0.3), (-1.5, 1.0), (1.9, -1.8)]
+        .iter()
+        .map(|&(x, z)| (DVec3::new(x, 0.0, z), DVec3::Y))
+        .collect();
+    let irradiance = |panes: Vec<Pane>| -> Vec<DVec3> {
+        let mut scene = scene_of(surfaces.clone());
+        scene.panes = panes;
+        let sensor_points: Vec<SensorPoint> = points
+            .iter()
+            .enumerate()
+            .map(|(i, &(position, normal))| SensorPoint {
+                position,
+                normal,
+                line: i + 1,
+            })
+            .collect();
+        let receivers = sensors::receivers(&scene, &sensor_points, Path::new("p")).unwrap();
+        let settings = Settings::adaptive();
+        let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+        let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers);
+        solver.run(|_| radiosity::solver::Flow::Continue);
+        let e = solver.energy();
+        let unshot = solver.unshot_power();
+        for c in 0..3 {
+            let rhs = unshot[c] + e.absorbed[c] + e.escaped[c];
+            assert!(
+                (e.emitted[c] - rhs).abs() <= 1e-9 * e.emitted[c],
+                "channel {c}"
+            );
+        }
+        solver.sensor_irradiance().to_vec()
+    };
+    let open = irradiance(Vec::new());
+    let pane = Pane::new(
+        vec![
+            DVec3::new(-20.0, 1.0, -20.0),
+            DVec3::new(20.0, 1.0, -20.0),
+            DVec3::new(20.0, 1.0, 20.0),
+            DVec3::new(-20.0, 1.0, 20.0),
+        ],
+        tau,
+        "glass",
+    )
+    .unwrap();
+    let glazed = irradiance(vec![pane]);
+    for ((o, g), p) in open.iter().zip(&glazed).zip(&points) {
+        assert!(o.x > 0.0, "{p:?}");
+        for c in 0..3 {
+            assert!(
+                (g[c] - tau[c] * o[c]).abs() <= 1e-9 * o[c],
+                "at {:?}, channel {c}: {} behind glass, {} open",
+                p.0,
+                g[c],
+                o[c]
+            );
+        }
+    }
+}

@@ -115,6 +115,14 @@ impl Backend for GpuBackend {
         mesh: &radiosity::mesh::Mesh,
         receivers: usize,
     ) -> Result<u64, DeviceError> {
+        if let Some(pane) = scene.panes.first() {
+            return Err(DeviceError(format!(
+                "the scene has glass ({} pane(s), material {}), whose dimming of the light \
+                 between surfaces the GPU's transfers do not do yet: use --device cpu",
+                scene.panes.len(),
+                pane.material
+            )));
+        }
         let memory = DeviceMemory::of(scene, mesh, receivers);
         let limits = self.gpu.device.limits();
         let largest = limits

@@ -535,9 +535,9 @@ pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, Sc
         materials.dedup();
         materials.truncate(5);
         scene.warnings.push(format!(
-            "{}: {} glass pane(s) ({}): they dim the light of lights, the sun and the sky that \
-             crosses them by their transmittance; light from one surface to another passes them \
-             undimmed",
+            "{}: {} glass pane(s) ({}): they dim the light that crosses them by their \
+             transmittance (the paper's presets and --shooting cuts dim only lights' and \
+             daylight's); the solve runs on the CPU",
             path.display(),
             scene.panes.len(),
             materials.join(", ")

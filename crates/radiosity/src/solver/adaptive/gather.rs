@@ -193,13 +193,14 @@ impl Gatherer<'_> {
                         .dim_irradiance(n, r, scratch, &mut counters.cost);
                     continue;
                 }
-                if let Some(visible) = self.transfer.uniform_visibility(n, r, &mut counters.cost) {
-                    if visible {
+                if let Some(passing) = self.transfer.uniform_visibility(n, r, &mut counters.cost) {
+                    if passing != DVec3::ZERO {
                         sum += self
                             .transfer
                             .node_geometry(n, r, scratch, &mut counters.cost)
                             .iter()
-                            .sum::<DVec3>();
+                            .sum::<DVec3>()
+                            * passing;
                     }
                     continue;
                 }

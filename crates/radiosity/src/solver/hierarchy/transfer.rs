@@ -204,10 +204,11 @@ impl Transfer<'_> {
             return DVec3::ZERO;
         };
         cost.pairs += 1;
-        if self.visible_from(bin.representative, r, cost) {
-            geometry.iter().sum()
-        } else {
+        let passing = self.passes_from(bin.representative, r, cost);
+        if passing == DVec3::ZERO {
             DVec3::ZERO
+        } else {
+            geometry.iter().sum::<DVec3>() * passing
         }
     }
 
@@ -218,13 +219,31 @@ impl Transfer<'_> {
     /// bright source's node is accepted this way only in full view or full
     /// shadow, so penumbrae are resolved down to elements while open view
     /// costs four rays.
-    pub(crate) fn uniform_visibility(&self, n: u32, r: &Receiver, cost: &mut Cost) -> Option<bool> {
+    ///
+    /// What passes is the rays' mean transmittance through glass (1, per
+    /// channel, through none; 0 in full shadow).
+    pub(crate) fn uniform_visibility(
+        &self,
+        n: u32,
+        r: &Receiver,
+        cost: &mut Cost,
+    ) -> Option<DVec3> {
         let (samples, count) = self.samples(&self.hierarchy.tree, n);
-        unanimous(samples[..count].iter().filter_map(|&piece| {
+        let mut passing = DVec3::ZERO;
+        let mut votes = 0u32;
+        let agreed = unanimous(samples[..count].iter().filter_map(|&piece| {
             let e = self.representative(piece)?;
             cost.pairs += 1;
-            Some(self.visible_from(e, r, cost))
-        }))
+            let through = self.passes_from(e, r, cost);
+            passing += through;
+            votes += 1;
+            Some(through != DVec3::ZERO)
+        }))?;
+        Some(match (agreed, self.scene.panes.is_empty()) {
+            (false, _) => DVec3::ZERO,
+            (true, true) => DVec3::ONE,
+            (true, false) => passing / f64::from(votes),
+        })
     }
 
     /// The share of a node's power the receiver sees, judged by shadow rays
@@ -320,7 +339,8 @@ impl Transfer<'_> {
         scratch: &mut Scratch,
         cost: &mut Cost,
     ) -> DVec3 {
-        self.unshot[e as usize] * self.visible_element_factor(e, r, scratch, cost)
+        let (factor, passing) = self.passing_element_factor(e, r, scratch, cost);
+        self.unshot[e as usize] * factor * passing
     }
 
     /// The factor of element `e` at the receiver times its visibility from
@@ -334,6 +354,19 @@ impl Transfer<'_> {
         scratch: &mut Scratch,
         cost: &mut Cost,
     ) -> f64 {
+        self.passing_element_factor(e, r, scratch, cost).0
+    }
+
+    /// [`Transfer::visible_element_factor`] and what passes along its
+    /// shadow ray: the transmittance of the glass it crosses (1 through
+    /// none).
+    pub(crate) fn passing_element_factor(
+        &self,
+        e: u32,
+        r: &Receiver,
+        scratch: &mut Scratch,
+        cost: &mut Cost,
+    ) -> (f64, DVec3) {
         let element = &self.mesh.elements[e as usize];
         let surface = &self.scene.surfaces[element.surface as usize];
         let polygon = &mut scratch.polygon;
@@ -352,22 +385,23 @@ impl Transfer<'_> {
             all_front &= h > tolerance;
         }
         if !any_front {
-            return 0.0;
+            return (0.0, DVec3::ZERO);
         }
         let origin = if all_front {
             self.hierarchy.centroids[e as usize]
         } else {
             geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
             if geometry::area(&scratch.clipped) <= 0.0 {
-                return 0.0;
+                return (0.0, DVec3::ZERO);
             }
             geometry::centroid(&scratch.clipped)
         };
         cost.pairs += 1;
-        if !self.visible(origin, r, surface.group, cost) {
-            return 0.0;
+        let passing = self.passes(origin, r, surface.group, cost);
+        if passing == DVec3::ZERO {
+            return (0.0, DVec3::ZERO);
         }
-        self.element_factor(e, r, &mut scratch.polygon)
+        (self.element_factor(e, r, &mut scratch.polygon), passing)
     }
 
     /// The factor of element `e`'s polygon at the receiver (clipped to its
@@ -399,6 +433,27 @@ impl Transfer<'_> {
         let e = e as usize;
         let group = self.scene.surfaces[self.mesh.elements[e].surface as usize].group;
         self.visible(self.hierarchy.centroids[e], r, group, cost)
+    }
+
+    /// What passes from the centre of element `e` to the receiver: 0 where
+    /// a surface blocks it, else the transmittance of the glass it crosses.
+    pub(crate) fn passes_from(&self, e: u32, r: &Receiver, cost: &mut Cost) -> DVec3 {
+        let group = self.scene.surfaces[self.mesh.elements[e as usize].surface as usize].group;
+        self.passes(self.hierarchy.centroids[e as usize], r, group, cost)
+    }
+
+    /// What passes from `origin` to the receiver: 0 where a surface blocks
+    /// it, else the transmittance of the glass it crosses (1, exactly,
+    /// through none).
+    pub(crate) fn passes(&self, origin: DVec3, r: &Receiver, group: u32, cost: &mut Cost) -> DVec3 {
+        if !self.visible(origin, r, group, cost) {
+            return DVec3::ZERO;
+        }
+        if self.scene.panes.is_empty() {
+            return DVec3::ONE;
+        }
+        let (from, to) = accel::shorten(origin, r.point);
+        crate::scene::glass::transmittance(&self.scene.panes, from, to)
     }
 
     pub(crate) fn visible(&self, origin: DVec3, r: &Receiver, group: u32, cost: &mut Cost) -> bool {
