@@ -20,8 +20,8 @@ use radiosity::scene;
 use radiosity::solver::device::Device;
 use radiosity::solver::{Flow, Settings, Solver, StopReason};
 use radiosity_gpu::gather::{
-    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuShot,
-    GpuSurface, GpuTreeNode,
+    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPane, GpuPartial, GpuReceiver,
+    GpuShot, GpuSurface, GpuTreeNode,
 };
 use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
 
@@ -83,6 +83,11 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "Surface",
             GpuSurface,
             [normal, group, corner, pad0, corner_lo, pad1]
+        ),
+        layout!(
+            "Pane",
+            GpuPane,
+            [a, pad0, b, pad1, c, pad2, transmittance, pad3]
         ),
         layout!(
             "Element",

@@ -46,6 +46,30 @@ pub struct GpuSurface {
     pub pad1: u32,
 }
 
+/// A triangle of a glass pane and its transmittance (WGSL `Pane`),
+/// corners relative to the scene's centre.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPane {
+    /// First corner.
+    pub a: [f32; 3],
+    /// Padding.
+    pub pad0: u32,
+    /// Second corner.
+    pub b: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+    /// Third corner.
+    pub c: [f32; 3],
+    /// 1 when the edge from `c` to `a` is a diagonal inside the pane (a
+    /// ray through it counts in the next triangle).
+    pub pad2: u32,
+    /// Fraction of the light let through, per channel.
+    pub transmittance: [f32; 3],
+    /// Padding.
+    pub pad3: u32,
+}
+
 /// An element (WGSL `Element`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

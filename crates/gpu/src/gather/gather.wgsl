@@ -29,6 +29,17 @@ struct TreeNode {
     pad0: u32,
 }
 
+struct Pane {
+    a: vec3<f32>,
+    pad0: u32,
+    b: vec3<f32>,
+    pad1: u32,
+    c: vec3<f32>,
+    pad2: u32, // 1: the edge from c to a is a diagonal inside the pane
+    transmittance: vec3<f32>,
+    pad3: u32,
+}
+
 struct Surface {
     normal: vec3<f32>,
     group: u32,
@@ -126,6 +137,8 @@ const ELEMENTS: u32 = 4u;
 @group(0) @binding(12) var<storage, read_write> shot_irradiance: array<vec4<f32>>;
 @group(0) @binding(13) var<uniform> shot: Shot;
 @group(0) @binding(14) var<storage, read_write> counters: array<atomic<u32>, 8>;
+// Glass: the panes' triangles (one of no area when there is none).
+@group(0) @binding(23) var<storage, read> panes: array<Pane>;
 
 const NONE: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
@@ -170,15 +183,50 @@ fn visible(offset: vec3<f32>, r: Receiver, group: u32) -> bool {
     return !segment_blocked(a[0], a[1] + r.point_lo, b[0], b[1] + r.point_lo, group, r.group);
 }
 
+// glass::transmittance: what passes every pane the shadow ray from the
+// point `offset` from the receiver crosses (1 through none).
+fn glass(offset: vec3<f32>, r: Receiver) -> vec3<f32> {
+    var through = vec3<f32>(1.0);
+    let p0 = r.point + offset * (1.0 - SEGMENT_EPSILON);
+    let p1 = r.point + offset * SEGMENT_EPSILON;
+    for (var i = 0u; i < arrayLength(&panes); i += 1u) {
+        let p = panes[i];
+        let n = cross(p.b - p.a, p.c - p.a);
+        let da = dot(n, p0 - p.a);
+        let db = dot(n, p1 - p.a);
+        if (all(n == vec3<f32>(0.0)) || da == db || da == 0.0 || db == 0.0 || (da > 0.0) == (db > 0.0)) {
+            continue;
+        }
+        let hit = p0 + (p1 - p0) * (da / (da - db));
+        // The edge from c to a, where it is a diagonal inside the pane
+        // (pad2), belongs to the next triangle: no ray counts twice.
+        let closing = dot(cross(p.a - p.c, hit - p.c), n);
+        if (dot(cross(p.b - p.a, hit - p.a), n) >= 0.0 && dot(cross(p.c - p.b, hit - p.b), n) >= 0.0
+            && (closing > 0.0 || (closing == 0.0 && p.pad2 == 0u))) {
+            through *= p.transmittance;
+        }
+    }
+    return through;
+}
+
+// What passes from the point `offset` from the receiver: 0 where a surface
+// blocks it, else the glass's transmittance.
+fn passes(offset: vec3<f32>, r: Receiver, group: u32) -> vec3<f32> {
+    if (!visible(offset, r, group)) {
+        return vec3<f32>(0.0);
+    }
+    return glass(offset, r);
+}
+
 fn element_group(e: u32) -> u32 {
     return surfaces[elements[e].surface].group;
 }
 
-// Whether the receiver sees the centre of element `e`.
-fn visible_from(e: u32, r: Receiver) -> bool {
+// What passes from the centre of element `e` to the receiver.
+fn passes_from(e: u32, r: Receiver) -> vec3<f32> {
     let el = elements[e];
     let offset = minus(el.centroid, el.centroid_lo, r.point, r.point_lo);
-    return visible(offset, r, surfaces[el.surface].group);
+    return passes(offset, r, surfaces[el.surface].group);
 }
 
 // `x` times the symmetric matrix of a bin's covariance.
@@ -384,9 +432,10 @@ fn element_factor(e: u32, r: Receiver) -> f32 {
     return analytic(element_polygon(e, r), r.normal, surfaces[elements[e].surface].normal);
 }
 
-// Transfer::visible_element_factor: the factor of element `e` times its
-// visibility from the centre of the part in front of the receiver.
-fn visible_element_factor(e: u32, r: Receiver) -> f32 {
+// Transfer::passing_element_factor: the factor of element `e` (w), if the
+// receiver sees the centre of the part in front of it, and what passes
+// along that ray (xyz).
+fn visible_element_factor(e: u32, r: Receiver) -> vec4<f32> {
     let el = elements[e];
     let poly = element_polygon(e, r);
     let tolerance = 1e-9 * sqrt(el.area);
@@ -398,21 +447,22 @@ fn visible_element_factor(e: u32, r: Receiver) -> f32 {
         all_front = all_front && h > tolerance;
     }
     if (!any_front) {
-        return 0.0;
+        return vec4<f32>(0.0);
     }
     var origin = minus(el.centroid, el.centroid_lo, r.point, r.point_lo);
     if (!all_front) {
         let clipped = clip(poly, r.normal, 0.0);
         if (clipped.count < 3u || length(newell(clipped)) <= 0.0) {
-            return 0.0;
+            return vec4<f32>(0.0);
         }
         origin = centroid(clipped);
     }
     pairs += 1u;
-    if (!visible(origin, r, surfaces[el.surface].group)) {
-        return 0.0;
+    let through = passes(origin, r, surfaces[el.surface].group);
+    if (all(through == vec3<f32>(0.0))) {
+        return vec4<f32>(0.0);
     }
-    return analytic(poly, r.normal, surfaces[el.surface].normal);
+    return vec4<f32>(through, analytic(poly, r.normal, surfaces[el.surface].normal));
 }
 
 fn node_offset(n: TreeNode, r: Receiver) -> vec3<f32> {
@@ -541,16 +591,17 @@ fn dim_irradiance(n: u32, r: Receiver) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     pairs += 1u;
-    if (visible_from(bins[s.first_bin + best].representative, r)) {
-        return geometry_sum(g, s.bins);
+    let through = passes_from(bins[s.first_bin + best].representative, r);
+    if (all(through == vec3<f32>(0.0))) {
+        return vec3<f32>(0.0);
     }
-    return vec3<f32>(0.0);
+    return geometry_sum(g, s.bins) * through;
 }
 
-// Transfer::uniform_visibility: 1 when up to four shadow rays spread over
-// the node all see it, 0 when none does, 2 when they disagree (or there
-// are none).
-fn uniform_visibility(n: u32, r: Receiver) -> u32 {
+// Transfer::uniform_visibility: w 1 when up to four shadow rays spread
+// over the node all see it (xyz the mean of what passes along them), 0
+// when none does, 2 when they disagree (or there are none).
+fn uniform_visibility(n: u32, r: Receiver) -> vec4<f32> {
     var samples: array<u32, 4>;
     var count = 0u;
     let node = tree[n];
@@ -573,20 +624,28 @@ fn uniform_visibility(n: u32, r: Receiver) -> u32 {
         }
     }
     var answer = 2u;
+    var through = vec3<f32>(0.0);
+    var votes = 0.0;
     for (var i = 0u; i < count; i += 1u) {
         let e = representative(samples[i]);
         if (e == NONE) {
             continue;
         }
         pairs += 1u;
-        let v = select(0u, 1u, visible_from(e, r));
+        let passing = passes_from(e, r);
+        through += passing;
+        votes += 1.0;
+        let v = select(1u, 0u, all(passing == vec3<f32>(0.0)));
         if (answer == 2u) {
             answer = v;
         } else if (answer != v) {
-            return 2u;
+            return vec4<f32>(0.0, 0.0, 0.0, 2.0);
         }
     }
-    return answer;
+    if (answer == 1u) {
+        return vec4<f32>(through / votes, 1.0);
+    }
+    return vec4<f32>(0.0, 0.0, 0.0, f32(answer));
 }
 
 // The irradiance the shooting node sends one receiver (the CPU's
@@ -608,7 +667,8 @@ fn gather_one(r: Receiver, small: f32) -> vec3<f32> {
         }
         if (node.second == NONE) {
             element_sources += 1u;
-            sum += source.unshot * visible_element_factor(node.element, r);
+            let f = visible_element_factor(node.element, r);
+            sum += source.unshot * f.w * f.xyz;
             continue;
         }
         let distance = length(node_offset(node, r));
@@ -633,9 +693,9 @@ fn gather_one(r: Receiver, small: f32) -> vec3<f32> {
                 continue;
             }
             let seen = uniform_visibility(n, r);
-            if (seen != 2u) {
-                if (seen == 1u) {
-                    sum += geometry_sum(node_geometry(n, r), source.bins);
+            if (seen.w != 2.0) {
+                if (seen.w == 1.0) {
+                    sum += geometry_sum(node_geometry(n, r), source.bins) * seen.xyz;
                 }
                 continue;
             }

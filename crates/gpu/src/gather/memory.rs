@@ -58,6 +58,18 @@ impl DeviceMemory {
                 bytes(scene.surfaces.len(), size_of::<GpuSurface>()),
             ),
             ("receivers", bytes(receivers, size_of::<GpuReceiver>())),
+            (
+                "glass panes",
+                bytes(
+                    scene
+                        .panes
+                        .iter()
+                        .map(|p| p.polygon.len().saturating_sub(2))
+                        .sum::<usize>()
+                        .max(1),
+                    size_of::<super::buffers::GpuPane>(),
+                ),
+            ),
             ("irradiance", bytes(receivers, 16)),
             ("shot irradiance", bytes(receivers, 16)),
             ("unshot radiosity", bytes(elements, 16)),

@@ -36,8 +36,8 @@ mod scene;
 mod transfers;
 
 pub use self::buffers::{
-    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuShot,
-    GpuSurface, GpuTreeNode,
+    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPane, GpuPartial, GpuReceiver,
+    GpuShot, GpuSurface, GpuTreeNode,
 };
 pub use self::memory::DeviceMemory;
 use self::transfers::GpuTransfers;
@@ -56,7 +56,7 @@ const WORKGROUP: u32 = 64;
 const MAX_TREE_DEPTH: usize = 62;
 
 /// Storage buffers the transfer kernel binds at once.
-const STORAGE_BUFFERS: u32 = 11;
+const STORAGE_BUFFERS: u32 = 12;
 
 /// The GPU as a device for the solver's transfers.
 #[derive(Clone)]
@@ -115,14 +115,6 @@ impl Backend for GpuBackend {
         mesh: &radiosity::mesh::Mesh,
         receivers: usize,
     ) -> Result<u64, DeviceError> {
-        if let Some(pane) = scene.panes.first() {
-            return Err(DeviceError(format!(
-                "the scene has glass ({} pane(s), material {}), whose dimming of the light \
-                 between surfaces the GPU's transfers do not do yet: use --device cpu",
-                scene.panes.len(),
-                pane.material
-            )));
-        }
         let memory = DeviceMemory::of(scene, mesh, receivers);
         let limits = self.gpu.device.limits();
         let largest = limits

@@ -10,7 +10,7 @@ use glam::DVec3;
 use radiosity::solver::device::AdaptiveSolve;
 use radiosity::solver::hierarchy::NONE;
 
-use super::buffers::{GpuElement, GpuElementBook, GpuReceiver, GpuSurface, GpuTreeNode};
+use super::buffers::{GpuElement, GpuElementBook, GpuPane, GpuReceiver, GpuSurface, GpuTreeNode};
 use crate::trace::{self, GpuNode, GpuTriangle, split};
 
 /// A solve's data for the device.
@@ -35,6 +35,8 @@ pub(super) struct SceneData {
     pub(super) element_book: Vec<GpuElementBook>,
     /// Each shooter's items in the element tree's order, `first..last`.
     pub(super) shooter_items: Vec<[u32; 2]>,
+    /// The glass panes' triangles (fans of their polygons).
+    pub(super) panes: Vec<GpuPane>,
 }
 
 impl SceneData {
@@ -156,6 +158,32 @@ impl SceneData {
             receivers,
             element_book,
             shooter_items,
+            panes: panes(scene, origin),
         }
     }
+}
+
+/// The scene's glass panes as triangles (fans of their convex polygons),
+/// relative to `origin`.
+fn panes(scene: &radiosity::scene::Scene, origin: DVec3) -> Vec<GpuPane> {
+    let at = |p: DVec3| (p - origin).as_vec3().to_array();
+    scene
+        .panes
+        .iter()
+        .flat_map(|pane| {
+            let p = &pane.polygon;
+            let last = p.len() - 2;
+            (1..=last).map(move |i| GpuPane {
+                a: at(p[0]),
+                b: at(p[i]),
+                c: at(p[i + 1]),
+                transmittance: pane.transmittance.as_vec3().to_array(),
+                // The edge from c back to a is a diagonal inside the
+                // polygon but for the last triangle: a ray through it
+                // counts in the next triangle, whose edge from a to b it is.
+                pad2: u32::from(i < last),
+                ..GpuPane::default()
+            })
+        })
+        .collect()
 }

@@ -100,6 +100,8 @@ pub(super) struct GpuTransfers {
     triangles: wgpu::Buffer,
     tree: wgpu::Buffer,
     surfaces: wgpu::Buffer,
+    /// The glass panes' triangles.
+    panes: wgpu::Buffer,
     element_buffer: wgpu::Buffer,
     receivers: wgpu::Buffer,
     element_book: wgpu::Buffer,
@@ -186,6 +188,7 @@ impl GpuTransfers {
             receivers,
             element_book,
             shooter_items,
+            panes,
         } = SceneData::of(solve);
         let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
 
@@ -254,6 +257,7 @@ impl GpuTransfers {
             triangles: storage(&gpu, "triangles", &nonempty(triangles)),
             tree: storage(&gpu, "element tree", &nonempty(gpu_tree)),
             surfaces: storage(&gpu, "surfaces", &nonempty(surfaces)),
+            panes: storage(&gpu, "panes", &nonempty(panes)),
             element_buffer: storage(&gpu, "elements", &nonempty(elements)),
             receivers: storage(&gpu, "receivers", &nonempty(receivers)),
             element_book: storage(&gpu, "element book", &nonempty(element_book)),
@@ -467,6 +471,7 @@ impl GpuTransfers {
                     entry(12, &self.shot_irradiance),
                     entry(13, &uniform),
                     entry(14, &self.counters),
+                    entry(23, &self.panes),
                 ],
             );
             groups.push((group, (n as u32).div_ceil(WORKGROUP)));

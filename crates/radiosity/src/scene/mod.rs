@@ -537,7 +537,7 @@ pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, Sc
         scene.warnings.push(format!(
             "{}: {} glass pane(s) ({}): they dim the light that crosses them by their \
              transmittance (the paper's presets and --shooting cuts dim only lights' and \
-             daylight's); the solve runs on the CPU",
+             daylight's)",
             path.display(),
             scene.panes.len(),
             materials.join(", ")
