@@ -40,31 +40,76 @@ fn orthogonal(v: DVec3, a: DVec3) -> Option<DVec3> {
 /// Arvo's construction: `u` chooses the sub-triangle `a b c'` of area
 /// `u omega` (`c'` on the arc from `a` to `c`), `v` the point on the arc from
 /// `b` to `c'`. `omega` is the triangle's solid angle ([`solid_angle`]),
-/// passed in because callers need it anyway.
+/// passed in because callers need it anyway. Many directions in one
+/// triangle: [`Triangle`].
 #[must_use]
 pub fn sample_triangle(a: DVec3, b: DVec3, c: DVec3, omega: f64, u: f64, v: f64) -> DVec3 {
-    let alpha = corner_angle(a, b, c);
-    let area = u * omega;
-    let (s, t) = (area - alpha).sin_cos();
-    let cos_alpha = alpha.cos();
-    let sin_alpha = alpha.sin();
-    let cos_c = a.dot(b);
-    let uu = t - cos_alpha;
-    let vv = s + sin_alpha * cos_c;
-    let denominator = (vv * s + uu * t) * sin_alpha;
-    let q = if denominator.abs() > 1e-300 {
-        (((vv * t - uu * s) * cos_alpha - vv) / denominator).clamp(-1.0, 1.0)
-    } else {
-        a.dot(c)
-    };
-    let c_hat = match orthogonal(c, a) {
-        Some(w) => a * q + w * (1.0 - q * q).max(0.0).sqrt(),
-        None => c,
-    };
-    let z = 1.0 - v * (1.0 - c_hat.dot(b));
-    match orthogonal(c_hat, b) {
-        Some(w) => (b * z + w * (1.0 - z * z).max(0.0).sqrt()).normalize(),
-        None => b,
+    Triangle::new(a, b, c, omega).sample(u, v)
+}
+
+/// A spherical triangle with what [`Triangle::sample`] needs of it worked
+/// out once: the angle at its first corner and the arc towards its third.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    a: DVec3,
+    b: DVec3,
+    c: DVec3,
+    omega: f64,
+    alpha: f64,
+    sin_alpha: f64,
+    cos_alpha: f64,
+    cos_c: f64,
+    /// `c`'s direction square to `a` (`None` when along it).
+    towards_c: Option<DVec3>,
+}
+
+impl Triangle {
+    /// The triangle of unit vectors `a`, `b`, `c` and solid angle `omega`.
+    #[must_use]
+    pub fn new(a: DVec3, b: DVec3, c: DVec3, omega: f64) -> Triangle {
+        let alpha = corner_angle(a, b, c);
+        Triangle {
+            a,
+            b,
+            c,
+            omega,
+            alpha,
+            sin_alpha: alpha.sin(),
+            cos_alpha: alpha.cos(),
+            cos_c: a.dot(b),
+            towards_c: orthogonal(c, a),
+        }
+    }
+
+    /// Its corners.
+    #[must_use]
+    pub fn corners(&self) -> [DVec3; 3] {
+        [self.a, self.b, self.c]
+    }
+
+    /// The direction at `(u, v)` ([`sample_triangle`]).
+    #[must_use]
+    pub fn sample(&self, u: f64, v: f64) -> DVec3 {
+        let (a, b, c) = (self.a, self.b, self.c);
+        let area = u * self.omega;
+        let (s, t) = (area - self.alpha).sin_cos();
+        let uu = t - self.cos_alpha;
+        let vv = s + self.sin_alpha * self.cos_c;
+        let denominator = (vv * s + uu * t) * self.sin_alpha;
+        let q = if denominator.abs() > 1e-300 {
+            (((vv * t - uu * s) * self.cos_alpha - vv) / denominator).clamp(-1.0, 1.0)
+        } else {
+            a.dot(c)
+        };
+        let c_hat = match self.towards_c {
+            Some(w) => a * q + w * (1.0 - q * q).max(0.0).sqrt(),
+            None => c,
+        };
+        let z = 1.0 - v * (1.0 - c_hat.dot(b));
+        match orthogonal(c_hat, b) {
+            Some(w) => (b * z + w * (1.0 - z * z).max(0.0).sqrt()).normalize(),
+            None => b,
+        }
     }
 }
 

@@ -81,7 +81,7 @@ pub struct SkyPlan {
 /// clipped to the receiver's front, their cumulative solid angles, and the
 /// pieces for the nearest-portal test.
 struct Active {
-    triangles: Vec<[DVec3; 3]>,
+    triangles: Vec<spherical::Triangle>,
     cumulative: Vec<f64>,
     pieces: Vec<Piece>,
     power: f64,
@@ -461,8 +461,15 @@ impl SkyPlan {
                         }
                         let middle = (t[0] + t[1] + t[2]).normalize();
                         a.power += w * sky.relative_luminance(middle) * normal.dot(middle).max(0.0);
+                        let before = omega;
                         omega += w;
-                        a.triangles.push(t);
+                        // Its solid angle as the cumulative sums give it.
+                        a.triangles.push(spherical::Triangle::new(
+                            t[0],
+                            t[1],
+                            t[2],
+                            omega - before,
+                        ));
                         a.cumulative.push(omega);
                     }
                 }
@@ -578,10 +585,7 @@ impl Active {
     /// The direction at `(u, v)` in `[0, 1)^2` of spherical triangle `t`,
     /// uniform in solid angle.
     fn in_triangle(&self, t: usize, u: f64, v: f64) -> DVec3 {
-        let before = if t == 0 { 0.0 } else { self.cumulative[t - 1] };
-        let size = self.cumulative[t] - before;
-        let [a, b, c] = self.triangles[t];
-        spherical::sample_triangle(a, b, c, size, u, v)
+        self.triangles[t].sample(u, v)
     }
 }
 
