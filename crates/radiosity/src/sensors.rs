@@ -64,61 +64,6 @@ pub const LUMINOUS_EFFICACY: f64 = 179.0;
 /// Radiance's weights of R, G and B in luminance.
 pub const RADIANCE_RGB_WEIGHTS: [f64; 3] = [0.265, 0.670, 0.065];
 
-/// The unobstructed horizontal illuminance (lux) of the scene's overcast
-/// sky when that sky is all that lights it, the denominator of the daylight
-/// factor (CIE: the interior illuminance over the unobstructed horizontal
-/// illuminance of a CIE standard overcast sky); else why not.
-///
-/// # Errors
-///
-/// A sentence naming what else lights the scene, or the sky that is not
-/// overcast.
-pub fn overcast_sky_alone(scene: &Scene) -> Result<f64, String> {
-    use crate::scene::LightKind;
-    use crate::scene::sky::SkyModel;
-    let mut sky = None;
-    for light in &scene.lights {
-        match &light.kind {
-            LightKind::Sky { sky: s, .. } if s.model == SkyModel::Overcast => {
-                sky = Some(light.intensity);
-            }
-            LightKind::Sky { .. } => {
-                return Err(
-                    "the daylight factor is defined under the overcast sky (--sky overcast), \
-                     not this one"
-                        .into(),
-                );
-            }
-            LightKind::Sun { .. } => {
-                return Err(format!(
-                    "the daylight factor is defined without the sun, and {} lights the scene",
-                    light.name
-                ));
-            }
-            _ => {
-                return Err(format!(
-                    "the daylight factor is defined under the overcast sky alone, and the light {} \
-                     lights the scene",
-                    light.name
-                ));
-            }
-        }
-    }
-    if let Some(surface) = scene.surfaces.iter().find(|s| s.emission != DVec3::ZERO) {
-        return Err(format!(
-            "the daylight factor is defined under the overcast sky alone, and face {} emits light",
-            surface.face + 1
-        ));
-    }
-    match sky {
-        Some(lux) if lux > 0.0 => Ok(lux),
-        Some(_) => Err("the overcast sky gives no light (--sky-illuminance 0)".into()),
-        None => {
-            Err("the scene has no overcast sky: give --sky overcast --sky-illuminance LUX".into())
-        }
-    }
-}
-
 /// Illuminance in lux from irradiance in W/m^2, as Radiance computes it
 /// (`rcalc -e '$1=179*(.265*$1+.67*$2+.065*$3)'` on `rtrace -I` output).
 #[must_use]

@@ -15,7 +15,7 @@ use radiosity::mesh::Mesh;
 use radiosity::scene::glass::Pane;
 use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
 use radiosity::scene::{LightKind, Scene, Surface};
-use radiosity::sensors::{self, SensorPoint, lux};
+use radiosity::sensors::lux;
 use radiosity::solver::{Settings, Solver};
 
 use common::{quad, scene_of};
@@ -189,6 +189,18 @@ fn scene(surfaces: Vec<Surface>, model: SkyModel) -> Scene {
 /// the opening seen from `point` with `normal`, by a fine midpoint rule,
 /// lux.
 fn through(model: SkyModel, opening: Opening, point: DVec3, normal: DVec3) -> f64 {
+    through_both(model, opening, None, point, normal)
+}
+
+/// [`through`], counting only the lines of sight that also cross the
+/// rectangle `also` (a second opening nearer the point).
+fn through_both(
+    model: SkyModel,
+    opening: Opening,
+    also: Option<Opening>,
+    point: DVec3,
+    normal: DVec3,
+) -> f64 {
     let scene = scene(Vec::new(), model);
     let LightKind::Sky { sky, .. } = &scene.lights[0].kind else {
         unreachable!()
@@ -198,6 +210,18 @@ fn through(model: SkyModel, opening: Opening, point: DVec3, normal: DVec3) -> f6
     let area_normal = opening.u.cross(opening.v);
     let da = area_normal.length() / f64::from(n_u * n_v);
     let plane = area_normal.normalize();
+    // Whether the line from the point along `d` crosses `also`.
+    let crosses = |d: DVec3| {
+        also.is_none_or(|o| {
+            let n = o.u.cross(o.v);
+            let at = point + d * (n.dot(o.origin - point) / n.dot(d)) - o.origin;
+            let (s, t) = (
+                at.dot(o.u) / o.u.length_squared(),
+                at.dot(o.v) / o.v.length_squared(),
+            );
+            (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t)
+        })
+    };
     let mut sum = 0.0;
     for i in 0..n_u {
         for j in 0..n_v {
@@ -208,7 +232,7 @@ fn through(model: SkyModel, opening: Opening, point: DVec3, normal: DVec3) -> f6
             let r2 = d.length_squared();
             let towards = d / r2.sqrt();
             let cos_r = normal.dot(towards);
-            if cos_r <= 0.0 {
+            if cos_r <= 0.0 || !crosses(d) {
                 continue;
             }
             let cos_o = plane.dot(towards).abs();
@@ -218,24 +242,13 @@ fn through(model: SkyModel, opening: Opening, point: DVec3, normal: DVec3) -> f6
     sum * SKY_LUX
 }
 
-/// Lux at `points` (position, normal) and the solver, at the default
-/// settings.
+/// Lux at `points` (position, normal), at the default settings
+/// ([`common::sensor_irradiance`]).
 fn lux_at(scene: &Scene, points: &[(DVec3, DVec3)]) -> Vec<f64> {
-    let sensor_points: Vec<SensorPoint> = points
-        .iter()
-        .enumerate()
-        .map(|(i, &(position, normal))| SensorPoint {
-            position,
-            normal,
-            line: i + 1,
-        })
-        .collect();
-    let receivers = sensors::receivers(scene, &sensor_points, Path::new("points")).unwrap();
-    let settings = Settings::adaptive();
-    let mesh = Mesh::build(scene, &settings.mesh.sized_for(scene)).unwrap();
-    let mut solver = Solver::with_sensors(scene, &mesh, settings, receivers);
-    solver.run(|_| radiosity::solver::Flow::Continue);
-    solver.sensor_irradiance().iter().map(|&e| lux(e)).collect()
+    common::sensor_irradiance(scene, Settings::adaptive(), points)
+        .into_iter()
+        .map(lux)
+        .collect()
 }
 
 /// Every case's sensors within 1% or 0.5 lux of the closed form.
@@ -553,35 +566,11 @@ fn thick_window() -> (Vec<Surface>, Opening) {
 /// The closed form through the tunnel: the sky over its outer opening
 /// seen through its inner one.
 fn through_tunnel(model: SkyModel, inner: Opening, point: DVec3, normal: DVec3) -> f64 {
-    let scene = scene(Vec::new(), model);
-    let LightKind::Sky { sky, .. } = &scene.lights[0].kind else {
-        unreachable!()
+    let outer = Opening {
+        origin: inner.origin + DVec3::Z * 0.3,
+        ..inner
     };
-    let n = 600;
-    let outer = inner.origin + DVec3::Z * 0.3;
-    let da = inner.u.length() * inner.v.length() / f64::from(n * n);
-    let mut sum = 0.0;
-    for i in 0..n {
-        for j in 0..n {
-            let q = outer
-                + inner.u * ((f64::from(i) + 0.5) / f64::from(n))
-                + inner.v * ((f64::from(j) + 0.5) / f64::from(n));
-            let d = q - point;
-            // Where the line crosses the inner face's plane.
-            let t = (inner.origin.z - point.z) / d.z;
-            let at = point + d * t;
-            let inside = (inner.origin.x..=inner.origin.x + inner.u.length()).contains(&at.x)
-                && (inner.origin.y..=inner.origin.y + inner.v.length()).contains(&at.y);
-            let r2 = d.length_squared();
-            let towards = d / r2.sqrt();
-            let cos_r = normal.dot(towards);
-            if !inside || cos_r <= 0.0 {
-                continue;
-            }
-            sum += sky.relative_luminance(towards) * cos_r * towards.z.abs() / r2 * da;
-        }
-    }
-    sum * SKY_LUX
+    through_both(model, outer, Some(inner), point, normal)
 }
 
 #[test]
@@ -715,30 +704,7 @@ fn glass_between_two_surfaces_dims_what_one_sends_the_other() {
     let irradiance = |panes: Vec<Pane>| -> Vec<DVec3> {
         let mut scene = scene_of(surfaces.clone());
         scene.panes = panes;
-        let sensor_points: Vec<SensorPoint> = points
-            .iter()
-            .enumerate()
-            .map(|(i, &(position, normal))| SensorPoint {
-                position,
-                normal,
-                line: i + 1,
-            })
-            .collect();
-        let receivers = sensors::receivers(&scene, &sensor_points, Path::new("p")).unwrap();
-        let settings = Settings::adaptive();
-        let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
-        let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers);
-        solver.run(|_| radiosity::solver::Flow::Continue);
-        let e = solver.energy();
-        let unshot = solver.unshot_power();
-        for c in 0..3 {
-            let rhs = unshot[c] + e.absorbed[c] + e.escaped[c];
-            assert!(
-                (e.emitted[c] - rhs).abs() <= 1e-9 * e.emitted[c],
-                "channel {c}"
-            );
-        }
-        solver.sensor_irradiance().to_vec()
+        common::sensor_irradiance(&scene, Settings::adaptive(), &points)
     };
     let open = irradiance(Vec::new());
     let pane = Pane::new(

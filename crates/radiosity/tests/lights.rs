@@ -13,47 +13,18 @@ use radiosity::mesh::Mesh;
 use radiosity::scene::light::cone;
 use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
 use radiosity::scene::{Light, LightKind, Scene, obj};
-use radiosity::sensors::{self, SensorPoint, lux};
+use radiosity::sensors::lux;
 use radiosity::solver::{Preset, Settings, Solver};
 
-use common::{floor, furnace, quad, scene_of};
+use common::{assert_ledger_balances, floor, furnace, quad, scene_of};
 
-/// Solves `scene` with `settings` and returns the lux at each of `points`
-/// (on surfaces, with their normals), and the solver's ledger check.
+/// The lux at each of `points` (on surfaces, with their normals) once
+/// `scene` is solved with `settings` ([`common::sensor_irradiance`]).
 fn lux_at(scene: &Scene, settings: Settings, points: &[(DVec3, DVec3)]) -> Vec<f64> {
-    let sensor_points: Vec<SensorPoint> = points
-        .iter()
-        .enumerate()
-        .map(|(i, &(position, normal))| SensorPoint {
-            position,
-            normal,
-            line: i + 1,
-        })
-        .collect();
-    let receivers = sensors::receivers(scene, &sensor_points, Path::new("points")).unwrap();
-    let mesh = Mesh::build(scene, &settings.mesh.sized_for(scene)).unwrap();
-    let mut solver = Solver::with_sensors(scene, &mesh, settings, receivers);
-    solver.run(|_| radiosity::solver::Flow::Continue);
-    assert_eq!(solver.lights_pending(), 0);
-    assert_ledger_balances(&solver);
-    solver.sensor_irradiance().iter().map(|&e| lux(e)).collect()
-}
-
-/// `emitted = unshot + absorbed + escaped`, per channel, to 1e-9.
-fn assert_ledger_balances(solver: &Solver<'_>) {
-    let e = solver.energy();
-    let unshot = solver.unshot_power();
-    for c in 0..3 {
-        let rhs = unshot[c] + e.absorbed[c] + e.escaped[c];
-        assert!(
-            (e.emitted[c] - rhs).abs() <= 1e-9 * e.emitted[c].abs().max(1e-300),
-            "channel {c}: emitted {} != unshot {} + absorbed {} + escaped {}",
-            e.emitted[c],
-            unshot[c],
-            e.absorbed[c],
-            e.escaped[c]
-        );
-    }
+    common::sensor_irradiance(scene, settings, points)
+        .into_iter()
+        .map(lux)
+        .collect()
 }
 
 fn with_lights(surfaces: Vec<radiosity::scene::Surface>, lights: Vec<Light>) -> Scene {

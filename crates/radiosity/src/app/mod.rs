@@ -84,7 +84,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         None => Vec::new(),
     };
     let daylight_factor = match &job.sensors {
-        Some(s) => match (sensors::overcast_sky_alone(&scene), s.daylight_factor) {
+        Some(s) => match (scene::sky::overcast_alone(&scene), s.daylight_factor) {
             (Ok(lux), _) => Some(lux),
             (Err(why), true) => return Err(Error::DaylightFactor(why)),
             (Err(_), false) => None,

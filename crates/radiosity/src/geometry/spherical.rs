@@ -1,8 +1,9 @@
 //! Spherical triangles: the solid angle a planar triangle subtends from a
 //! point (Van Oosterom & Strackee 1983) and directions drawn uniformly in
 //! it (Arvo 1995, "Stratified sampling of spherical triangles"), for the
-//! sky seen through an opening: beyond the paper, whose sources are all
-//! surfaces of the scene.
+//! sky seen through an opening, and directions spread evenly over the
+//! sphere for sight lines: beyond the paper, whose sources are all surfaces
+//! of the scene.
 
 use glam::DVec3;
 
@@ -16,6 +17,21 @@ pub fn solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let denominator = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
     let half = numerator.atan2(denominator);
     (2.0 * half).max(0.0)
+}
+
+/// `n` directions spread evenly over the sphere (a Fibonacci lattice), the
+/// same every time.
+#[must_use]
+pub fn sphere_directions(n: usize) -> Vec<DVec3> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i as f64;
+            DVec3::new(r * phi.cos(), y, r * phi.sin())
+        })
+        .collect()
 }
 
 /// The angle at corner `a` of the spherical triangle `a b c` (unit

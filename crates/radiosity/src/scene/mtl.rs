@@ -114,14 +114,8 @@ pub(super) fn parse_mtl_into(
                 let Some(name) = &current else {
                     return Err(error(line_no, format!("'{keyword}' before any 'newmtl'")));
                 };
-                if args
-                    .first()
-                    .is_some_and(|a| *a == "spectral" || *a == "xyz")
-                {
-                    return Err(error(
-                        line_no,
-                        format!("'{keyword} {}' is not supported: give r g b", args[0]),
-                    ));
+                if let Some(refused) = spectral(keyword, &args) {
+                    return Err(error(line_no, refused));
                 }
                 if args.len() != 1 && args.len() != 3 {
                     return Err(error(
@@ -132,11 +126,7 @@ pub(super) fn parse_mtl_into(
                         ),
                     ));
                 }
-                let mut rgb = [0.0; 3];
-                for (i, slot) in rgb.iter_mut().enumerate() {
-                    let token = args.get(i).unwrap_or(&args[0]);
-                    *slot = number(token).map_err(|m| error(line_no, m))?;
-                }
+                let rgb = rgb(&args).map_err(|m| error(line_no, m))?;
                 let value = DVec3::from_array(rgb);
                 let shown = quoted(name);
                 let Some(material) = materials.get_mut(name) else {
@@ -173,14 +163,8 @@ pub(super) fn parse_mtl_into(
                 };
                 // `d -halo F`: the halo form dissolves by angle; taken as F.
                 let values: Vec<&str> = args.iter().copied().filter(|a| *a != "-halo").collect();
-                if values
-                    .first()
-                    .is_some_and(|a| *a == "spectral" || *a == "xyz")
-                {
-                    return Err(error(
-                        line_no,
-                        format!("'{keyword} {}' is not supported: give r g b", values[0]),
-                    ));
+                if let Some(refused) = spectral(keyword, &values) {
+                    return Err(error(line_no, refused));
                 }
                 let wanted = if keyword == "Tf" { [1, 3] } else { [1, 1] };
                 if !wanted.contains(&values.len()) {
@@ -197,11 +181,7 @@ pub(super) fn parse_mtl_into(
                         ),
                     ));
                 }
-                let mut rgb = [0.0; 3];
-                for (i, slot) in rgb.iter_mut().enumerate() {
-                    let token = values.get(i).unwrap_or(&values[0]);
-                    *slot = number(token).map_err(|m| error(line_no, m))?;
-                }
+                let rgb = rgb(&values).map_err(|m| error(line_no, m))?;
                 if rgb.iter().any(|v| !(0.0..=1.0).contains(v)) {
                     return Err(error(
                         line_no,
@@ -244,4 +224,21 @@ pub(super) fn parse_mtl_into(
         ));
     }
     Ok(())
+}
+
+/// The refusal of a colour statement given as a spectrum or in XYZ.
+fn spectral(keyword: &str, args: &[&str]) -> Option<String> {
+    args.first()
+        .filter(|a| **a == "spectral" || **a == "xyz")
+        .map(|a| format!("'{keyword} {a}' is not supported: give r g b"))
+}
+
+/// Three numbers from one (grey) or three (r g b), the count checked by
+/// the caller.
+fn rgb(args: &[&str]) -> Result<[f64; 3], String> {
+    let mut rgb = [0.0; 3];
+    for (i, slot) in rgb.iter_mut().enumerate() {
+        *slot = number(args.get(i).unwrap_or(&args[0]))?;
+    }
+    Ok(rgb)
 }

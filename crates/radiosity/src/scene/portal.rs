@@ -155,20 +155,18 @@ pub fn check_marked(
         };
         let centre = geometry::centroid(&m.polygon);
         let size = geometry::diameter(&m.polygon);
-        let open = (0..PROBES).any(|k| {
-            // Fibonacci directions over the sphere: both sides at once.
-            let z = 1.0 - (2.0 * k as f64 + 1.0) / PROBES as f64;
-            let phi = k as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
-            let r = (1.0 - z * z).sqrt();
-            let d = DVec3::new(r * phi.cos(), z, r * phi.sin());
-            let side = if d.dot(normal) >= 0.0 {
-                normal
-            } else {
-                -normal
-            };
-            let from = centre + side * (1e-6 * size);
-            !occluder.occluded(from, from + d * reach, [u32::MAX; 2])
-        });
+        // Directions over the whole sphere: both sides at once.
+        let open = geometry::spherical::sphere_directions(PROBES)
+            .into_iter()
+            .any(|d| {
+                let side = if d.dot(normal) >= 0.0 {
+                    normal
+                } else {
+                    -normal
+                };
+                let from = centre + side * (1e-6 * size);
+                !occluder.occluded(from, from + d * reach, [u32::MAX; 2])
+            });
         if !open {
             return Err(SceneError::Invalid {
                 location: m.location.clone(),

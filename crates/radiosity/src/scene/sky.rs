@@ -30,7 +30,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::{Light, LightKind};
+use super::{Light, LightKind, Scene};
 
 /// The luminance distributions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -444,5 +444,58 @@ impl Daylight {
             });
         }
         Ok(lights)
+    }
+}
+
+/// The unobstructed horizontal illuminance (lux) of the scene's overcast
+/// sky when that sky is all that lights it, the denominator of the daylight
+/// factor (CIE: the interior illuminance over the unobstructed horizontal
+/// illuminance of a CIE standard overcast sky); else why not.
+///
+/// # Errors
+///
+/// A sentence naming what else lights the scene, or the sky that is not
+/// overcast.
+pub fn overcast_alone(scene: &Scene) -> Result<f64, String> {
+    let mut sky = None;
+    for light in &scene.lights {
+        match &light.kind {
+            LightKind::Sky { sky: s, .. } if s.model == SkyModel::Overcast => {
+                sky = Some(light.intensity);
+            }
+            LightKind::Sky { .. } => {
+                return Err(
+                    "the daylight factor is defined under the overcast sky (--sky overcast), \
+                     not this one"
+                        .into(),
+                );
+            }
+            LightKind::Sun { .. } => {
+                return Err(format!(
+                    "the daylight factor is defined without the sun, and {} lights the scene",
+                    light.name
+                ));
+            }
+            _ => {
+                return Err(format!(
+                    "the daylight factor is defined under the overcast sky alone, and the light {} \
+                     lights the scene",
+                    light.name
+                ));
+            }
+        }
+    }
+    if let Some(surface) = scene.surfaces.iter().find(|s| s.emission != DVec3::ZERO) {
+        return Err(format!(
+            "the daylight factor is defined under the overcast sky alone, and face {} emits light",
+            surface.face + 1
+        ));
+    }
+    match sky {
+        Some(lux) if lux > 0.0 => Ok(lux),
+        Some(_) => Err("the overcast sky gives no light (--sky-illuminance 0)".into()),
+        None => {
+            Err("the scene has no overcast sky: give --sky overcast --sky-illuminance LUX".into())
+        }
     }
 }

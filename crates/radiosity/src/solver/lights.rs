@@ -468,12 +468,7 @@ pub fn enclosed(
         return false;
     };
     let mut behind = 0;
-    for k in 0..ENCLOSURE_RAYS {
-        // Fibonacci directions: even over the sphere.
-        let z = 1.0 - (2.0 * k as f64 + 1.0) / ENCLOSURE_RAYS as f64;
-        let phi = k as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
-        let r = (1.0 - z * z).sqrt();
-        let direction = DVec3::new(r * phi.cos(), z, r * phi.sin());
+    for direction in crate::geometry::spherical::sphere_directions(ENCLOSURE_RAYS) {
         let Some(hit) = occluder.closest_hit(origin, direction, reach, [NO_SURFACE; 2]) else {
             return false;
         };

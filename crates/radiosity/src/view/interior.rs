@@ -198,7 +198,7 @@ pub fn analyse(scene: &Scene) -> Option<Analysis> {
         hi,
         diagonal,
     };
-    let sphere = sphere_directions(SPHERE_RAYS);
+    let sphere = crate::geometry::spherical::sphere_directions(SPHERE_RAYS);
     let candidates: Vec<Candidate> = eyes
         .par_iter()
         .map(|camera| tracer.candidate(*camera, &sphere))
@@ -231,20 +231,6 @@ pub fn analyse(scene: &Scene) -> Option<Analysis> {
 #[must_use]
 pub fn interior_camera(scene: &Scene) -> Option<Camera> {
     analyse(scene).and_then(|a| a.camera())
-}
-
-/// `n` directions spread evenly over the sphere (a Fibonacci lattice), the
-/// same every time.
-fn sphere_directions(n: usize) -> Vec<DVec3> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - y * y).sqrt();
-            let phi = golden * i as f64;
-            DVec3::new(r * phi.cos(), y, r * phi.sin())
-        })
-        .collect()
 }
 
 /// Where a sight line ends.

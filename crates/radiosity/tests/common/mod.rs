@@ -125,3 +125,48 @@ pub fn scene_of(surfaces: Vec<Surface>) -> Scene {
         warnings: Vec::new(),
     }
 }
+
+/// Solves `scene` with `settings`, gathering at `points` (on surfaces, with
+/// their normals) too, and returns the irradiance there (W/m^2 per
+/// channel), having checked that every light shot and that the ledger
+/// balances ([`assert_ledger_balances`]).
+pub fn sensor_irradiance(
+    scene: &Scene,
+    settings: radiosity::solver::Settings,
+    points: &[(DVec3, DVec3)],
+) -> Vec<DVec3> {
+    let sensor_points: Vec<radiosity::sensors::SensorPoint> = points
+        .iter()
+        .enumerate()
+        .map(|(i, &(position, normal))| radiosity::sensors::SensorPoint {
+            position,
+            normal,
+            line: i + 1,
+        })
+        .collect();
+    let receivers =
+        radiosity::sensors::receivers(scene, &sensor_points, Path::new("points")).unwrap();
+    let mesh = radiosity::mesh::Mesh::build(scene, &settings.mesh.sized_for(scene)).unwrap();
+    let mut solver = radiosity::solver::Solver::with_sensors(scene, &mesh, settings, receivers);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    assert_eq!(solver.lights_pending(), 0);
+    assert_ledger_balances(&solver);
+    solver.sensor_irradiance().to_vec()
+}
+
+/// `emitted = unshot + absorbed + escaped`, per channel, to 1e-9.
+pub fn assert_ledger_balances(solver: &radiosity::solver::Solver<'_>) {
+    let e = solver.energy();
+    let unshot = solver.unshot_power();
+    for c in 0..3 {
+        let rhs = unshot[c] + e.absorbed[c] + e.escaped[c];
+        assert!(
+            (e.emitted[c] - rhs).abs() <= 1e-9 * e.emitted[c].abs().max(1e-300),
+            "channel {c}: emitted {} != unshot {} + absorbed {} + escaped {}",
+            e.emitted[c],
+            unshot[c],
+            e.absorbed[c],
+            e.escaped[c]
+        );
+    }
+}

@@ -239,10 +239,11 @@ impl Transfer<'_> {
             votes += 1;
             Some(through != DVec3::ZERO)
         }))?;
-        Some(match (agreed, self.scene.panes.is_empty()) {
-            (false, _) => DVec3::ZERO,
-            (true, true) => DVec3::ONE,
-            (true, false) => passing / f64::from(votes),
+        // Through no glass, the mean of at most four ones: one, exactly.
+        Some(if agreed {
+            passing / f64::from(votes)
+        } else {
+            DVec3::ZERO
         })
     }
 
