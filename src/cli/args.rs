@@ -16,6 +16,7 @@ use crate::serve;
 use radiosity::accel::Accel;
 use radiosity::export::gltf::{BakeMode, BakeTarget};
 use radiosity::export::lightmap;
+use radiosity::final_gather::FinalGather;
 use radiosity::form_factor::FormFactor;
 use radiosity::scene::{DEFAULT_REFLECTANCE_CAP, Limits, LoadOptions};
 use radiosity::solver::method::{Kind, Value};
@@ -366,6 +367,16 @@ pub struct RenderArgs {
     /// Shadow-ray accelerator. Overrides the preset.
     #[arg(long, value_name = "NAME")]
     pub accel: Option<Accel>,
+
+    /// What pictures, lightmap texels and sensors show: off, the mesh's
+    /// values; direct, the direct light evaluated at each point shown
+    /// (shadow rays per picture sample and texel) plus the mesh's indirect
+    /// light; full, also the indirect light gathered over each point's
+    /// hemisphere from the mesh. Vertex bakes, --vertices and the PLY keep
+    /// the mesh's values (default: the preset's; adaptive direct, the
+    /// paper's presets off)
+    #[arg(long, value_name = "MODE")]
+    pub final_gather: Option<FinalGather>,
 
     /// Longest patch edge, metres (default: the scene's #@mesh suggestion,
     /// else a third of the scene's bounding-box diagonal).

@@ -87,6 +87,9 @@ impl RenderArgs {
         if let Some(converge) = self.converge {
             settings.converge = converge;
         }
+        if let Some(final_gather) = self.final_gather {
+            settings.final_gather = final_gather;
+        }
         if let Some(levels) = self.refine_levels {
             if levels > MAX_REFINE_LEVELS {
                 return Err(anyhow!(

@@ -271,6 +271,7 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
         mesh: &solved.mesh,
         appearance: &appearance,
         values: &solved.radiosity,
+        shade: None,
         mode: BakeMode::Lit,
         settings: AtlasSettings {
             density: case.density,

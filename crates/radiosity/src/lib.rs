@@ -11,6 +11,7 @@ pub mod accel;
 pub mod app;
 pub mod choice;
 pub mod export;
+pub mod final_gather;
 pub mod form_factor;
 pub mod geometry;
 pub mod hemicube;

@@ -10,6 +10,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::final_gather::Point;
 use crate::geometry::clip;
 use crate::luminance;
 use crate::mesh::Mesh;
@@ -48,7 +49,8 @@ pub struct Image {
 const BACKGROUND: Vec3 = Vec3::ZERO;
 
 /// A triangle after projection: screen x, y and 1/depth per corner, and the
-/// colour divided by depth (for perspective-correct interpolation).
+/// colour divided by depth (for perspective-correct interpolation); its
+/// corners in the world and its surface, for the final pass.
 #[derive(Clone, Copy, Debug)]
 struct ScreenTriangle {
     x: [f32; 3],
@@ -57,6 +59,21 @@ struct ScreenTriangle {
     colour_over_z: [Vec3; 3],
     min_y: f32,
     max_y: f32,
+    world: [DVec3; 3],
+    surface: u32,
+}
+
+/// What the final pass adds at each sample ([`render_shaded`]): given the
+/// samples' surface points, the radiosity to add to what the mesh shows
+/// there (W/m^2 per channel).
+pub type Shade<'s> = &'s (dyn Fn(&[Point]) -> Vec<DVec3> + Sync);
+
+/// A sample's surface point, as the rasteriser found it.
+#[derive(Clone, Copy, Debug)]
+struct Found {
+    triangle: u32,
+    /// Perspective-correct barycentric weights of corners 1 and 2.
+    weights: [f32; 2],
 }
 
 /// Camera basis and projection scale.
@@ -95,11 +112,31 @@ impl View {
         let d = p - self.eye;
         DVec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
     }
+
+    /// World coordinates of a camera-space point.
+    fn to_world(&self, c: DVec3) -> DVec3 {
+        self.eye + self.right * c.x + self.up * c.y + self.forward * c.z
+    }
 }
 
 /// Draws the mesh with the given per-vertex display radiosities.
 #[must_use]
 pub fn render(scene: &Scene, mesh: &Mesh, colours: &[DVec3], settings: &RenderSettings) -> Image {
+    render_shaded(scene, mesh, colours, settings, None)
+}
+
+/// [`render`], adding at every sample what `shade` gives at its surface
+/// point ([`crate::final_gather`]): the `k`-th of a pixel's `s x s`
+/// samples is `Point::sample = Some((k, s^2))`, seeded by its pixel's
+/// index.
+#[must_use]
+pub fn render_shaded(
+    scene: &Scene,
+    mesh: &Mesh,
+    colours: &[DVec3],
+    settings: &RenderSettings,
+    shade: Option<Shade<'_>>,
+) -> Image {
     let s = settings.supersampling.max(1);
     let (w, h) = (settings.width * s, settings.height * s);
     let (lo, hi) = scene.bounds();
@@ -118,11 +155,40 @@ pub fn render(scene: &Scene, mesh: &Mesh, colours: &[DVec3], settings: &RenderSe
             let y0 = band * band_rows;
             let rows = colour_rows.len() / w as usize;
             let mut depth = vec![0.0f32; colour_rows.len()];
-            for t in &triangles {
+            let mut found = vec![
+                Found {
+                    triangle: 0,
+                    weights: [0.0; 2],
+                };
+                if shade.is_some() {
+                    colour_rows.len()
+                } else {
+                    0
+                }
+            ];
+            for (i, t) in triangles.iter().enumerate() {
                 if t.max_y < y0 as f32 || t.min_y > (y0 + rows) as f32 {
                     continue;
                 }
-                rasterise(t, w, y0, rows, colour_rows, hit_rows, &mut depth);
+                let mut target = Target {
+                    colour: colour_rows,
+                    hit: hit_rows,
+                    depth: &mut depth,
+                    found: &mut found,
+                    triangle: i as u32,
+                };
+                rasterise(t, w, y0, rows, &mut target);
+            }
+            if let Some(shade) = shade {
+                shade_band(
+                    shade,
+                    &triangles,
+                    &found,
+                    hit_rows,
+                    colour_rows,
+                    (y0, w as usize, s as usize),
+                    settings.width as usize,
+                );
             }
         });
     downsample(&samples, &hits, settings.width, settings.height, s)
@@ -166,6 +232,7 @@ fn project(scene: &Scene, mesh: &Mesh, colours: &[DVec3], view: &View) -> Vec<Sc
         for i in 1..screen.len() - 1 {
             let tri = [screen[0], screen[i], screen[i + 1]];
             let ys = tri.map(|v| v.1 as f32);
+            let corner = [clipped[0].0, clipped[i].0, clipped[i + 1].0];
             out.push(ScreenTriangle {
                 x: tri.map(|v| v.0 as f32),
                 y: ys,
@@ -173,23 +240,68 @@ fn project(scene: &Scene, mesh: &Mesh, colours: &[DVec3], view: &View) -> Vec<Sc
                 colour_over_z: tri.map(|v| v.3.as_vec3()),
                 min_y: ys[0].min(ys[1]).min(ys[2]),
                 max_y: ys[0].max(ys[1]).max(ys[2]),
+                world: corner.map(|c| view.to_world(c)),
+                surface: element.surface,
             });
         }
     }
     out
 }
 
+/// A band's buffers, and the index of the triangle being drawn.
+struct Target<'b> {
+    colour: &'b mut [Vec3],
+    hit: &'b mut [bool],
+    depth: &'b mut [f32],
+    /// Empty unless the final pass needs each sample's surface point.
+    found: &'b mut [Found],
+    triangle: u32,
+}
+
+/// The final pass over one band: each covered sample's surface point (its
+/// triangle's corners weighted, in f64, clamped inside the triangle), then
+/// `shade` for all of them at once.
+fn shade_band(
+    shade: Shade<'_>,
+    triangles: &[ScreenTriangle],
+    found: &[Found],
+    hit: &[bool],
+    colour: &mut [Vec3],
+    (y0, w, s): (usize, usize, usize),
+    width: usize,
+) {
+    let mut points = Vec::new();
+    let mut at = Vec::new();
+    for (i, (f, hit)) in found.iter().zip(hit).enumerate() {
+        if !hit {
+            continue;
+        }
+        let t = &triangles[f.triangle as usize];
+        let (row, column) = (y0 + i / w, i % w);
+        let [b1, b2] = f.weights.map(|x| f64::from(x).clamp(0.0, 1.0));
+        let total = (b1 + b2).max(1.0);
+        let (b1, b2) = (b1 / total, b2 / total);
+        let position = t.world[0] + (t.world[1] - t.world[0]) * b1 + (t.world[2] - t.world[0]) * b2;
+        let pixel = (row / s) * width + column / s;
+        points.push(Point {
+            surface: t.surface,
+            position,
+            sample: Some((((row % s) * s + column % s) as u32, (s * s) as u32)),
+            seed: pixel as u64,
+        });
+        at.push(i);
+    }
+    if points.is_empty() {
+        return;
+    }
+    for (i, added) in at.into_iter().zip(shade(&points)) {
+        colour[i] += added.as_vec3();
+    }
+}
+
 /// Rasterises one triangle into a band of rows starting at `y0`, with the
 /// top-left fill rule so shared edges are drawn once.
-fn rasterise(
-    t: &ScreenTriangle,
-    width: u32,
-    y0: usize,
-    rows: usize,
-    colour: &mut [Vec3],
-    hit: &mut [bool],
-    depth: &mut [f32],
-) {
+fn rasterise(t: &ScreenTriangle, width: u32, y0: usize, rows: usize, target: &mut Target<'_>) {
     let (x, y) = (t.x, t.y);
     let area = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
     if area == 0.0 || !area.is_finite() {
@@ -233,12 +345,24 @@ fn rasterise(
             let b = [w[0] / area, w[1] / area, w[2] / area];
             let iz = b[0] * inv_z[0] + b[1] * inv_z[1] + b[2] * inv_z[2];
             let index = line + column;
-            if iz <= depth[index] {
+            if iz <= target.depth[index] {
                 continue;
             }
-            depth[index] = iz;
-            colour[index] = (col[0] * b[0] + col[1] * b[1] + col[2] * b[2]) / iz;
-            hit[index] = true;
+            target.depth[index] = iz;
+            target.colour[index] = (col[0] * b[0] + col[1] * b[1] + col[2] * b[2]) / iz;
+            target.hit[index] = true;
+            if let Some(f) = target.found.get_mut(index) {
+                // Perspective-correct weights of the original corners 1
+                // and 2 (the order was permuted above).
+                let mut weight = [0.0f32; 3];
+                for k in 0..3 {
+                    weight[order[k]] = b[k] * inv_z[k] / iz;
+                }
+                *f = Found {
+                    triangle: target.triangle,
+                    weights: [weight[1], weight[2]],
+                };
+            }
         }
     }
 }

@@ -20,8 +20,11 @@ pub use self::job::{BakeJob, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
 use self::job::{check_output, mesh_error};
 pub use self::outcome::{Counts, Outcome, StatsFile};
 pub use self::progress::{Observer, Progress, ProgressMeter, progress_of};
-use crate::export::gltf::{Bake, BakeTarget};
+use glam::DVec3;
+
+use crate::export::gltf::{Bake, BakeMode, BakeTarget};
 use crate::export::{self, Staged};
+use crate::final_gather::{FinalGather, FinalPass, Point};
 use crate::memory;
 use crate::mesh::Mesh;
 use crate::render::{self, Exposure, RenderSettings};
@@ -200,15 +203,45 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         .camera
         .unwrap_or_else(|| crate::view::camera_or_framing(&scene));
     let display = solver.display_radiosity(view.ambient);
+    let ambient = if view.ambient {
+        solver.ambient()
+    } else {
+        DVec3::ZERO
+    };
+    let lightmap = job
+        .bake
+        .as_ref()
+        .is_some_and(|b| b.target == BakeTarget::Lightmap);
+    let shown = job.image.is_some() || job.bake.is_some() || job.ply.is_some();
+    let mut final_gather_time = Duration::ZERO;
+    let final_start = Instant::now();
+    let pass = (settings.final_gather != FinalGather::Off
+        && (shown || lightmap || job.sensors.is_some()))
+    .then(|| {
+        observer.writing("final pass: direct light at the points shown");
+        FinalPass::new(&solver, settings.final_gather).with_samples(view.supersampling.pow(2))
+    });
+    final_gather_time += final_start.elapsed();
     let mut exposure = None;
-    if job.image.is_some() || job.bake.is_some() || job.ply.is_some() {
+    if shown {
         let settings = RenderSettings {
             width: view.width,
             height: view.height,
             camera,
             supersampling: view.supersampling,
         };
-        let image = render::render(&scene, &mesh, &display, &settings);
+        let render_start = Instant::now();
+        let image = match &pass {
+            Some(pass) => render::render_shaded(
+                &scene,
+                &mesh,
+                &pass.vertex_display(&display, ambient),
+                &settings,
+                Some(&|points: &[Point]| pass.shade(points)),
+            ),
+            None => render::render(&scene, &mesh, &display, &settings),
+        };
+        final_gather_time += render_start.elapsed();
         let scale = image.exposure_scale(view.exposure);
         exposure = Some(scale);
         if let Some(image_job) = &job.image {
@@ -256,6 +289,26 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                 observer.writing("baking the lightmap: charts, texels, files");
                 let (values, metadata) =
                     bake_values(&solver, bake_job.mode, &display, exposure, view.ambient);
+                // The mesh's part at the vertices, and the final pass's at
+                // each texel, in the bake's units.
+                let scale = metadata["color_scale"].as_f64().unwrap_or(1.0);
+                let values = match &pass {
+                    Some(pass) => mesh_part(pass, &solver, bake_job.mode, &display, ambient, scale),
+                    None => values,
+                };
+                let texel_shade = |points: &[Point]| -> Vec<DVec3> {
+                    let Some(pass) = &pass else {
+                        return vec![DVec3::ZERO; points.len()];
+                    };
+                    let added = match bake_job.mode {
+                        BakeMode::Lit => pass.shade(points),
+                        BakeMode::Irradiance => pass.irradiance(points),
+                    };
+                    added
+                        .into_iter()
+                        .map(|v| v * (scale / std::f64::consts::PI))
+                        .collect()
+                };
                 let own;
                 let appearance = match loaded.appearance.as_ref() {
                     Some(a) => a,
@@ -269,6 +322,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                     mesh: &mesh,
                     appearance,
                     values: &values,
+                    shade: pass.is_some().then_some(&texel_shade as render::Shade<'_>),
                     mode: bake_job.mode,
                     settings: bake_job.lightmap,
                     camera,
@@ -295,6 +349,26 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
             export::write_vertices_csv(w, &scene, &mesh, solver.radiosity())
         })?);
     }
+    let sensor_start = Instant::now();
+    let sensor_irradiance = match &pass {
+        Some(pass) if pass.mode() == FinalGather::Full => {
+            let points: Vec<Point> = sensor_receivers
+                .iter()
+                .enumerate()
+                .map(|(i, r)| Point {
+                    surface: r.surface,
+                    position: r.point,
+                    sample: None,
+                    seed: i as u64,
+                })
+                .collect();
+            pass.irradiance(&points)
+        }
+        _ => solver.sensor_irradiance().to_vec(),
+    };
+    if pass.is_some() {
+        final_gather_time += sensor_start.elapsed();
+    }
     if let Some(sensor_job) = &job.sensors {
         staged.push(stage(&sensor_job.out, &mut |w| {
             export::write_sensors_csv(
@@ -302,7 +376,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                 &scene,
                 &sensor_points,
                 &sensor_receivers,
-                solver.sensor_irradiance(),
+                &sensor_irradiance,
                 daylight_factor,
             )
         })?);
@@ -331,6 +405,11 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         solve_time,
         accel_build_time,
         write_time: Duration::ZERO,
+        final_gather_time: if pass.is_some() {
+            final_gather_time
+        } else {
+            Duration::ZERO
+        },
         total_time: Duration::ZERO,
         threads,
         accel_statistics: solver.accel_statistics(),
@@ -361,6 +440,33 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     outcome.total_time = start.elapsed();
     outcome.peak_memory_bytes = memory::peak_resident_bytes();
     Ok(outcome)
+}
+
+/// A lightmap's values at the mesh's vertices under the final pass: its
+/// mesh part ([`FinalPass::vertex_part`]) in the bake's units (`scale`
+/// times radiance), the final pass adding the rest at each texel.
+fn mesh_part(
+    pass: &FinalPass<'_>,
+    solver: &Solver<'_>,
+    mode: BakeMode,
+    display: &[DVec3],
+    ambient: DVec3,
+    scale: f64,
+) -> Vec<DVec3> {
+    let per = scale / std::f64::consts::PI;
+    match mode {
+        BakeMode::Lit => pass
+            .vertex_display(display, ambient)
+            .into_iter()
+            .map(|b| b * per)
+            .collect(),
+        BakeMode::Irradiance => pass
+            .vertex_part(ambient)
+            .into_iter()
+            .zip(solver.irradiance())
+            .map(|(part, e)| part.unwrap_or(*e + ambient) * per)
+            .collect(),
+    }
 }
 
 /// The counts a run's memory estimate takes: the meshed scene's, and the

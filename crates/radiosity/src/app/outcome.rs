@@ -37,6 +37,10 @@ pub struct Outcome {
     /// Time to draw the picture and write the outputs, the statistics file
     /// excepted (it cannot time its own writing).
     pub write_time: Duration,
+    /// Of `write_time`, the final pass's ([`crate::final_gather`]): setting
+    /// it up, the picture's samples and the sensors (a lightmap's texels
+    /// are in its own report).
+    pub final_gather_time: Duration,
     /// Time of the whole run.
     pub total_time: Duration,
     /// Worker threads.
@@ -192,6 +196,9 @@ pub struct StatsFile {
     pub accel_build_seconds: f64,
     /// Drawing the picture and writing the other outputs.
     pub write_seconds: f64,
+    /// Of `write_seconds`, the final pass: its set-up, the picture's
+    /// samples and the sensors.
+    pub final_gather_seconds: f64,
     /// The whole run up to writing this file.
     pub total_seconds: f64,
     /// Most memory held resident, bytes (`null` where the system does not
@@ -264,6 +271,7 @@ impl StatsFile {
             solve_seconds: outcome.solve_time.as_secs_f64(),
             accel_build_seconds: outcome.accel_build_time.as_secs_f64(),
             write_seconds: outcome.write_time.as_secs_f64(),
+            final_gather_seconds: outcome.final_gather_time.as_secs_f64(),
             total_seconds: outcome.total_time.as_secs_f64(),
             peak_memory_bytes: outcome.peak_memory_bytes,
             estimated_memory_bytes: outcome.memory_estimate.total(),

@@ -187,6 +187,9 @@ pub struct Solver<'a> {
     radiosity: Vec<DVec3>,
     /// Irradiance accumulated at each receiver (vertices, then sensors).
     irradiance: Vec<DVec3>,
+    /// The part of `irradiance` the scene's lights (point, spot, IES, sun,
+    /// sky) sent straight to each receiver: their shots, booked apart.
+    direct: Vec<DVec3>,
     energy: Energy,
     stats: Stats,
     interrupt: Option<Arc<AtomicBool>>,
@@ -277,6 +280,7 @@ impl<'a> Solver<'a> {
             settings,
             shooter,
             irradiance: vec![DVec3::ZERO; receivers.len()],
+            direct: vec![DVec3::ZERO; receivers.len()],
             receivers,
             radiosity,
             energy: Energy::default(),
@@ -338,6 +342,29 @@ impl<'a> Solver<'a> {
     #[must_use]
     pub fn sensor_irradiance(&self) -> &[DVec3] {
         &self.irradiance[self.mesh.vertices.len()..]
+    }
+
+    /// The part of [`Solver::irradiance`] (vertices, then sensors) that
+    /// came straight from the scene's lights (point, spot, IES, sun, sky):
+    /// their shots, booked apart from the rest, on every method and device.
+    /// Emitting surfaces' light is the method's: the final pass
+    /// ([`crate::final_gather`]) evaluates its direct part itself.
+    #[must_use]
+    pub fn light_irradiance(&self) -> &[DVec3] {
+        &self.direct
+    }
+
+    /// The receivers: the mesh's vertices at their gathering points, then
+    /// the sensors.
+    #[must_use]
+    pub fn receivers(&self) -> &[Receiver] {
+        &self.receivers
+    }
+
+    /// The structure answering the solve's shadow rays.
+    #[must_use]
+    pub fn occluder(&self) -> &dyn Occluder {
+        self.occluder.as_ref()
     }
 
     /// The scene being solved.
@@ -663,6 +690,9 @@ impl<'a> Solver<'a> {
         let received_before = self.energy.received;
         let sent = self.book(&irradiance, element_means.as_deref(), power);
         if let Some(index) = light {
+            for (d, e) in self.direct.iter_mut().zip(&irradiance) {
+                *d += *e;
+            }
             self.lights_pending.remove(0);
             self.light_power[index] = sent;
             self.shooter

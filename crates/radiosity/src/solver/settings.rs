@@ -13,6 +13,7 @@ use super::method::{self, MethodError, SetError, Value, Visibility};
 use super::patches::PatchSettings;
 use super::registry::{MethodSettings, Shooting};
 use crate::accel::Accel;
+use crate::final_gather::FinalGather;
 use crate::form_factor::FormFactor;
 use crate::mesh::{MeshSettings, RefineSettings};
 
@@ -47,6 +48,11 @@ pub struct Settings {
     /// Stop before a shot once the solve has run this long.
     #[serde(serialize_with = "optional_seconds")]
     pub time_limit: Option<Duration>,
+    /// What pictures, lightmap texels and sensors show
+    /// (`--final-gather`, [`crate::final_gather`]): the mesh's values, or
+    /// the direct light evaluated at each point shown, with the indirect
+    /// light from the mesh or gathered over the hemisphere.
+    pub final_gather: FinalGather,
     /// Where the transfers run (`--device`): the CPU unless a back end is
     /// given. Reported beside the settings, not among them.
     #[serde(skip)]
@@ -73,6 +79,10 @@ pub const DEFAULT_CONVERGE: f64 = 0.01;
 /// 0.003).
 pub const ADAPTIVE_CONVERGE: f64 = 0.003;
 
+/// The default preset's `--final-gather` (the paper's presets: `off`, their
+/// figures as the paper drew them).
+pub const DEFAULT_FINAL_GATHER: FinalGather = FinalGather::Direct;
+
 impl Settings {
     /// Wallace, Elmquist & Haines (1989): patch shooting, a shadow ray for
     /// every pair against every surface, the disk form factor of equation
@@ -89,6 +99,7 @@ impl Settings {
             max_shots: None,
             max_subsources: None,
             time_limit: None,
+            final_gather: FinalGather::Off,
             device: Device::cpu(),
         }
     }
@@ -129,6 +140,7 @@ impl Settings {
             form_factor: FormFactor::Analytic,
             accel: Accel::Bvh,
             converge: ADAPTIVE_CONVERGE,
+            final_gather: DEFAULT_FINAL_GATHER,
             ..Settings::wallace89()
         }
     }

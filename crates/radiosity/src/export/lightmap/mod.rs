@@ -81,6 +81,10 @@ pub struct LightmapBake<'a> {
     pub appearance: &'a Appearance,
     /// The linear value per mesh vertex, before clamping.
     pub values: &'a [DVec3],
+    /// What the final pass adds at each texel's surface point, in the
+    /// values' units ([`crate::final_gather`]); `None`: the vertices'
+    /// values alone.
+    pub shade: Option<crate::render::Shade<'a>>,
     /// Lit or irradiance.
     pub mode: BakeMode,
     /// Density and size.
@@ -157,6 +161,43 @@ pub fn appearance_of_scene(scene: &Scene) -> io::Result<Appearance> {
 /// The lightmap's linear values, `width x height`, top row first; the
 /// counts of texels shown and texels that found no surface; and which
 /// placed primitives show their back side.
+/// Adds what the final pass gives at each texel's surface points (a
+/// batch at a time) to their values.
+fn add_final_pass(
+    shade: crate::render::Shade<'_>,
+    points: &[[Option<(u32, DVec3)>; 2]],
+    values: &mut [[Vec3; 2]],
+) {
+    const BATCH: usize = 1 << 16;
+    let mut batch = Vec::with_capacity(BATCH);
+    let mut at = Vec::with_capacity(BATCH);
+    let flush = |batch: &mut Vec<crate::final_gather::Point>,
+                 at: &mut Vec<(usize, usize)>,
+                 values: &mut [[Vec3; 2]]| {
+        for ((texel, side), added) in at.drain(..).zip(shade(batch)) {
+            values[texel][side] += added.as_vec3();
+        }
+        batch.clear();
+    };
+    for (texel, pair) in points.iter().enumerate() {
+        for (side, point) in pair.iter().enumerate() {
+            if let Some((surface, position)) = *point {
+                batch.push(crate::final_gather::Point {
+                    surface,
+                    position,
+                    sample: None,
+                    seed: (texel * 2 + side) as u64,
+                });
+                at.push((texel, side));
+                if batch.len() == BATCH {
+                    flush(&mut batch, &mut at, values);
+                }
+            }
+        }
+    }
+    flush(&mut batch, &mut at, values);
+}
+
 fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize, Vec<bool>) {
     let (width, height) = (layout.width, layout.height);
     let primitives = &bake.appearance.primitives;
@@ -201,20 +242,44 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         bake.mesh,
         crate::sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
     );
-    // The value at a point facing along `n`; NaN where no element is found.
-    let value = |p: DVec3, n: DVec3| {
-        locator.locate(p, n).map_or(Vec3::NAN, |(corners, bary)| {
-            corners
-                .iter()
-                .zip(bary)
-                .map(|(v, w)| bake.values[*v as usize] * w)
-                .sum::<DVec3>()
-                .as_vec3()
-        })
+    // The value at a point facing along `n` and the surface it lies on;
+    // NaN where no element is found.
+    let located = |p: DVec3, n: DVec3| {
+        locator
+            .locate(p, n)
+            .map_or((Vec3::NAN, None), |(corners, bary)| {
+                let value = corners
+                    .iter()
+                    .zip(bary)
+                    .map(|(v, w)| bake.values[*v as usize] * w)
+                    .sum::<DVec3>()
+                    .as_vec3();
+                let surface = bake.mesh.vertices[corners[0] as usize].surface;
+                (value, Some((surface, p)))
+            })
     };
-    // Front and (for double-sided materials) back values of every texel;
-    // NaN: none.
-    let both: Vec<[Vec3; 2]> = claims
+    // Front and (for double-sided materials) back values of every texel,
+    // NaN: none; and their surface points.
+    let mut points: Vec<[Option<(u32, DVec3)>; 2]> = Vec::new();
+    let value = |p: DVec3, n: DVec3| located(p, n).0;
+    let texel_point = |claim: &Option<texels::Claim>| -> [Option<(u32, DVec3)>; 2] {
+        let Some(c) = *claim else {
+            return [None; 2];
+        };
+        let (corners, n) = world[c.primitive as usize][c.triangle as usize];
+        let w = c.bary.map(|w| f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0);
+        let p = corners[0] + (corners[1] - corners[0]) * w[1] + (corners[2] - corners[0]) * w[2];
+        let back = if primitives[c.primitive as usize].double_sided {
+            located(p, -n).1
+        } else {
+            None
+        };
+        [located(p, n).1, back]
+    };
+    if bake.shade.is_some() {
+        points = claims.par_iter().map(texel_point).collect();
+    }
+    let mut both: Vec<[Vec3; 2]> = claims
         .par_iter()
         .map(|claim| {
             let Some(c) = *claim else {
@@ -235,6 +300,9 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
             [value(p, n), back]
         })
         .collect();
+    if let Some(shade) = bake.shade {
+        add_final_pass(shade, &points, &mut both);
+    }
     // Each double-sided primitive shows its brighter side.
     let mut sums = vec![[0.0f64; 2]; primitives.len()];
     for (claim, pair) in claims.iter().zip(&both) {

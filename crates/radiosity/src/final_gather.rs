@@ -1,0 +1,561 @@
+//! The final pass (beyond the paper): what a picture's sample, a lightmap
+//! texel or a sensor shows, evaluated at its own surface point instead of
+//! read from the element mesh, so what is shown is sharper than the mesh.
+//!
+//! Wallace, Elmquist & Haines (1989) already ray-traced the direct light at
+//! each pixel of their final display; Shirley (1990) and Reichert (1992)
+//! split a solution into the direct light, evaluated per point with shadow
+//! rays, and the smooth indirect light, taken from the mesh; Lischinski,
+//! Tampieri & Greenberg (1993) gather the mesh's radiosity over the
+//! hemisphere of each point shown (a one-bounce final gather), as every
+//! lightmapper does today. [`FinalGather`] picks one:
+//!
+//! * `off`: the mesh's values, as the paper showed them;
+//! * `direct`: the direct light evaluated at the point plus the mesh's
+//!   indirect part, interpolated;
+//! * `full`: the direct light at the point plus the mesh's reflected
+//!   radiosity gathered over its hemisphere with stratified cosine-weighted
+//!   rays (the emission of the surfaces hit is left out: it is direct).
+//!
+//! **The split at a vertex.** The solve books the lights' shots apart
+//! ([`Solver::light_irradiance`]); the emitting surfaces' direct light is
+//! evaluated at each vertex by the same estimator as at any other point
+//! ([`FinalPass::direct`]); the mesh's indirect part is the vertex's total
+//! less both. So at a vertex a `direct` picture shows the mesh's value
+//! exactly, and between vertices only the direct part changes faster than
+//! the mesh does.
+//!
+//! **Direct light at a point.** The scene's lights as their shots do
+//! ([`lights::gather`]); each emitting patch by its exact unoccluded factor
+//! (equation (2), [`form_factor::analytic`]) times the fraction of it in
+//! view, from shadow rays to the centroids of its `n x n` subsources
+//! (weighted by their point factors, as the paper's subsources are), each
+//! dimmed by the glass it crosses. A picture's sample casts one ray per
+//! patch: the samples of a pixel take the subsources in turn, so a pixel of
+//! `s x s` samples sees each patch through `s x s` rays.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::accel::{self, Occluder};
+use crate::export::lightmap::texels::Locator;
+use crate::form_factor;
+use crate::mesh::{self, Mesh};
+use crate::scene::{Scene, glass};
+use crate::solver::method::{ShotInputs, Stats};
+use crate::solver::{Abort, Receiver, Settings, Solver, lights, surface_receivers};
+
+crate::choice::named_choice! {
+    /// What pictures, lightmap texels and sensors show (`--final-gather`).
+    pub enum FinalGather: "final gather" {
+        /// The mesh's values (the paper's display).
+        Off = "off",
+        /// Direct light at the point shown, the mesh's indirect part.
+        Direct = "direct",
+        /// Direct light at the point shown, the mesh's reflected light
+        /// gathered over its hemisphere.
+        Full = "full",
+    }
+}
+
+/// Subsources per side of an emitting patch for a point that casts all its
+/// rays at once (a vertex, a texel, a sensor).
+pub const EMITTER_SIDE: u32 = 4;
+
+/// Hemisphere rays of a `full` gather at a sensor or texel: at least
+/// [`GATHER_MIN_RAYS`], then rounds of that many until the standard error
+/// of the gathered irradiance is below [`GATHER_ERROR`] of the point's
+/// total, at most this many.
+pub const GATHER_MAX_RAYS: u32 = 1024;
+
+/// The first round of a `full` gather's rays, and each further round.
+pub const GATHER_MIN_RAYS: u32 = 64;
+
+/// The relative standard error a `full` gather stops at.
+pub const GATHER_ERROR: f64 = 0.01;
+
+/// Rays a picture's pixel gathers over its samples in `full`.
+pub const PIXEL_GATHER_RAYS: u32 = 64;
+
+/// A point to shade.
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    /// The surface it lies on.
+    pub surface: u32,
+    /// Where.
+    pub position: DVec3,
+    /// `Some((k, n))` for one sample of `n` (a pixel's `k`-th): one ray
+    /// per emitting patch and `1/n` of a pixel's gather rays. `None`: every
+    /// ray at once.
+    pub sample: Option<(u32, u32)>,
+    /// Seeds the point's random numbers (a pixel's or texel's index).
+    pub seed: u64,
+}
+
+/// An emitting patch, set up for points.
+struct Emitter {
+    polygon: Vec<DVec3>,
+    normal: DVec3,
+    offset: f64,
+    emission: DVec3,
+    group: u32,
+    /// Subsources' centroids and areas at [`EMITTER_SIDE`] per side.
+    subsources: Vec<(DVec3, f64)>,
+    /// Subsources for a picture's samples ([`FinalPass::with_samples`]):
+    /// `side` per side.
+    sample_side: u32,
+    sample_pieces: Vec<Vec<DVec3>>,
+}
+
+/// A solved scene ready to be shown point by point.
+pub struct FinalPass<'a> {
+    scene: &'a Scene,
+    mesh: &'a Mesh,
+    settings: &'a Settings,
+    occluder: &'a dyn Occluder,
+    mode: FinalGather,
+    emitters: Vec<Emitter>,
+    /// Per vertex: the irradiance that is not direct.
+    indirect: Vec<DVec3>,
+    /// Per vertex: the reflected radiosity `rho E` (emission left out; the
+    /// display's ambient term is the point's own), what a gather ray that
+    /// hits it brings back.
+    reflected: Vec<DVec3>,
+    locator: Option<Locator>,
+    reach: f64,
+}
+
+impl<'a> FinalPass<'a> {
+    /// Prepares `solver`'s solution to be shown as `mode` says.
+    #[must_use]
+    pub fn new(solver: &'a Solver<'a>, mode: FinalGather) -> FinalPass<'a> {
+        let (scene, mesh) = (solver.scene(), solver.mesh());
+        let emitters = if mode == FinalGather::Off {
+            Vec::new()
+        } else {
+            emitters(scene, mesh)
+        };
+        let mut pass = FinalPass {
+            scene,
+            mesh,
+            settings: solver.settings(),
+            occluder: solver.occluder(),
+            mode,
+            emitters,
+            indirect: Vec::new(),
+            reflected: Vec::new(),
+            locator: None,
+            reach: lights::sun_reach(scene),
+        };
+        if mode == FinalGather::Off {
+            return pass;
+        }
+        let vertices = mesh.vertices.len();
+        let receivers = &solver.receivers()[..vertices];
+        let from_emitters = pass.emitted(receivers, None);
+        pass.indirect = solver
+            .irradiance()
+            .iter()
+            .zip(&solver.light_irradiance()[..vertices])
+            .zip(&from_emitters)
+            .map(|((total, light), emitted)| *total - *light - *emitted)
+            .collect();
+        if mode == FinalGather::Full {
+            pass.reflected = mesh
+                .vertices
+                .iter()
+                .zip(solver.irradiance())
+                .map(|(v, e)| scene.surfaces[v.surface as usize].rho * *e)
+                .collect();
+            let (lo, hi) = scene.bounds();
+            pass.locator = Some(Locator::new(
+                mesh,
+                crate::sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
+            ));
+        }
+        pass
+    }
+
+    /// Sets up the emitting patches for picture samples, `n` a pixel
+    /// ([`Point::sample`]).
+    #[must_use]
+    pub fn with_samples(mut self, n: u32) -> FinalPass<'a> {
+        let side = sample_side(n);
+        for e in &mut self.emitters {
+            e.sample_side = side;
+            e.sample_pieces = pieces(&e.polygon, side);
+        }
+        self
+    }
+
+    /// The mode in force.
+    #[must_use]
+    pub fn mode(&self) -> FinalGather {
+        self.mode
+    }
+
+    /// Per vertex, the irradiance the mesh contributes between vertices
+    /// under `direct` (the total less the direct part); empty for `off`.
+    #[must_use]
+    pub fn vertex_indirect(&self) -> &[DVec3] {
+        &self.indirect
+    }
+
+    /// The direct irradiance at each point (W/m^2 per channel): the scene's
+    /// lights' and the emitting surfaces'.
+    #[must_use]
+    pub fn direct(&self, points: &[Point]) -> Vec<DVec3> {
+        let receivers = self.receivers(points);
+        let mut out = self.emitted(&receivers, Some(points));
+        for light in &self.scene.lights {
+            let inputs = ShotInputs {
+                scene: self.scene,
+                mesh: self.mesh,
+                settings: self.settings,
+                occluder: self.occluder,
+                receivers: &receivers,
+                irradiance: &[],
+                abort: &Abort::default(),
+            };
+            let mut stats = Stats::default();
+            if let Ok(Some(e)) = lights::gather(light, &inputs, None, &mut stats) {
+                for (o, e) in out.iter_mut().zip(e) {
+                    *o += e;
+                }
+            }
+        }
+        out
+    }
+
+    /// The indirect irradiance at each point gathered over its hemisphere
+    /// from the mesh's reflected radiosity (`full`; zero otherwise). A
+    /// point with every ray at once takes rounds of [`GATHER_MIN_RAYS`]
+    /// until its standard error is below [`GATHER_ERROR`] of `total_hint`
+    /// plus the gathered irradiance, at most [`GATHER_MAX_RAYS`].
+    #[must_use]
+    pub fn gather(&self, points: &[Point], total_hint: &[DVec3]) -> Vec<DVec3> {
+        let Some(locator) = &self.locator else {
+            return vec![DVec3::ZERO; points.len()];
+        };
+        points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let hint = total_hint.get(i).copied().unwrap_or_default();
+                self.gather_one(locator, p, hint)
+            })
+            .collect()
+    }
+
+    fn gather_one(&self, locator: &Locator, point: &Point, hint: DVec3) -> DVec3 {
+        let surface = &self.scene.surfaces[point.surface as usize];
+        let normal = surface.normal;
+        let origin = point.position;
+        let (tangent, bitangent) = basis(normal);
+        let shift = [unit(point.seed, 0), unit(point.seed, 1)];
+        let one = |index: u32, count: u32| -> DVec3 {
+            // A rank-1 lattice (Fibonacci-like, the R2 sequence) of
+            // `count` points, shifted per point: stratified for any count.
+            let i = f64::from(index);
+            let u = (shift[0] + i * 0.754_877_666_246_692_7 + 0.5 / f64::from(count)).fract();
+            let v = (shift[1] + i * 0.569_840_290_998_053_3).fract();
+            let r = u.sqrt();
+            let phi = std::f64::consts::TAU * v;
+            let local = DVec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt());
+            let direction = tangent * local.x + bitangent * local.y + normal * local.z;
+            self.trace(locator, origin, direction, surface.group)
+        };
+        match point.sample {
+            Some((k, n)) => {
+                let per = PIXEL_GATHER_RAYS.div_ceil(n.max(1));
+                let total = per * n.max(1);
+                (0..per).map(|j| one(k * per + j, total)).sum::<DVec3>() / f64::from(per)
+            }
+            None => {
+                let mut sum = DVec3::ZERO;
+                let mut square = 0.0;
+                let mut count = 0u32;
+                while count < GATHER_MAX_RAYS {
+                    for j in 0..GATHER_MIN_RAYS {
+                        let e = one(count + j, GATHER_MAX_RAYS);
+                        sum += e;
+                        square += crate::luminance(e).powi(2);
+                    }
+                    count += GATHER_MIN_RAYS;
+                    let n = f64::from(count);
+                    let mean = crate::luminance(sum) / n;
+                    let variance = (square / n - mean * mean).max(0.0);
+                    let error = (variance / n).sqrt();
+                    if error <= GATHER_ERROR * (crate::luminance(hint) + mean) {
+                        break;
+                    }
+                }
+                sum / f64::from(count)
+            }
+        }
+    }
+
+    /// The reflected radiosity a gather ray brings back: the mesh's value
+    /// where it first hits a surface's front, zero at a back or the sky.
+    fn trace(&self, locator: &Locator, origin: DVec3, direction: DVec3, group: u32) -> DVec3 {
+        let Some(hit) = self
+            .occluder
+            .closest_hit(origin, direction, self.reach, [group, u32::MAX])
+        else {
+            return DVec3::ZERO;
+        };
+        let surface = &self.scene.surfaces[hit.surface as usize];
+        if surface.normal.dot(direction) >= 0.0 {
+            return DVec3::ZERO;
+        }
+        let q = origin + direction * hit.t;
+        let q = q - surface.normal * (surface.normal.dot(q) - surface.offset);
+        let value = locator
+            .locate(q, surface.normal)
+            .map_or(DVec3::ZERO, |(v, w)| {
+                v.iter()
+                    .zip(w)
+                    .map(|(v, w)| self.reflected[*v as usize] * w)
+                    .sum()
+            });
+        if self.scene.panes.is_empty() {
+            value
+        } else {
+            value * glass::transmittance(&self.scene.panes, origin, q)
+        }
+    }
+
+    fn receivers(&self, points: &[Point]) -> Vec<Receiver> {
+        surface_receivers(
+            self.scene,
+            points.iter().map(|p| {
+                let s = &self.scene.surfaces[p.surface as usize];
+                // Onto the surface's plane: a point read from a picture's
+                // depth buffer or a texel is only near it.
+                let q = p.position - s.normal * (s.normal.dot(p.position) - s.offset);
+                (p.surface, q)
+            }),
+        )
+    }
+
+    /// The emitting patches' direct irradiance at each receiver; `points`
+    /// says which sample each one is (all rays at once when `None`).
+    fn emitted(&self, receivers: &[Receiver], points: Option<&[Point]>) -> Vec<DVec3> {
+        if self.emitters.is_empty() {
+            return vec![DVec3::ZERO; receivers.len()];
+        }
+        receivers
+            .par_iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let sample = points.and_then(|p| p[i].sample);
+                let seed = points.map_or(i as u64, |p| p[i].seed);
+                self.emitters
+                    .iter()
+                    .map(|e| self.from_emitter(e, r, sample, seed))
+                    .sum()
+            })
+            .collect()
+    }
+
+    fn from_emitter(
+        &self,
+        e: &Emitter,
+        r: &Receiver,
+        sample: Option<(u32, u32)>,
+        seed: u64,
+    ) -> DVec3 {
+        if r.group == e.group || e.normal.dot(r.point) - e.offset <= 0.0 {
+            return DVec3::ZERO;
+        }
+        if e.polygon.iter().all(|c| r.normal.dot(*c - r.point) <= 0.0) {
+            return DVec3::ZERO;
+        }
+        let factor = form_factor::analytic(r.point, r.normal, &e.polygon);
+        if factor <= 0.0 {
+            return DVec3::ZERO;
+        }
+        let seen = |c: DVec3| -> DVec3 {
+            let (a, b) = accel::shorten(c, r.point);
+            if self.occluder.occluded(a, b, [e.group, r.group]) {
+                DVec3::ZERO
+            } else if self.scene.panes.is_empty() {
+                DVec3::ONE
+            } else {
+                glass::transmittance(&self.scene.panes, c, r.point)
+            }
+        };
+        let visible = match sample {
+            Some((k, n)) => {
+                // One subsource of an `s x s` grid, `s^2 >= n`, in turn
+                // from a place of the pixel's own.
+                // A point drawn uniformly in it: the pixel's samples are
+                // stratified over the patch, and a penumbra is smooth
+                // noise, not copies of a shadow.
+                let side = sample_side(n);
+                let own;
+                let pieces = if side == e.sample_side {
+                    &e.sample_pieces
+                } else {
+                    own = pieces(&e.polygon, side);
+                    &own
+                };
+                let count = pieces.len() as u64;
+                let piece = &pieces[((u64::from(k) + seed % count) % count) as usize];
+                let stream = u64::from(k) * 2 + 2;
+                seen(point_in(piece, unit(seed, stream), unit(seed, stream + 1)))
+            }
+            None => {
+                let mut sum = DVec3::ZERO;
+                let mut weights = 0.0;
+                for &(c, area) in &e.subsources {
+                    let d = c - r.point;
+                    let d2 = d.length_squared();
+                    let w = area * (r.normal.dot(d) * -e.normal.dot(d)).max(0.0) / (d2 * d2);
+                    if w > 0.0 {
+                        sum += seen(c) * w;
+                        weights += w;
+                    }
+                }
+                if weights > 0.0 {
+                    sum / weights
+                } else {
+                    DVec3::ZERO
+                }
+            }
+        };
+        e.emission * factor * visible
+    }
+}
+
+/// The emitting patches of the mesh.
+fn emitters(scene: &Scene, mesh: &Mesh) -> Vec<Emitter> {
+    mesh.patches
+        .iter()
+        .filter(|p| scene.surfaces[p.surface as usize].is_emitter())
+        .map(|p| {
+            let s = &scene.surfaces[p.surface as usize];
+            Emitter {
+                normal: s.normal,
+                offset: s.offset,
+                emission: s.emission,
+                group: s.group,
+                subsources: mesh::subsources(&p.polygon, EMITTER_SIDE)
+                    .into_iter()
+                    .map(|k| (k.centroid, k.area))
+                    .collect(),
+                sample_side: 0,
+                sample_pieces: Vec::new(),
+                polygon: p.polygon.clone(),
+            }
+        })
+        .collect()
+}
+
+/// Subsources per side for `n` samples a pixel: the smallest square grid
+/// with at least `n` pieces.
+fn sample_side(n: u32) -> u32 {
+    (f64::from(n.max(1)).sqrt().ceil() as u32).max(1)
+}
+
+/// The corners of `polygon`'s `side x side` subsources.
+fn pieces(polygon: &[DVec3], side: u32) -> Vec<Vec<DVec3>> {
+    mesh::subsources(polygon, side)
+        .into_iter()
+        .map(|k| k.polygon)
+        .collect()
+}
+
+/// The point at `(u, v)` in `[0, 1)^2` of a triangle (uniform by area) or
+/// a quad (bilinear: uniform by area on a parallelogram).
+fn point_in(piece: &[DVec3], u: f64, v: f64) -> DVec3 {
+    if piece.len() == 4 {
+        let bottom = piece[0].lerp(piece[1], u);
+        let top = piece[3].lerp(piece[2], u);
+        bottom.lerp(top, v)
+    } else {
+        let r = u.sqrt();
+        piece[0] * (1.0 - r) + piece[1] * (r * (1.0 - v)) + piece[2] * (r * v)
+    }
+}
+
+/// Two unit vectors completing `n` to an orthonormal basis.
+fn basis(n: DVec3) -> (DVec3, DVec3) {
+    let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let t = n.cross(helper).normalize();
+    (t, n.cross(t))
+}
+
+/// A uniform number in `[0, 1)` from `seed` and a stream index
+/// (SplitMix64).
+fn unit(seed: u64, stream: u64) -> f64 {
+    let mut z = seed
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add(stream.wrapping_mul(0xD1B5_4A32_D192_ED03));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+impl FinalPass<'_> {
+    /// What the mesh shows at each vertex under this mode, given what it
+    /// shows with every part (`display`, `B + rho ambient`): all of it for
+    /// `off`; the emission, the reflected indirect part and the ambient
+    /// for `direct`; the emission and the ambient for `full`.
+    #[must_use]
+    pub fn vertex_display(&self, display: &[DVec3], ambient: DVec3) -> Vec<DVec3> {
+        self.vertex_part(ambient)
+            .into_iter()
+            .zip(&self.mesh.vertices)
+            .zip(display)
+            .map(|((part, v), shown)| match part {
+                Some(e) => {
+                    let s = &self.scene.surfaces[v.surface as usize];
+                    s.emission + s.rho * e
+                }
+                None => *shown,
+            })
+            .collect()
+    }
+
+    /// The irradiance the mesh carries at each vertex under this mode,
+    /// given the vertices' whole irradiance with the ambient (`None`: the
+    /// whole, for `off`).
+    #[must_use]
+    pub fn vertex_part(&self, ambient: DVec3) -> Vec<Option<DVec3>> {
+        match self.mode {
+            FinalGather::Off => vec![None; self.mesh.vertices.len()],
+            FinalGather::Direct => self.indirect.iter().map(|e| Some(*e + ambient)).collect(),
+            FinalGather::Full => vec![Some(ambient); self.mesh.vertices.len()],
+        }
+    }
+
+    /// The irradiance evaluated at each point (W/m^2 per channel), what
+    /// is added to the mesh's part ([`FinalPass::vertex_part`]): the direct
+    /// light, and for `full` the gathered indirect light; zero for `off`.
+    #[must_use]
+    pub fn irradiance(&self, points: &[Point]) -> Vec<DVec3> {
+        if self.mode == FinalGather::Off {
+            return vec![DVec3::ZERO; points.len()];
+        }
+        let direct = self.direct(points);
+        let gathered = self.gather(points, &direct);
+        direct
+            .into_iter()
+            .zip(gathered)
+            .map(|(d, g)| d + g)
+            .collect()
+    }
+
+    /// The radiosity [`FinalPass::irradiance`] adds at each point: times
+    /// its surface's reflectance.
+    #[must_use]
+    pub fn shade(&self, points: &[Point]) -> Vec<DVec3> {
+        self.irradiance(points)
+            .into_iter()
+            .zip(points)
+            .map(|(e, p)| self.scene.surfaces[p.surface as usize].rho * e)
+            .collect()
+    }
+}
