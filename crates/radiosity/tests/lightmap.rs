@@ -39,6 +39,7 @@ fn bake(
         mesh: &refined.mesh,
         appearance,
         values: &values,
+        shade: None,
         mode,
         settings: AtlasSettings {
             density,

@@ -1,0 +1,334 @@
+//! The final pass ([`radiosity::final_gather`]): a sun's shadow drawn as
+//! sharp as the pixels, whatever the mesh; the split of a vertex's light
+//! into its direct and indirect parts adding up to the solve's total; the
+//! direct light of an emitting patch against its closed form; `full`'s
+//! gather against the furnace's closed form.
+
+mod common;
+
+use glam::DVec3;
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
+use radiosity::form_factor::closed_form;
+use radiosity::mesh::Mesh;
+use radiosity::render::{self, RenderSettings};
+use radiosity::scene::{Camera, Light, LightKind, Scene};
+use radiosity::solver::{Settings, Solver};
+
+use common::{quad, scene_of};
+
+/// The scene: a 1 x 1 m black board 1 m above a 6 x 6 m floor, a
+/// parallel sun 60 degrees high from +x.
+fn board_in_the_sun() -> Scene {
+    let floor = quad(
+        DVec3::new(-3.0, 0.0, -3.0),
+        DVec3::Z * 6.0,
+        DVec3::X * 6.0,
+        0.5,
+        0.0,
+        0,
+    );
+    let board = quad(
+        DVec3::new(-0.5, 1.0, -0.5),
+        DVec3::Z,
+        DVec3::X,
+        0.0,
+        0.0,
+        1,
+    );
+    assert!(floor.normal.y > 0.99 && board.normal.y > 0.99);
+    let mut scene = scene_of(vec![floor, board]);
+    let elevation = 60f64.to_radians();
+    scene.lights.push(Light {
+        name: "sun".into(),
+        kind: LightKind::Sun {
+            direction: DVec3::new(-elevation.cos(), -elevation.sin(), 0.0),
+        },
+        colour: DVec3::ONE,
+        intensity: 100_000.0,
+    });
+    scene
+}
+
+/// Pixels from `from` to `to` (inclusive, along a row or a column) whose
+/// luminance lies strictly between 10% and 90% of the lit level `lit`
+/// above a shadow of level 0.
+fn ramp_width(image: &render::Image, pixels: impl Iterator<Item = (u32, u32)>, lit: f64) -> usize {
+    pixels
+        .filter(|&(x, y)| {
+            let v = f64::from(image.pixels[(y * image.width + x) as usize].y);
+            v > 0.1 * lit && v < 0.9 * lit
+        })
+        .count()
+}
+
+/// Seen from 6 m above at 800 x 600 (a pixel is 4 mm on the floor), at the
+/// default supersampling, the default preset's picture draws the board's
+/// shadow with edges at most 2 pixels wide (10% to 90% of the lit level),
+/// across the sun's direction and along it; the mesh alone (`off`) cannot.
+#[test]
+fn a_sun_shadow_edge_is_at_most_two_pixels_wide() {
+    let scene = board_in_the_sun();
+    let settings = Settings::adaptive();
+    assert_eq!(settings.final_gather, FinalGather::Direct);
+    let mut mesh_settings = settings.mesh.clone();
+    let hint = scene.default_mesh_sizes();
+    mesh_settings.patch_size = hint.patch_size;
+    mesh_settings.element_size = hint.element_size;
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let mut solver = Solver::new(&scene, &mesh, settings.clone());
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    // The shadow spans x in [-1.077, -0.077], z in [-0.5, 0.5]; the eye is
+    // above its left half, which the board does not hide.
+    // Off the pixel grid by a fraction of a pixel, so no edge falls on a
+    // pixel boundary.
+    let eye = DVec3::new(-0.8013, 6.0, 0.0017);
+    let fov = 2.0 * (1.2f64 / 6.0).atan().to_degrees();
+    let view = RenderSettings {
+        width: 800,
+        height: 600,
+        camera: Camera {
+            eye,
+            target: DVec3::new(eye.x, 0.0, eye.z),
+            up: -DVec3::Z,
+            fov_degrees: fov,
+        },
+        supersampling: 3,
+    };
+    let pixel = 2.4 / 600.0;
+    let column = |x: f64| (400.0 + (x - eye.x) / pixel) as u32;
+    let row = |z: f64| (300.0 + (z - eye.z) / pixel) as u32;
+    let lit = |image: &render::Image| {
+        f64::from(image.pixels[(row(-1.0) * 800 + column(-1.5)) as usize].y)
+    };
+    let widths = |image: &render::Image| {
+        let level = lit(image);
+        // Across the sun: along the row z = 0 over the edge x = -1.077.
+        let across = ramp_width(
+            image,
+            (column(-1.35)..=column(-0.85)).map(|x| (x, row(0.0))),
+            level,
+        );
+        // Along the sun: down the column x = -0.8 over the edge z = 0.5.
+        let along = ramp_width(
+            image,
+            (row(0.25)..=row(0.75)).map(|y| (column(-0.8), y)),
+            level,
+        );
+        (across, along)
+    };
+    let pass = FinalPass::new(&solver, FinalGather::Direct).with_samples(9);
+    let display = solver.display_radiosity(true);
+    let ambient = solver.ambient();
+    let sharp = render::render_shaded(
+        &scene,
+        &mesh,
+        &pass.vertex_display(&display, ambient),
+        &view,
+        Some(&|points: &[Point]| pass.shade(points)),
+    );
+    let mesh_only = render::render(&scene, &mesh, &display, &view);
+    assert!(lit(&sharp) > 0.0);
+    assert!(
+        (lit(&sharp) / lit(&mesh_only) - 1.0).abs() < 1e-3,
+        "the lit floor reads the same: {} and {}",
+        lit(&sharp),
+        lit(&mesh_only)
+    );
+    // The shadow is there: dark inside (the board is black, the floor
+    // cannot see itself).
+    let inside = sharp.pixels[(row(0.0) * 800 + column(-0.8)) as usize].y;
+    assert!(f64::from(inside) < 0.01 * lit(&sharp), "{inside} in the shadow");
+    let (across, along) = widths(&sharp);
+    println!("direct: edges {across} and {along} pixels wide");
+    assert!(
+        across <= 2 && along <= 2,
+        "edges {across} and {along} pixels wide"
+    );
+    let (across, along) = widths(&mesh_only);
+    println!("the mesh alone: edges {across} and {along} pixels wide");
+    assert!(across.max(along) > 2, "the mesh alone: {across}, {along}");
+}
+
+/// At every vertex the final pass's direct part plus the mesh's indirect
+/// part is the solve's total irradiance, so a `direct` picture shows the
+/// mesh's value at each vertex; a lamp over a floor under a point light.
+#[test]
+fn direct_and_indirect_add_up_to_the_total_at_every_vertex() {
+    let mut surfaces = common::lamp_over_floor(0.6, 0.5, 1.5, 50.0);
+    surfaces.push(quad(
+        DVec3::new(-0.3, 0.4, -0.3),
+        DVec3::Z * 0.6,
+        DVec3::X * 0.6,
+        0.7,
+        0.0,
+        9,
+    ));
+    let mut scene = scene_of(surfaces);
+    scene.lights.push(Light {
+        name: "bulb".into(),
+        kind: LightKind::Point {
+            position: DVec3::new(1.0, 1.0, 0.5),
+        },
+        colour: DVec3::new(1.0, 0.8, 0.6),
+        intensity: 30.0,
+    });
+    let settings = Settings::adaptive();
+    let mut mesh_settings = settings.mesh.clone();
+    let hint = scene.default_mesh_sizes();
+    mesh_settings.patch_size = hint.patch_size;
+    mesh_settings.element_size = hint.element_size;
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let mut solver = Solver::new(&scene, &mesh, settings);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    let points: Vec<Point> = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| Point {
+            surface: v.surface,
+            position: v.position,
+            sample: None,
+            seed: i as u64,
+        })
+        .collect();
+    let direct = pass.direct(&points);
+    let mut lit = 0;
+    for ((d, i), total) in direct
+        .iter()
+        .zip(pass.vertex_indirect())
+        .zip(solver.irradiance())
+    {
+        let error = (*d + *i - *total).abs().max_element();
+        assert!(
+            error <= 1e-9 * total.max_element().max(1.0),
+            "{d} + {i} against {total}"
+        );
+        lit += usize::from(d.max_element() > 0.0);
+    }
+    assert!(lit > mesh.vertices.len() / 2, "{lit} vertices lit directly");
+}
+
+/// An emitting square over a floor point, nothing between: the direct
+/// part is its exitance times the exact factor (the closed form of a
+/// parallel rectangle), to 1e-6 (the point gathers a millionth of the way
+/// towards its surface's centroid, as every receiver does); with an opaque square between covering
+/// the whole lamp, zero.
+#[test]
+fn an_emitting_patch_gives_its_closed_form() {
+    let (side, height, exitance) = (0.5, 1.5, 40.0);
+    let surfaces = common::lamp_over_floor(0.5, side, height, exitance);
+    let scene = scene_of(surfaces.clone());
+    let settings = Settings::adaptive();
+    let mut mesh_settings = settings.mesh.clone();
+    mesh_settings.patch_size = 0.25;
+    mesh_settings.element_size = 0.25;
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let solver = Solver::new(&scene, &mesh, settings.clone());
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    let floor = scene
+        .surfaces
+        .iter()
+        .position(|s| s.normal.y > 0.5 && s.emission == DVec3::ZERO)
+        .unwrap() as u32;
+    let lamp = scene.surfaces.iter().find(|s| s.is_emitter()).unwrap();
+    let centre = lamp.polygon.iter().sum::<DVec3>() / lamp.polygon.len() as f64;
+    let below = DVec3::new(centre.x + 0.1, 0.0, centre.z - 0.05);
+    let e = pass.direct(&[Point {
+        surface: floor,
+        position: below,
+        sample: None,
+        seed: 0,
+    }])[0];
+    let (lo, hi) = lamp
+        .polygon
+        .iter()
+        .fold((DVec3::MAX, DVec3::MIN), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let factor = closed_form::parallel_rectangle(
+        lo.x - below.x,
+        hi.x - below.x,
+        lo.z - below.z,
+        hi.z - below.z,
+        height,
+    );
+    let expected = lamp.emission * factor;
+    assert!(
+        (e - expected).abs().max_element() <= 1e-6 * expected.max_element(),
+        "{e} against {expected}"
+    );
+
+    // A black square between, larger than the lamp: dark.
+    let mut blocked = surfaces;
+    blocked.push(quad(
+        DVec3::new(centre.x - 0.5, 0.7, centre.z - 0.5),
+        DVec3::Z,
+        DVec3::X,
+        0.0,
+        0.0,
+        7,
+    ));
+    let scene = scene_of(blocked);
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let solver = Solver::new(&scene, &mesh, settings);
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    let e = pass.direct(&[Point {
+        surface: floor,
+        position: below,
+        sample: Some((3, 9)),
+        seed: 5,
+    }])[0];
+    assert_eq!(e, DVec3::ZERO);
+}
+
+/// The furnace: every face of a closed cube emits `M` and reflects `rho`,
+/// so every point's irradiance is `M / (1 - rho)`. `full`'s direct part
+/// (every face's emission, seen over the whole hemisphere: `M`) plus its
+/// gather of the mesh's reflected light gives it within 1%, and `direct`
+/// exactly what the mesh has.
+#[test]
+fn a_full_gather_in_the_furnace_gives_the_closed_form() {
+    let (rho, emission) = (0.6, 10.0);
+    let scene = common::furnace(2.0, rho, emission);
+    let settings = Settings {
+        converge: 1e-5,
+        ..Settings::adaptive()
+    };
+    let mut mesh_settings = settings.mesh.clone();
+    mesh_settings.patch_size = 0.5;
+    mesh_settings.element_size = 0.25;
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let mut solver = Solver::new(&scene, &mesh, settings);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    let expected = emission / (1.0 - rho);
+    let points: Vec<Point> = [
+        (0, DVec3::new(0.3, 0.0, 1.7)),
+        (1, DVec3::new(1.0, 2.0, 1.0)),
+        (2, DVec3::new(0.0, 0.05, 0.05)),
+        (5, DVec3::new(1.9, 1.2, 2.0)),
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, &(surface, position))| Point {
+        surface,
+        position,
+        sample: None,
+        seed: i as u64,
+    })
+    .collect();
+    let full = FinalPass::new(&solver, FinalGather::Full);
+    for (p, e) in points.iter().zip(full.irradiance(&points)) {
+        assert!(
+            (e / expected - DVec3::ONE).abs().max_element() < 0.01,
+            "{p:?}: {e} against {expected}"
+        );
+    }
+    let direct = FinalPass::new(&solver, FinalGather::Direct);
+    for (p, e) in points.iter().zip(direct.direct(&points)) {
+        assert!(
+            (e / emission - DVec3::ONE).abs().max_element() < 1e-6,
+            "{p:?}: direct {e} against {emission}"
+        );
+    }
+}
