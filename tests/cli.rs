@@ -396,6 +396,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "element_sources",
             "elements",
             "estimated_memory_bytes",
+            "final_gather_seconds",
             "form_factor_thread_seconds",
             "gather_seconds",
             "hemicube_seconds",
@@ -438,6 +439,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "converge",
             "cut_error",
             "element_size",
+            "final_gather",
             "form_factor",
             "hemicube_resolution",
             "max_shots",
@@ -454,6 +456,8 @@ fn cornell_writes_picture_vertices_and_stats() {
         ]
     );
     assert_eq!(stats["settings"]["accel"], "bvh");
+    assert_eq!(stats["settings"]["final_gather"], "direct");
+    assert!(stats["final_gather_seconds"].as_f64().unwrap() > 0.0);
     assert_eq!(stats["stop_reason"], "converged");
     assert!(!keys(&stats["accel_build"]).is_empty());
     assert!(stats["unshot_fraction"].as_f64().unwrap() < 0.01);

@@ -13,6 +13,7 @@
 //! | `fig5-2` | Figure 5.2 | solve times at 9, 48 and 72 subsources |
 //! | `rays` | section 3 | BSP, BVH, brute force and Embree on real scenes' shadow segments (by name only, not in `all`) |
 //! | `validate` | beyond the paper | L1, bias, median and p90 against the Radiance reference per scene and preset, error pictures (by name only) |
+//! | `pictures` | beyond the paper | pictures at 2,000 pixel centres against the Radiance reference, for each `--final-gather` (by name only) |
 //! | `accuracy-curve` | beyond the paper | L1 against solve time for both presets and `rtrace` on the Cornell boxes (by name only) |
 //! | `scale` | beyond the paper | a whole render job's phases, memory and rays from the built-in scenes to the conference room, default preset with either accelerator, where the solve's time goes, and the picture's error after 2, 5 and 10 s (by name only) |
 
@@ -25,6 +26,7 @@ pub mod fig5_1;
 pub mod fig5_2;
 pub mod formula_timing;
 pub mod lightmap;
+pub mod pictures;
 pub mod rays;
 pub mod scale;
 pub mod validate;
@@ -160,6 +162,12 @@ pub const EXPERIMENTS: &[Experiment] = &[
         name: "rays",
         title: "Section 3 at scale: shadow-ray accelerators on real scenes",
         run: rays::rays,
+        in_all: false,
+    },
+    Experiment {
+        name: "pictures",
+        title: "Pictures against the Radiance reference, under each final pass",
+        run: pictures::pictures,
         in_all: false,
     },
     Experiment {

@@ -90,6 +90,9 @@ pub struct RadianceRun {
     pub radiosity: Vec<DVec3>,
 }
 
+/// Rows `score.py` samples from a CSV by default.
+pub const SAMPLE: usize = 600;
+
 /// The arithmetic of `score.py` on radiosities `b` against `reference` at
 /// the same points.
 #[derive(Clone, Debug, PartialEq)]
@@ -335,7 +338,22 @@ impl Harness {
         lights: Option<&str>,
     ) -> Result<Scored, Error> {
         let script = lights.map(|flags| ("reference_lights.py", LIGHTS, flags));
-        self.score_by(scene, csv, accuracy, json, script)
+        self.score_by(scene, csv, accuracy, json, script, SAMPLE)
+    }
+
+    /// [`Harness::score`] of `n` rows of the CSV (all of them when it has
+    /// no more), not `score.py`'s default 600.
+    pub fn score_rows(
+        &self,
+        scene: &Path,
+        csv: &Path,
+        accuracy: &str,
+        json: &Path,
+        lights: Option<&str>,
+        n: usize,
+    ) -> Result<Scored, Error> {
+        let script = lights.map(|flags| ("reference_lights.py", LIGHTS, flags));
+        self.score_by(scene, csv, accuracy, json, script, n)
     }
 
     /// [`Harness::score_lit`] with the reference computed by
@@ -356,6 +374,7 @@ impl Harness {
             accuracy,
             json,
             Some(("reference_edges.py", EDGES, "")),
+            SAMPLE,
         )
     }
 
@@ -368,7 +387,9 @@ impl Harness {
         accuracy: &str,
         json: &Path,
         script: Option<(&str, &str, &str)>,
+        n: usize,
     ) -> Result<Scored, Error> {
+        let n = n.to_string();
         let mut args: Vec<&std::ffi::OsStr> = vec![
             "score".as_ref(),
             self.dir.as_os_str(),
@@ -377,6 +398,8 @@ impl Harness {
             json.as_os_str(),
             "--accuracy".as_ref(),
             accuracy.as_ref(),
+            "--n".as_ref(),
+            n.as_ref(),
         ];
         // One word, `=` joined: the flags start with dashes.
         let flags = script.map(|(_, _, f)| format!("--lights-args={f}"));

@@ -24,6 +24,7 @@ use super::reference::{self, Harness};
 use super::{Context, Error, Report, table, write_file};
 use radiosity::app;
 use radiosity::export;
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::sky::{
@@ -251,6 +252,10 @@ pub struct Solved {
     pub display: Vec<DVec3>,
     /// `E` at each sensor.
     pub sensor_irradiance: Vec<DVec3>,
+    /// `E` at each sensor under `--final-gather full` (its direct light and
+    /// a gather of the mesh's reflected light over its hemisphere); empty
+    /// for a preset whose final pass is off, or without sensors.
+    pub sensor_full: Vec<DVec3>,
     /// Seconds of the solve: receiver refinement's coarse pass, the
     /// solver's construction (accelerator build) and its shots (`--stats`
     /// reports the coarse pass in `mesh_seconds`).
@@ -314,6 +319,21 @@ pub fn solve_lit(
     solver.run(|_| Flow::Continue);
     let solve_seconds = start.elapsed().as_secs_f64();
     let sensor_irradiance = solver.sensor_irradiance().to_vec();
+    let sensor_full = if points.is_empty() || solver.settings().final_gather == FinalGather::Off {
+        Vec::new()
+    } else {
+        let at: Vec<Point> = solver.receivers()[solver.mesh().vertices.len()..]
+            .iter()
+            .enumerate()
+            .map(|(i, r)| Point {
+                surface: r.surface,
+                position: r.point,
+                sample: None,
+                seed: i as u64,
+            })
+            .collect();
+        FinalPass::new(&solver, FinalGather::Full).irradiance(&at)
+    };
     let radiosity = solver.radiosity().to_vec();
     let display = solver.display_radiosity(true);
     let shots = solver.stats().shots;
@@ -326,6 +346,7 @@ pub fn solve_lit(
         radiosity,
         display,
         sensor_irradiance,
+        sensor_full,
         solve_seconds,
         base_elements,
         shots,
@@ -454,6 +475,9 @@ pub struct Validated {
     /// `score.py`'s score of the values at [`SENSOR_POINTS`] random
     /// points ([`random_points`]), gathered as sensors.
     pub sensors: reference::Scored,
+    /// The same under `--final-gather full` ([`Solved::sensor_full`]),
+    /// where the preset has a final pass.
+    pub sensors_full: Option<reference::Scored>,
     /// The vertices scored against `tools/reference_edges.py` (points on a
     /// face's edge moved off it): the default preset on the scenes lit by
     /// their surfaces.
@@ -529,6 +553,27 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
                 &context.path(&format!("{stem}-sensors.json")),
                 reference_flags.as_deref(),
             )?;
+            let sensors_full = if solved.sensor_full.is_empty() {
+                None
+            } else {
+                let rows: Vec<(DVec3, DVec3, u32, DVec3)> = drawn
+                    .iter()
+                    .zip(&solved.sensor_full)
+                    .map(|(&(p, surface), e)| {
+                        let s = &scene.surfaces[surface];
+                        (p.position, p.normal, s.face, s.emission + s.rho * *e)
+                    })
+                    .collect();
+                let csv = context.path(&format!("{stem}-sensors-full.csv"));
+                write_rows(&csv, &rows)?;
+                Some(harness.score(
+                    &path,
+                    &csv,
+                    accuracy(context),
+                    &context.path(&format!("{stem}-sensors-full.json")),
+                    reference_flags.as_deref(),
+                )?)
+            };
             let edges = if case.lights.is_none() && preset == Preset::Adaptive.name() {
                 Some(harness.score_edges(
                     &path,
@@ -546,6 +591,7 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
                 scored,
                 ours,
                 sensors,
+                sensors_full,
                 edges,
             });
         }
@@ -726,6 +772,9 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
                     .as_ref()
                     .map_or_else(|| "-".into(), |e| percent(e.l1)),
                 percent(v.sensors.l1),
+                v.sensors_full
+                    .as_ref()
+                    .map_or_else(|| "-".into(), |s| percent(s.l1)),
                 signed_percent(ours.bias),
                 percent(ours.median),
                 percent(ours.p90),
@@ -746,6 +795,7 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
             "L1",
             "L1, edges fixed",
             "sensors L1",
+            "sensors L1, full",
             "bias",
             "median",
             "p90",
@@ -758,7 +808,7 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
     report.paragraph(
         "L1 = sum |B - Bref| / sum Bref over the sampled vertices (channel means); sensors L1: \
          the same over 300 points drawn uniformly by area over the surfaces (a fixed sequence), \
-         gathered as `--sensors`; elements: after receiver refinement (the base grid's count \
+         gathered as `--sensors` (as `off` and `direct` give them: a sensor gathers every shot          at its own point); sensors L1, full: the same points under `--final-gather full` (the          direct light there plus a gather of the mesh's reflected light over the hemisphere);          elements: after receiver refinement (the base grid's count \
          in brackets when it split some); L1, edges fixed: the same vertices against \
          tools/reference_edges.py, the harness's reference.py with points on an edge of their \
          face moved off that edge (reference.py can leave them within Radiance's 1e-6 m of the \

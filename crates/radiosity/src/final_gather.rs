@@ -17,13 +17,14 @@
 //!   radiosity gathered over its hemisphere with stratified cosine-weighted
 //!   rays (the emission of the surfaces hit is left out: it is direct).
 //!
-//! **The split at a vertex.** The solve books the lights' shots apart
-//! ([`Solver::light_irradiance`]); the emitting surfaces' direct light is
-//! evaluated at each vertex by the same estimator as at any other point
-//! ([`FinalPass::direct`]); the mesh's indirect part is the vertex's total
-//! less both. So at a vertex a `direct` picture shows the mesh's value
-//! exactly, and between vertices only the direct part changes faster than
-//! the mesh does.
+//! **The split at a vertex.** The solve books the direct part apart
+//! ([`Solver::direct_irradiance`]: the lights' shots and the emitting
+//! surfaces' first shots, on every method); the mesh's indirect part is
+//! the vertex's total less it, interpolated between vertices, while the
+//! direct part is evaluated afresh at every point shown. Where the
+//! emitting surfaces' first shots were booked on a device, which keeps
+//! their irradiance, their part at each vertex is evaluated here by the
+//! same estimator as at any other point ([`FinalPass::direct`]).
 //!
 //! **Direct light at a point.** The scene's lights as their shots do
 //! ([`lights::gather`]); each emitting patch by its exact unoccluded factor
@@ -40,6 +41,7 @@ use rayon::prelude::*;
 use crate::accel::{self, Occluder};
 use crate::export::lightmap::texels::Locator;
 use crate::form_factor;
+use crate::geometry;
 use crate::mesh::{self, Mesh};
 use crate::scene::{Scene, glass};
 use crate::solver::method::{ShotInputs, Stats};
@@ -99,8 +101,8 @@ struct Emitter {
     offset: f64,
     emission: DVec3,
     group: u32,
-    /// Subsources' centroids and areas at [`EMITTER_SIDE`] per side.
-    subsources: Vec<(DVec3, f64)>,
+    /// Its [`EMITTER_SIDE`] x [`EMITTER_SIDE`] subsources.
+    pieces: Vec<Vec<DVec3>>,
     /// Subsources for a picture's samples ([`FinalPass::with_samples`]):
     /// `side` per side.
     sample_side: u32,
@@ -151,15 +153,27 @@ impl<'a> FinalPass<'a> {
             return pass;
         }
         let vertices = mesh.vertices.len();
-        let receivers = &solver.receivers()[..vertices];
-        let from_emitters = pass.emitted(receivers, None);
-        pass.indirect = solver
-            .irradiance()
-            .iter()
-            .zip(&solver.light_irradiance()[..vertices])
-            .zip(&from_emitters)
-            .map(|((total, light), emitted)| *total - *light - *emitted)
-            .collect();
+        let direct = &solver.direct_irradiance()[..vertices];
+        pass.indirect = if solver.direct_complete() {
+            solver
+                .irradiance()
+                .iter()
+                .zip(direct)
+                .map(|(total, direct)| *total - *direct)
+                .collect()
+        } else {
+            // The emitting surfaces' first shots were booked on a device:
+            // their part at each vertex is evaluated here instead.
+            let receivers = &solver.receivers()[..vertices];
+            let from_emitters = pass.emitted(receivers, None);
+            solver
+                .irradiance()
+                .iter()
+                .zip(direct)
+                .zip(&from_emitters)
+                .map(|((total, light), emitted)| *total - *light - *emitted)
+                .collect()
+        };
         if mode == FinalGather::Full {
             pass.reflected = mesh
                 .vertices
@@ -371,27 +385,45 @@ impl<'a> FinalPass<'a> {
         if e.polygon.iter().all(|c| r.normal.dot(*c - r.point) <= 0.0) {
             return DVec3::ZERO;
         }
-        let factor = form_factor::analytic(r.point, r.normal, &e.polygon);
-        if factor <= 0.0 {
-            return DVec3::ZERO;
-        }
-        let seen = |c: DVec3| -> DVec3 {
+        // A piece's exact factor (equation (2), clipped to the receiver's
+        // front) times what passes from a point of it: the part of the
+        // piece in front of the receiver (a piece crossing its tangent
+        // plane is clipped, and seen from the clipped part's centroid).
+        let through = |piece: &[DVec3], at: Option<DVec3>| -> DVec3 {
+            let factor = form_factor::analytic(r.point, r.normal, piece);
+            if factor <= 0.0 {
+                return DVec3::ZERO;
+            }
+            let front = |c: DVec3| r.normal.dot(c - r.point) > 0.0;
+            let c = match at {
+                Some(c) if front(c) => c,
+                _ if piece.iter().all(|c| front(*c)) => geometry::centroid(piece),
+                _ => {
+                    let mut clipped = Vec::with_capacity(piece.len() + 2);
+                    geometry::clip_to_half_space(piece, r.point, r.normal, 0.0, &mut clipped);
+                    if clipped.len() < 3 {
+                        return DVec3::ZERO;
+                    }
+                    geometry::centroid(&clipped)
+                }
+            };
             let (a, b) = accel::shorten(c, r.point);
             if self.occluder.occluded(a, b, [e.group, r.group]) {
                 DVec3::ZERO
             } else if self.scene.panes.is_empty() {
-                DVec3::ONE
+                DVec3::splat(factor)
             } else {
-                glass::transmittance(&self.scene.panes, c, r.point)
+                factor * glass::transmittance(&self.scene.panes, c, r.point)
             }
         };
-        let visible = match sample {
+        let passed = match sample {
             Some((k, n)) => {
-                // One subsource of an `s x s` grid, `s^2 >= n`, in turn
-                // from a place of the pixel's own.
-                // A point drawn uniformly in it: the pixel's samples are
-                // stratified over the patch, and a penumbra is smooth
-                // noise, not copies of a shadow.
+                // One piece of an `s x s` grid (`s^2 >= n`) a sample, the
+                // pixel's samples taking them in turn from a place of the
+                // pixel's own, seen from a point drawn uniformly in it: a
+                // pixel whose samples all fall on one surface sums every
+                // piece's exact factor, and a penumbra is smooth noise,
+                // not copies of a shadow.
                 let side = sample_side(n);
                 let own;
                 let pieces = if side == e.sample_side {
@@ -403,28 +435,12 @@ impl<'a> FinalPass<'a> {
                 let count = pieces.len() as u64;
                 let piece = &pieces[((u64::from(k) + seed % count) % count) as usize];
                 let stream = u64::from(k) * 2 + 2;
-                seen(point_in(piece, unit(seed, stream), unit(seed, stream + 1)))
+                let at = point_in(piece, unit(seed, stream), unit(seed, stream + 1));
+                through(piece, Some(at)) * count as f64
             }
-            None => {
-                let mut sum = DVec3::ZERO;
-                let mut weights = 0.0;
-                for &(c, area) in &e.subsources {
-                    let d = c - r.point;
-                    let d2 = d.length_squared();
-                    let w = area * (r.normal.dot(d) * -e.normal.dot(d)).max(0.0) / (d2 * d2);
-                    if w > 0.0 {
-                        sum += seen(c) * w;
-                        weights += w;
-                    }
-                }
-                if weights > 0.0 {
-                    sum / weights
-                } else {
-                    DVec3::ZERO
-                }
-            }
+            None => e.pieces.iter().map(|piece| through(piece, None)).sum(),
         };
-        e.emission * factor * visible
+        e.emission * passed
     }
 }
 
@@ -440,10 +456,7 @@ fn emitters(scene: &Scene, mesh: &Mesh) -> Vec<Emitter> {
                 offset: s.offset,
                 emission: s.emission,
                 group: s.group,
-                subsources: mesh::subsources(&p.polygon, EMITTER_SIDE)
-                    .into_iter()
-                    .map(|k| (k.centroid, k.area))
-                    .collect(),
+                pieces: pieces(&p.polygon, EMITTER_SIDE),
                 sample_side: 0,
                 sample_pieces: Vec::new(),
                 polygon: p.polygon.clone(),

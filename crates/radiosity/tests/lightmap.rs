@@ -13,6 +13,7 @@ use std::path::Path;
 use common::{quad, scene_of};
 use glam::{DVec2, DVec3};
 use radiosity::export::gltf::BakeMode;
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::export::lightmap::{self, AtlasSettings, LightmapBake, LightmapReport};
 use radiosity::scene::gltf::{Appearance, load_slice};
 use radiosity::scene::{Camera, LoadOptions, Scene};
@@ -27,19 +28,35 @@ fn bake(
     density: f64,
     mode: BakeMode,
 ) -> (Vec<(std::path::PathBuf, Vec<u8>)>, LightmapReport) {
+    bake_with(scene, appearance, density, mode, FinalGather::Off, 1e-3)
+}
+
+/// [`bake`] under a final pass (lit values in radiosity units: the mesh's
+/// part at the vertices, the pass's at each texel), stopping at
+/// `converge`.
+fn bake_with(
+    scene: &Scene,
+    appearance: &Appearance,
+    density: f64,
+    mode: BakeMode,
+    final_gather: FinalGather,
+    converge: f64,
+) -> (Vec<(std::path::PathBuf, Vec<u8>)>, LightmapReport) {
     let mut settings = Settings::adaptive();
     settings.mesh = settings.mesh.sized_for(scene);
-    settings.converge = 1e-3;
+    settings.converge = converge;
     let refined = refined_mesh(scene, &settings, None).unwrap();
     let mut solver = Solver::new(scene, &refined.mesh, settings);
     solver.run(|_| Flow::Continue);
-    let values = solver.radiosity().to_vec();
+    let pass = FinalPass::new(&solver, final_gather);
+    let values = pass.vertex_display(solver.radiosity(), DVec3::ZERO);
+    let shade = |points: &[Point]| pass.shade(points);
     let bake = LightmapBake {
         scene,
         mesh: &refined.mesh,
         appearance,
         values: &values,
-        shade: None,
+        shade: (final_gather != FinalGather::Off).then_some(&shade as radiosity::render::Shade<'_>),
         mode,
         settings: AtlasSettings {
             density,
@@ -188,6 +205,59 @@ fn two_rooms() -> Scene {
         quad(DVec3::new(2.02, 0.0, 0.0), 2.0 * y, 2.0 * z, 0.8, 0.0, 3), // wall, dark side (faces +x)
         quad(DVec3::new(0.5, 2.0, 0.5), x, z, 0.0, 50.0, 4),             // lamp, facing down
     ])
+}
+
+/// A 1 x 1 m black board 1 m above a 6 x 6 m floor in a parallel sun 60
+/// degrees high, baked at the default 32 texels per metre: under the
+/// default final pass the shadow's edge is at most 2 texels wide (texels
+/// between 10% and 90% of the lit level, over the shadow's 4 m outline in
+/// texels), where the mesh alone smears it over its elements.
+#[test]
+fn a_sun_shadow_edge_in_a_lightmap_is_at_most_two_texels_wide() {
+    let floor = quad(
+        DVec3::new(-3.0, 0.0, -3.0),
+        DVec3::Z * 6.0,
+        DVec3::X * 6.0,
+        0.5,
+        0.0,
+        0,
+    );
+    let board = quad(DVec3::new(-0.5, 1.0, -0.5), DVec3::Z, DVec3::X, 0.0, 0.0, 1);
+    let mut scene = scene_of(vec![floor, board]);
+    let elevation = 60f64.to_radians();
+    scene.lights.push(radiosity::scene::Light {
+        name: "sun".into(),
+        kind: radiosity::scene::LightKind::Sun {
+            direction: DVec3::new(-elevation.cos(), -elevation.sin(), 0.0),
+        },
+        colour: DVec3::ONE,
+        intensity: 100_000.0,
+    });
+    let (scene, appearance) = exported(&scene);
+    let density = AtlasSettings::default().density;
+    let width = |final_gather| {
+        let (files, _) = bake_with(
+            &scene,
+            &appearance,
+            density,
+            BakeMode::Lit,
+            final_gather,
+            Settings::adaptive().converge,
+        );
+        let exr = files.iter().find(|(p, _)| p.to_string_lossy().ends_with(".exr"));
+        let (pixels, _, _) = exr_pixels(&exr.unwrap().1);
+        let lit = pixels.iter().map(|p| p[1]).fold(0.0f32, f32::max);
+        let between = pixels
+            .iter()
+            .filter(|p| p[1] > 0.1 * lit && p[1] < 0.9 * lit)
+            .count();
+        between as f64 / (4.0 * density)
+    };
+    let sharp = width(FinalGather::Direct);
+    let mesh_only = width(FinalGather::Off);
+    println!("edge: {sharp:.2} texels (the mesh alone: {mesh_only:.2})");
+    assert!(sharp <= 2.0, "{sharp} texels");
+    assert!(mesh_only > sharp, "{mesh_only} against {sharp}");
 }
 
 #[test]

@@ -218,7 +218,6 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let pass = (settings.final_gather != FinalGather::Off
         && (shown || lightmap || job.sensors.is_some()))
     .then(|| {
-        observer.writing("final pass: direct light at the points shown");
         FinalPass::new(&solver, settings.final_gather).with_samples(view.supersampling.pow(2))
     });
     final_gather_time += final_start.elapsed();

@@ -309,6 +309,11 @@ pub struct Shot {
     pub irradiance: Vec<DVec3>,
     /// Power shot, per channel (W).
     pub power: DVec3,
+    /// Of `power`, the emitting surfaces' own emission shot for the first
+    /// time ([`Emission::take`]): the shot's direct light, which the loop
+    /// books apart ([`super::Solver::direct_irradiance`]) in proportion,
+    /// per channel.
+    pub emitted: DVec3,
     /// Time spent choosing the shooter, for [`Stats::bookkeeping_time`].
     pub selection_time: Duration,
     /// Set by a method whose state lives on a device, which booked the
@@ -316,6 +321,43 @@ pub struct Shot {
     /// [`Shot::irradiance`] is then empty and [`Shooter::receive`] is not
     /// called.
     pub booked: Option<Received>,
+}
+
+/// Which elements (or patches) still hold their surface's emission unshot:
+/// every method's shooters start with it and shoot it whole in their first
+/// shot, the part of a shot that is direct light.
+#[derive(Clone, Debug, Default)]
+pub struct Emission {
+    pending: Vec<bool>,
+}
+
+impl Emission {
+    /// Every unit whose surface emits, pending; `surface(i)` is unit `i`'s
+    /// surface.
+    #[must_use]
+    pub fn new(scene: &Scene, units: usize, surface: impl Fn(usize) -> u32) -> Emission {
+        Emission {
+            pending: (0..units)
+                .map(|i| scene.surfaces[surface(i) as usize].is_emitter())
+                .collect(),
+        }
+    }
+
+    /// The emission power of `units` (unit, its surface, its area) still
+    /// pending, which are now shot.
+    pub fn take(
+        &mut self,
+        scene: &Scene,
+        units: impl Iterator<Item = (usize, u32, f64)>,
+    ) -> DVec3 {
+        let mut power = DVec3::ZERO;
+        for (i, surface, area) in units {
+            if std::mem::take(&mut self.pending[i]) {
+                power += scene.surfaces[surface as usize].emission * area;
+            }
+        }
+        power
+    }
 }
 
 /// What became of a checkpoint ([`Shooter::checkpoint`]).

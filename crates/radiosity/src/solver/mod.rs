@@ -187,9 +187,14 @@ pub struct Solver<'a> {
     radiosity: Vec<DVec3>,
     /// Irradiance accumulated at each receiver (vertices, then sensors).
     irradiance: Vec<DVec3>,
-    /// The part of `irradiance` the scene's lights (point, spot, IES, sun,
-    /// sky) sent straight to each receiver: their shots, booked apart.
+    /// The part of `irradiance` that came straight from a source: the
+    /// scene's lights' shots (point, spot, IES, sun, sky) and the emitting
+    /// surfaces' first shots, booked apart.
     direct: Vec<DVec3>,
+    /// Set when a shot that sent emission was booked on a device (its
+    /// irradiance stays there) or a device's failure made shots again:
+    /// `direct` then holds the lights' part only.
+    direct_partial: bool,
     energy: Energy,
     stats: Stats,
     interrupt: Option<Arc<AtomicBool>>,
@@ -281,6 +286,7 @@ impl<'a> Solver<'a> {
             shooter,
             irradiance: vec![DVec3::ZERO; receivers.len()],
             direct: vec![DVec3::ZERO; receivers.len()],
+            direct_partial: false,
             receivers,
             radiosity,
             energy: Energy::default(),
@@ -344,14 +350,26 @@ impl<'a> Solver<'a> {
         &self.irradiance[self.mesh.vertices.len()..]
     }
 
-    /// The part of [`Solver::irradiance`] (vertices, then sensors) that
-    /// came straight from the scene's lights (point, spot, IES, sun, sky):
-    /// their shots, booked apart from the rest, on every method and device.
-    /// Emitting surfaces' light is the method's: the final pass
-    /// ([`crate::final_gather`]) evaluates its direct part itself.
+    /// The part of each receiver's irradiance (vertices, then sensors)
+    /// that came straight from a source, booked apart from the rest on
+    /// every method: the scene's lights' shots (point, spot, IES, sun,
+    /// sky), and the emitting surfaces' first shots (each shot's
+    /// irradiance times the share of its power that was emission, per
+    /// channel: exact for a shooter whose unshot radiosity was its own
+    /// emission alone). When [`Solver::direct_complete`] is false it holds
+    /// the lights' part only.
     #[must_use]
-    pub fn light_irradiance(&self) -> &[DVec3] {
+    pub fn direct_irradiance(&self) -> &[DVec3] {
         &self.direct
+    }
+
+    /// Whether [`Solver::direct_irradiance`] holds the emitting surfaces'
+    /// part too: false once a shot that sent emission was booked on a
+    /// device (the irradiance of such a shot stays on it) or a device's
+    /// failure made shots again on the CPU.
+    #[must_use]
+    pub fn direct_complete(&self) -> bool {
+        !self.direct_partial
     }
 
     /// The receivers: the mesh's vertices at their gathering points, then
@@ -640,6 +658,8 @@ impl<'a> Solver<'a> {
                 Err(e) => self.light_fault = Some(e.0),
             }
         }
+        // The share of the method's shot that is emission, per channel.
+        let mut emitted = DVec3::ZERO;
         let (irradiance, element_means, power, selection_time) = match light {
             Some(index) => {
                 let light = &self.scene.lights[index];
@@ -671,28 +691,39 @@ impl<'a> Solver<'a> {
                     if self.shooter.rolled_back() {
                         // The device failed: the shots since the last
                         // checkpoint are made again, on the CPU.
+                        self.direct_partial = true;
                         self.roll_back();
                         return true;
                     }
                     return false;
                 };
                 if let Some(received) = shot.booked {
+                    self.direct_partial |= shot.emitted != DVec3::ZERO;
                     let book_start = Instant::now();
                     self.book_ledger(received, shot.power);
                     self.stats.bookkeeping_time +=
                         (Instant::now() - book_start) + shot.selection_time;
                     return true;
                 }
+                emitted = shot.emitted / shot.power;
                 (shot.irradiance, None, Some(shot.power), shot.selection_time)
             }
         };
         let book_start = Instant::now();
         let received_before = self.energy.received;
         let sent = self.book(&irradiance, element_means.as_deref(), power);
-        if let Some(index) = light {
+        // A light's shot is direct; of a method's, the emission's share.
+        let share = if light.is_some() {
+            DVec3::ONE
+        } else {
+            DVec3::select(emitted.is_finite_mask(), emitted, DVec3::ZERO)
+        };
+        if share != DVec3::ZERO {
             for (d, e) in self.direct.iter_mut().zip(&irradiance) {
-                *d += *e;
+                *d += *e * share;
             }
+        }
+        if let Some(index) = light {
             self.lights_pending.remove(0);
             self.light_power[index] = sent;
             self.shooter

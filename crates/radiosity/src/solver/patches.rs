@@ -15,6 +15,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::method::{
+    Emission,
     Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot, ShotInputs,
     Stats, VISIBILITY, Value, Visibility,
 };
@@ -225,6 +226,8 @@ struct PatchShooting {
     settings: PatchSettings,
     /// Unshot radiosity of each patch.
     unshot: Vec<DVec3>,
+    /// The patches whose emission is still unshot.
+    emission: Emission,
     /// One item buffer per subsource, reused from shot to shot.
     item_buffers: Vec<ItemBuffer>,
     counters: PatchCounters,
@@ -235,6 +238,7 @@ impl PatchShooting {
     /// up front so no shot pays for them.
     fn new(scene: &Scene, mesh: &Mesh, settings: &PatchSettings) -> PatchShooting {
         PatchShooting {
+            emission: Emission::new(scene, mesh.patches.len(), |i| mesh.patches[i].surface),
             settings: settings.clone(),
             unshot: mesh
                 .patches
@@ -291,6 +295,9 @@ impl Shooter for PatchShooting {
         let surface_index = patch.surface;
         let surface = &scene.surfaces[surface_index as usize];
         let unshot = self.unshot[shooter];
+        let emitted = self
+            .emission
+            .take(scene, std::iter::once((shooter, patch.surface, patch.area)));
         let subsources = mesh::subsources(&patch.polygon, self.settings.subsources);
 
         let hemicube_start = Instant::now();
@@ -360,6 +367,7 @@ impl Shooter for PatchShooting {
         Some(Shot {
             irradiance,
             power: unshot * patch.area,
+            emitted,
             selection_time: hemicube_start - start,
             booked: None,
         })

@@ -52,6 +52,7 @@ pub use super::hierarchy::transfer::FAR_RATIO;
 use super::hierarchy::transfer::Transfer;
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
+    Emission,
     self, Checkpoint, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter,
     Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
 };
@@ -194,6 +195,8 @@ struct AdaptiveShooting {
     receiver_tree: Tree,
     /// Unshot radiosity of each element.
     unshot: Vec<DVec3>,
+    /// The elements whose emission is still unshot.
+    emission: Emission,
     /// Unshot power (luminance) of each shooter.
     shooter_power: Vec<f64>,
     /// Irradiance (luminance, W/m^2) a source may send and still be
@@ -261,6 +264,7 @@ impl AdaptiveShooting {
         let mean_radiosity = power * per_watt;
         let mut shooting = AdaptiveShooting {
             shooter_power: vec![0.0; hierarchy.shooters.len()],
+            emission: Emission::new(scene, mesh.elements.len(), |i| mesh.elements[i].surface),
             hierarchy,
             receiver_tree,
             unshot,
@@ -293,6 +297,20 @@ impl AdaptiveShooting {
         }
         shooting.total_shooter_power(mesh);
         shooting
+    }
+
+    /// The emission of the elements under `root` not shot yet, which its
+    /// shot now sends.
+    fn take_emission(&mut self, scene: &Scene, mesh: &Mesh, root: u32) -> DVec3 {
+        let items = self.hierarchy.tree.items_of(root);
+        let emission = &mut self.emission;
+        emission.take(
+            scene,
+            items.iter().map(|&e| {
+                let element = &mesh.elements[e as usize];
+                (e as usize, element.surface, element.area)
+            }),
+        )
     }
 
     fn total_shooter_power(&mut self, mesh: &Mesh) {
@@ -416,6 +434,7 @@ impl Shooter for AdaptiveShooting {
             power += self.unshot[e as usize] * mesh.elements[e as usize].area;
             elements += 1;
         }
+        let emitted = self.take_emission(scene, mesh, root);
         let gather_start = Instant::now();
         let (irradiance, counters) = self.gather_on_cpu(inputs, root)?;
         let gather_end = Instant::now();
@@ -437,6 +456,7 @@ impl Shooter for AdaptiveShooting {
         Some(Shot {
             irradiance,
             power,
+            emitted,
             selection_time: gather_start - start,
             booked: None,
         })

@@ -93,6 +93,13 @@ impl AdaptiveShooting {
         for &e in items {
             power += self.unshot[e as usize] * mesh.elements[e as usize].area;
         }
+        let emitted = self.emission.take(
+            scene,
+            items.iter().map(|&e| {
+                let element = &mesh.elements[e as usize];
+                (e as usize, element.surface, element.area)
+            }),
+        );
         let gather_start = Instant::now();
         let shot = AdaptiveShot {
             root,
@@ -144,6 +151,7 @@ impl AdaptiveShooting {
         Ok(Some(Shot {
             irradiance: Vec::new(),
             power,
+            emitted,
             selection_time: gather_start - start,
             booked: Some(booked.received),
         }))

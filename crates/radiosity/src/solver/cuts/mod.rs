@@ -37,6 +37,7 @@ use super::hierarchy::Hierarchy;
 use super::hierarchy::sources::Sources;
 use super::hierarchy::transfer::Transfer;
 use super::method::{
+    Emission,
     self, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
     ShotInputs, Stats, Value,
 };
@@ -168,6 +169,8 @@ struct CutShooting {
     hierarchy: Hierarchy,
     /// Unshot radiosity of each element.
     unshot: Vec<DVec3>,
+    /// The elements whose emission is still unshot.
+    emission: Emission,
     /// Each receiver's cut.
     cuts: Vec<Vec<Entry>>,
     /// The pass's sources.
@@ -194,6 +197,7 @@ impl CutShooting {
         };
         CutShooting {
             cuts: vec![root; receivers.len()],
+            emission: Emission::new(scene, mesh.elements.len(), |i| mesh.elements[i].surface),
             hierarchy,
             unshot: mesh
                 .elements
@@ -290,9 +294,19 @@ impl Shooter for CutShooting {
         stats.subsources += shooting;
         stats.gather_time += gather_end - gather_start;
         self.unshot.fill(DVec3::ZERO);
+        let emitted = self.emission.take(
+            inputs.scene,
+            inputs
+                .mesh
+                .elements
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (i, e.surface, e.area)),
+        );
         Some(Shot {
             irradiance,
             power,
+            emitted,
             selection_time: gather_start - start,
             booked: None,
         })
