@@ -815,6 +815,71 @@ fn serves_the_final_state_until_ctrl_c() {
     assert!(status.success());
 }
 
+/// The PNG's size and RGB bytes.
+fn decode_png(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buffer = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buffer).unwrap();
+    buffer.truncate(info.buffer_size());
+    (info.width, info.height, buffer)
+}
+
+/// Once the solve has ended, the server draws it with the final pass at
+/// the size the page said it draws at, from the scene's view: the very
+/// picture `radiosity render` draws of the same solve at that size. With
+/// `--final-gather off` there is none.
+#[test]
+fn the_ended_solve_is_drawn_with_the_final_pass() {
+    let served = Served::start(&["--pause-at", "0", "--max-shots", "40", "--threads", "1"]);
+    served.wait_for("the hold", |s| s["phase"] == "paused");
+    assert_eq!(served.get("/api/frame.png").status, 404);
+    assert_eq!(served.post("/api/view/80/60").status, 204);
+    served.post("/api/resume");
+    let end = served.wait_for("the final picture", |s| !s["frame"].is_null());
+    assert_eq!(end["frame"], serde_json::json!([80, 60]));
+    let r = served.get("/api/frame.png");
+    assert_eq!(r.status, 200);
+    assert_eq!(r.header("content-type"), Some("image/png"));
+    let (width, height, pixels) = decode_png(&r.body);
+    assert_eq!((width, height), (80, 60));
+    let picture = served.path("cli.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .env("RADIOSITY_DEVICE", "cpu")
+        .args([
+            "render",
+            "cornell",
+            "-q",
+            "--max-shots",
+            "40",
+            "--threads",
+            "1",
+        ])
+        .args(["--width", "80", "--height", "60", "--output"])
+        .arg(&picture)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (_, _, ours) = decode_png(&std::fs::read(&picture).unwrap());
+    assert_eq!(pixels, ours, "the server's picture is the command's");
+
+    let off = Served::start(&[
+        "--max-shots",
+        "3",
+        "--threads",
+        "1",
+        "--final-gather",
+        "off",
+    ]);
+    let end = off.wait_finished();
+    assert!(end["frame"].is_null(), "{end}");
+    assert_eq!(off.get("/api/frame.png").status, 404);
+}
+
 /// The listening socket is bound to 127.0.0.1 unless `--host` says
 /// otherwise (read from the kernel's socket table, sending nothing
 /// anywhere but loopback).

@@ -42,6 +42,8 @@ pub fn router(shared: Arc<Shared>, local: SocketAddr) -> Router {
         .route("/api/pause", post(pause))
         .route("/api/resume", post(resume))
         .route("/api/stop", post(stop))
+        .route("/api/view/{width}/{height}", post(view))
+        .route("/api/frame.png", get(frame))
         .fallback(get(asset))
         .layer(middleware::from_fn_with_state(app.clone(), guard))
         .with_state(app)
@@ -165,6 +167,25 @@ async fn resume(State(app): State<App>) -> Response {
 async fn stop(State(app): State<App>) -> Response {
     app.shared.stop();
     status(State(app)).await
+}
+
+/// The page's drawing size (`/api/view/WIDTH/HEIGHT`, device pixels),
+/// which the final picture takes.
+async fn view(State(app): State<App>, Path((width, height)): Path<(u32, u32)>) -> Response {
+    app.shared.set_view_size(width, height);
+    StatusCode::NO_CONTENT.into_response()
+}
+
+/// The final picture ([`super::state::Status::frame`]).
+async fn frame(State(app): State<App>) -> Response {
+    match app.shared.frame() {
+        Some(png) => ([(header::CONTENT_TYPE, "image/png")], png).into_response(),
+        None => (
+            StatusCode::NOT_FOUND,
+            "no final picture: the solve has not ended, or --final-gather is off",
+        )
+            .into_response(),
+    }
 }
 
 /// One vertex's data and radiosity (full precision) in the latest

@@ -48,6 +48,8 @@
 //! | `GET /api/status` | the status message as JSON |
 //! | `GET /api/vertex/{i}` | vertex `i`: position, normal, surface (input face), reflectance, emission, radiosity `B` (W/m^2, full precision), the ambient term, and `B + rho ambient` |
 //! | `POST /api/pause`, `/api/resume`, `/api/stop` | the controls; answer the status |
+//! | `POST /api/view/{width}/{height}` | the size the page draws at, device pixels (16 to 4096 a side): the final picture's size |
+//! | `GET /api/frame.png` | once the solve has ended, with the final pass on: the solution drawn from the scene's view with it (the status's `frame` gives its size); 404 before |
 //!
 //! # Messages on `/api/live`
 //! In order: one text message with the scene (JSON: `type: "scene"`,
@@ -59,7 +61,8 @@
 //! writing, finished), `seq`, `shots`, `subsources`, `rays`,
 //! `rays_per_second`, `unshot_fraction`, `elapsed_seconds` (pauses
 //! excluded), `pause_requested`, `stop_requested`, `stop_reason`,
-//! `written`), followed at once by a binary colour frame when its `seq`
+//! `written`, `device`, `device_shots`, `frame`: the final picture's
+//! `[width, height]` once drawn, else null), followed at once by a binary colour frame when its `seq`
 //! is not that of the client's previous frame (`seq` 0: nothing to show
 //! yet).
 //! All binary numbers are little-endian; every array starts on a multiple

@@ -16,7 +16,9 @@ use tokio::sync::watch;
 
 use super::wire::{self, Rgbe};
 use radiosity::app::{Counts, Observer, Outcome};
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::mesh::Mesh;
+use radiosity::render::{self, Exposure, RenderSettings};
 use radiosity::scene::{Camera, Scene};
 use radiosity::solver::{Flow, Solver, StopReason};
 use radiosity::view;
@@ -26,6 +28,12 @@ use radiosity::view;
 /// updates, and copying the radiosities costs the solve thread a copy of
 /// one vector this often. A pause always takes one.
 pub const SNAPSHOT_INTERVAL: Duration = Duration::from_millis(250);
+
+/// Smallest side of the final picture, pixels.
+pub const MIN_FRAME: u32 = 16;
+
+/// Largest side of the final picture, pixels.
+pub const MAX_FRAME: u32 = 4096;
 
 /// Where the run is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -75,6 +83,12 @@ pub struct Status {
     pub device: String,
     /// Shots whose transfers ran on it.
     pub device_shots: u64,
+    /// The size of the final picture, once the server has drawn it
+    /// (`GET /api/frame.png`): the solution with the final pass
+    /// ([`radiosity::final_gather`]), from the scene's view, when the solve
+    /// has ended (converged, stopped or out of time); `None` before, or
+    /// when the final pass is off.
+    pub frame: Option<[u32; 2]>,
 }
 
 /// The solution at one moment.
@@ -144,6 +158,8 @@ struct Inner {
     /// Shot counts at which the solve pauses by itself, ascending; each is
     /// removed once reached.
     holds: Vec<u64>,
+    /// The final picture (PNG), once drawn.
+    frame: Option<Bytes>,
 }
 
 /// State shared by the solve thread, the server's tasks and the Ctrl-C
@@ -162,6 +178,8 @@ pub struct Shared {
     changed: watch::Sender<u64>,
     /// Set when the server is to close.
     closing: watch::Sender<bool>,
+    /// The size the page draws at, for the final picture.
+    view_size: Mutex<[u32; 2]>,
 }
 
 impl Shared {
@@ -192,9 +210,11 @@ impl Shared {
                     written: Vec::new(),
                     device: "cpu".to_string(),
                     device_shots: 0,
+                    frame: None,
                 },
                 paused: false,
                 holds,
+                frame: None,
             }),
             resume: Condvar::new(),
             pause_flag: AtomicBool::new(false),
@@ -202,6 +222,7 @@ impl Shared {
             shutdown_flag: AtomicBool::new(false),
             changed: watch::Sender::new(0),
             closing: watch::Sender::new(false),
+            view_size: Mutex::new([800, 600]),
         }
     }
 
@@ -312,11 +333,75 @@ impl Shared {
         self.notify();
     }
 
-    fn set_scene(&self, scene: &Scene, mesh: &Mesh) {
-        let camera = self
-            .display
+    /// The size the page draws at (device pixels), for the final picture:
+    /// clamped to [`MIN_FRAME`, `MAX_FRAME`] per side.
+    pub fn set_view_size(&self, width: u32, height: u32) {
+        let clamp = |v: u32| v.clamp(MIN_FRAME, MAX_FRAME);
+        *self
+            .view_size
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = [clamp(width), clamp(height)];
+    }
+
+    /// The final picture (PNG), once drawn.
+    pub fn frame(&self) -> Option<Bytes> {
+        self.lock().frame.clone()
+    }
+
+    /// Draws the final picture of `solver`'s solution from the scene's
+    /// view at the page's size, with the final pass, as `radiosity render`
+    /// draws its picture (3 x 3 supersampling, automatic exposure plus the
+    /// display's stops), and publishes it.
+    fn draw_frame(&self, solver: &Solver<'_>) {
+        let scene = solver.scene();
+        let [width, height] = *self
+            .view_size
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let settings = RenderSettings {
+            width,
+            height,
+            camera: self.camera_of(scene),
+            supersampling: 3,
+        };
+        let pass = FinalPass::new(solver, solver.settings().final_gather);
+        let ambient = if self.display.ambient {
+            solver.ambient()
+        } else {
+            DVec3::ZERO
+        };
+        let display = solver.display_radiosity(self.display.ambient);
+        let image = render::render_shaded(
+            scene,
+            solver.mesh(),
+            &pass.vertex_display(&display, ambient),
+            &settings,
+            Some(&|points: &[Point]| pass.shade(points)),
+        );
+        let scale = image.exposure_scale(Exposure::Auto {
+            ev: self.display.exposure,
+        });
+        let mut png = Vec::new();
+        if radiosity::export::write_png(&mut png, width, height, &image.to_srgb8(scale)).is_err() {
+            return;
+        }
+        let mut inner = self.lock();
+        inner.frame = Some(Bytes::from(png));
+        inner.status.frame = Some([width, height]);
+        drop(inner);
+        self.notify();
+    }
+
+    /// The view the page starts from: the display's camera, or the
+    /// scene's, or one framing it.
+    fn camera_of(&self, scene: &Scene) -> Camera {
+        self.display
             .camera
-            .unwrap_or_else(|| view::camera_or_framing(scene));
+            .unwrap_or_else(|| view::camera_or_framing(scene))
+    }
+
+    fn set_scene(&self, scene: &Scene, mesh: &Mesh) {
+        let camera = self.camera_of(scene);
         let counts = Counts::of(scene, mesh);
         let (lo, hi) = scene.bounds();
         let mesh_message = wire::mesh_message(scene, mesh);
@@ -579,6 +664,9 @@ impl Observer for LiveObserver {
 
     fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
         self.publish(solver, Phase::Writing, Some(stop));
+        if solver.settings().final_gather != FinalGather::Off {
+            self.shared.draw_frame(solver);
+        }
     }
 }
 

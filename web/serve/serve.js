@@ -64,6 +64,26 @@ let updates = 0; // colour frames drawn
 let undrawn = null; // seq of a colour frame not drawn yet
 let picked = null;
 let status = null;
+let frameShown = false; // the final picture has been fetched
+
+// The final picture: the server draws the ended solve from the scene's
+// view with the final pass, at the size the page draws at.
+function showFrame(on) {
+  $('final').checked = on;
+  $('frame').hidden = !on;
+  if (on && info) {
+    setView();
+    measureKey();
+    draw();
+  }
+}
+
+function sendViewSize() {
+  const ratio = window.devicePixelRatio || 1;
+  const w = Math.round(Math.max(1, canvas.clientWidth) * ratio);
+  const h = Math.round(Math.max(1, canvas.clientHeight) * ratio);
+  fetch(`/api/view/${w}/${h}`, { method: 'POST' }).catch(() => {});
+}
 const marker = new THREE.Mesh(
   new THREE.SphereGeometry(1, 12, 8),
   new THREE.MeshBasicMaterial({ color: 0xff30ff, depthTest: false }),
@@ -242,6 +262,11 @@ function onStatus(s) {
   $('pause').textContent = holding ? 'Resume' : 'Pause';
   $('pause').disabled = !running || s.stop_requested;
   $('stop').disabled = !running || s.stop_requested;
+  if (s.frame && !frameShown) {
+    frameShown = true;
+    $('frame').src = `/api/frame.png?seq=${s.seq}`;
+    $('final-row').hidden = false;
+  }
   if (s.written.length > 0) {
     $('written').hidden = false;
     $('written').textContent = `wrote ${s.written.join(', ')}`;
@@ -325,8 +350,10 @@ canvas.addEventListener('pointerup', (e) => {
   pointerDown = null;
 });
 controls.addEventListener('change', draw);
+controls.addEventListener('start', () => { if ($('final').checked) showFrame(false); });
+$('final').addEventListener('change', () => showFrame($('final').checked));
 controls.addEventListener('end', () => { measureKey(); draw(); });
-new ResizeObserver(() => { if (info) resize(); }).observe(canvas);
+new ResizeObserver(() => { sendViewSize(); if (info) resize(); }).observe(canvas);
 $('pause').addEventListener('click', () => {
   control(status && (status.phase === 'paused' || status.pause_requested) ? 'resume' : 'pause');
 });

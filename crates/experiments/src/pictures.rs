@@ -142,7 +142,7 @@ fn draw(solver: &Solver<'_>, mode: FinalGather, camera: Camera) -> (render::Imag
     let image = if mode == FinalGather::Off {
         render::render(solver.scene(), solver.mesh(), &display, &settings)
     } else {
-        let pass = FinalPass::new(solver, mode).with_samples(SUPERSAMPLING.pow(2));
+        let pass = FinalPass::new(solver, mode);
         render::render_shaded(
             solver.scene(),
             solver.mesh(),

@@ -27,13 +27,16 @@
 //! same estimator as at any other point ([`FinalPass::direct`]).
 //!
 //! **Direct light at a point.** The scene's lights as their shots do
-//! ([`lights::gather`]); each emitting patch by its exact unoccluded factor
-//! (equation (2), [`form_factor::analytic`]) times the fraction of it in
-//! view, from shadow rays to the centroids of its `n x n` subsources
-//! (weighted by their point factors, as the paper's subsources are), each
-//! dimmed by the glass it crosses. A picture's sample casts one ray per
-//! patch: the samples of a pixel take the subsources in turn, so a pixel of
-//! `s x s` samples sees each patch through `s x s` rays.
+//! ([`lights::gather`]); each emitting surface by its exact unoccluded
+//! factor (equation (2), [`form_factor::analytic`]) times the fraction of
+//! it in view, from shadow rays in directions drawn in proportion to the
+//! projected solid angle (Arvo's spherical triangles, kept with probability
+//! their cosine), each dimmed by the glass it crosses: exact where nothing
+//! blocks, whatever the emitter's size, and as many rays for a sky opening
+//! of two hundred patches as for a bulb. A picture's sample casts one ray
+//! per emitting surface, the `s x s` samples of a pixel taking the cells of
+//! a grid over it in turn; a vertex, texel or sensor casts
+//! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`], stratified the same way.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -42,7 +45,8 @@ use crate::accel::{self, Occluder};
 use crate::export::lightmap::texels::Locator;
 use crate::form_factor;
 use crate::geometry;
-use crate::mesh::{self, Mesh};
+use crate::geometry::spherical;
+use crate::mesh::Mesh;
 use crate::scene::{Scene, glass};
 use crate::solver::method::{ShotInputs, Stats};
 use crate::solver::{Abort, Receiver, Settings, Solver, lights, surface_receivers};
@@ -60,8 +64,8 @@ crate::choice::named_choice! {
     }
 }
 
-/// Subsources per side of an emitting patch for a point that casts all its
-/// rays at once (a vertex, a texel, a sensor).
+/// Rays per side of the stratified grid over an emitting surface for a
+/// point that casts all its rays at once (a vertex, a texel, a sensor).
 pub const EMITTER_SIDE: u32 = 4;
 
 /// Hemisphere rays of a `full` gather at a sensor or texel: at least
@@ -94,19 +98,13 @@ pub struct Point {
     pub seed: u64,
 }
 
-/// An emitting patch, set up for points.
+/// An emitting surface, set up for points.
 struct Emitter {
     polygon: Vec<DVec3>,
     normal: DVec3,
     offset: f64,
     emission: DVec3,
     group: u32,
-    /// Its [`EMITTER_SIDE`] x [`EMITTER_SIDE`] subsources.
-    pieces: Vec<Vec<DVec3>>,
-    /// Subsources for a picture's samples ([`FinalPass::with_samples`]):
-    /// `side` per side.
-    sample_side: u32,
-    sample_pieces: Vec<Vec<DVec3>>,
 }
 
 /// A solved scene ready to be shown point by point.
@@ -135,7 +133,7 @@ impl<'a> FinalPass<'a> {
         let emitters = if mode == FinalGather::Off {
             Vec::new()
         } else {
-            emitters(scene, mesh)
+            emitters(scene)
         };
         let mut pass = FinalPass {
             scene,
@@ -188,18 +186,6 @@ impl<'a> FinalPass<'a> {
             ));
         }
         pass
-    }
-
-    /// Sets up the emitting patches for picture samples, `n` a pixel
-    /// ([`Point::sample`]).
-    #[must_use]
-    pub fn with_samples(mut self, n: u32) -> FinalPass<'a> {
-        let side = sample_side(n);
-        for e in &mut self.emitters {
-            e.sample_side = side;
-            e.sample_pieces = pieces(&e.polygon, side);
-        }
-        self
     }
 
     /// The mode in force.
@@ -366,13 +352,13 @@ impl<'a> FinalPass<'a> {
                 let seed = points.map_or(i as u64, |p| p[i].seed);
                 self.emitters
                     .iter()
-                    .map(|e| self.from_emitter(e, r, sample, seed))
+                    .map(|e| self.emitter_light(e, r, sample, seed))
                     .sum()
             })
             .collect()
     }
 
-    fn from_emitter(
+    fn emitter_light(
         &self,
         e: &Emitter,
         r: &Receiver,
@@ -385,111 +371,142 @@ impl<'a> FinalPass<'a> {
         if e.polygon.iter().all(|c| r.normal.dot(*c - r.point) <= 0.0) {
             return DVec3::ZERO;
         }
-        // A piece's exact factor (equation (2), clipped to the receiver's
-        // front) times what passes from a point of it: the part of the
-        // piece in front of the receiver (a piece crossing its tangent
-        // plane is clipped, and seen from the clipped part's centroid).
-        let through = |piece: &[DVec3], at: Option<DVec3>| -> DVec3 {
-            let factor = form_factor::analytic(r.point, r.normal, piece);
-            if factor <= 0.0 {
+        let factor = form_factor::analytic(r.point, r.normal, &e.polygon);
+        if factor <= 0.0 {
+            return DVec3::ZERO;
+        }
+        let Some(view) = SphericalPolygon::new(r.point, r.normal, &e.polygon) else {
+            return DVec3::ZERO;
+        };
+        // What passes from the emitter along `direction`: 0 where a
+        // surface blocks it, else the glass's transmittance.
+        let seen = |direction: DVec3| -> DVec3 {
+            let along = e.normal.dot(direction);
+            if along >= 0.0 {
                 return DVec3::ZERO;
             }
-            let front = |c: DVec3| r.normal.dot(c - r.point) > 0.0;
-            let c = match at {
-                Some(c) if front(c) => c,
-                _ if piece.iter().all(|c| front(*c)) => geometry::centroid(piece),
-                _ => {
-                    let mut clipped = Vec::with_capacity(piece.len() + 2);
-                    geometry::clip_to_half_space(piece, r.point, r.normal, 0.0, &mut clipped);
-                    if clipped.len() < 3 {
-                        return DVec3::ZERO;
-                    }
-                    geometry::centroid(&clipped)
-                }
-            };
+            let c = r.point + direction * ((e.offset - e.normal.dot(r.point)) / along);
             let (a, b) = accel::shorten(c, r.point);
             if self.occluder.occluded(a, b, [e.group, r.group]) {
                 DVec3::ZERO
             } else if self.scene.panes.is_empty() {
-                DVec3::splat(factor)
+                DVec3::ONE
             } else {
-                factor * glass::transmittance(&self.scene.panes, c, r.point)
+                glass::transmittance(&self.scene.panes, c, r.point)
             }
         };
         let passed = match sample {
+            // A pixel's `k`-th of `n` samples: the `k`-th cell of a grid
+            // over the emitter's projected solid angle, shifted per pixel.
             Some((k, n)) => {
-                // One piece of an `s x s` grid (`s^2 >= n`) a sample, the
-                // pixel's samples taking them in turn from a place of the
-                // pixel's own, seen from a point drawn uniformly in it: a
-                // pixel whose samples all fall on one surface sums every
-                // piece's exact factor, and a penumbra is smooth noise,
-                // not copies of a shadow.
-                let side = sample_side(n);
-                let own;
-                let pieces = if side == e.sample_side {
-                    &e.sample_pieces
-                } else {
-                    own = pieces(&e.polygon, side);
-                    &own
-                };
-                let count = pieces.len() as u64;
-                let piece = &pieces[((u64::from(k) + seed % count) % count) as usize];
-                let stream = u64::from(k) * 2 + 2;
-                let at = point_in(piece, unit(seed, stream), unit(seed, stream + 1));
-                through(piece, Some(at)) * count as f64
+                let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1);
+                let shift = [unit(seed, 2), unit(seed, 3)];
+                let cell = [f64::from(k % side), f64::from(k / side)];
+                let u = [0, 1].map(|i| ((cell[i] + shift[i]) / f64::from(side)).fract());
+                seen(view.sample(r.normal, u, seed, u64::from(k)))
             }
-            None => e.pieces.iter().map(|piece| through(piece, None)).sum(),
+            None => {
+                let side = EMITTER_SIDE;
+                let mut sum = DVec3::ZERO;
+                for k in 0..side * side {
+                    let cell = [f64::from(k % side), f64::from(k / side)];
+                    let u = [0, 1].map(|i| {
+                        (cell[i] + unit(seed, 2 * u64::from(k) + 4 + i as u64)) / f64::from(side)
+                    });
+                    sum += seen(view.sample(r.normal, u, seed, u64::from(k)));
+                }
+                sum / f64::from(side * side)
+            }
         };
-        e.emission * passed
+        e.emission * factor * passed
     }
 }
 
-/// The emitting patches of the mesh.
-fn emitters(scene: &Scene, mesh: &Mesh) -> Vec<Emitter> {
-    mesh.patches
-        .iter()
-        .filter(|p| scene.surfaces[p.surface as usize].is_emitter())
-        .map(|p| {
-            let s = &scene.surfaces[p.surface as usize];
-            Emitter {
-                normal: s.normal,
-                offset: s.offset,
-                emission: s.emission,
-                group: s.group,
-                pieces: pieces(&p.polygon, EMITTER_SIDE),
-                sample_side: 0,
-                sample_pieces: Vec::new(),
-                polygon: p.polygon.clone(),
+/// A polygon seen from a point: its part in front of the point's tangent
+/// plane as spherical triangles (a fan), for directions drawn in proportion
+/// to the projected solid angle.
+struct SphericalPolygon {
+    /// Each triangle and where its share of the solid angle ends.
+    triangles: Vec<(spherical::Triangle, f64, f64)>,
+    total: f64,
+}
+
+impl SphericalPolygon {
+    fn new(p: DVec3, normal: DVec3, polygon: &[DVec3]) -> Option<SphericalPolygon> {
+        let mut clipped = Vec::with_capacity(polygon.len() + 2);
+        geometry::clip_to_half_space(polygon, p, normal, 0.0, &mut clipped);
+        let corners: Vec<DVec3> = clipped
+            .iter()
+            .filter_map(|c| (*c - p).try_normalize())
+            .collect();
+        if corners.len() < 3 {
+            return None;
+        }
+        let mut triangles = Vec::with_capacity(corners.len() - 2);
+        let mut total = 0.0;
+        for pair in corners[1..].windows(2) {
+            let omega = spherical::solid_angle(corners[0], pair[0], pair[1]);
+            if omega > 0.0 {
+                triangles.push((
+                    spherical::Triangle::new(corners[0], pair[0], pair[1], omega),
+                    total,
+                    total + omega,
+                ));
+                total += omega;
             }
+        }
+        (total > 0.0).then_some(SphericalPolygon { triangles, total })
+    }
+
+    /// A direction drawn in proportion to the cosine to `normal` over the
+    /// solid angle: the first try at `u` (stratified by the caller), then
+    /// fresh numbers from `seed` and `stream` until one is kept with
+    /// probability its cosine (at most [`MAX_TRIES`]; the last is kept).
+    fn sample(&self, normal: DVec3, u: [f64; 2], seed: u64, stream: u64) -> DVec3 {
+        let mut numbers = u;
+        let mut direction = DVec3::ZERO;
+        for attempt in 0..MAX_TRIES {
+            // The triangle by its share of the solid angle; `numbers[0]`
+            // re-used within it.
+            let at = numbers[0] * self.total;
+            let index = self
+                .triangles
+                .partition_point(|(_, _, end)| *end <= at)
+                .min(self.triangles.len() - 1);
+            let (triangle, start, end) = &self.triangles[index];
+            let within = ((at - start) / (end - start)).clamp(0.0, 1.0);
+            direction = triangle.sample(within, numbers[1]);
+            let keep = unit(
+                seed,
+                1_000 + stream * u64::from(MAX_TRIES) + u64::from(attempt),
+            );
+            if keep < normal.dot(direction) {
+                return direction;
+            }
+            let next = 2 * (stream * u64::from(MAX_TRIES) + u64::from(attempt)) + 100_000;
+            numbers = [unit(seed, next), unit(seed, next + 1)];
+        }
+        direction
+    }
+}
+
+/// Most directions drawn for one kept in proportion to the cosine.
+const MAX_TRIES: u32 = 64;
+
+/// The scene's emitting surfaces.
+fn emitters(scene: &Scene) -> Vec<Emitter> {
+    scene
+        .surfaces
+        .iter()
+        .filter(|s| s.is_emitter())
+        .map(|s| Emitter {
+            polygon: s.polygon.clone(),
+            normal: s.normal,
+            offset: s.offset,
+            emission: s.emission,
+            group: s.group,
         })
         .collect()
-}
-
-/// Subsources per side for `n` samples a pixel: the smallest square grid
-/// with at least `n` pieces.
-fn sample_side(n: u32) -> u32 {
-    (f64::from(n.max(1)).sqrt().ceil() as u32).max(1)
-}
-
-/// The corners of `polygon`'s `side x side` subsources.
-fn pieces(polygon: &[DVec3], side: u32) -> Vec<Vec<DVec3>> {
-    mesh::subsources(polygon, side)
-        .into_iter()
-        .map(|k| k.polygon)
-        .collect()
-}
-
-/// The point at `(u, v)` in `[0, 1)^2` of a triangle (uniform by area) or
-/// a quad (bilinear: uniform by area on a parallelogram).
-fn point_in(piece: &[DVec3], u: f64, v: f64) -> DVec3 {
-    if piece.len() == 4 {
-        let bottom = piece[0].lerp(piece[1], u);
-        let top = piece[3].lerp(piece[2], u);
-        bottom.lerp(top, v)
-    } else {
-        let r = u.sqrt();
-        piece[0] * (1.0 - r) + piece[1] * (r * (1.0 - v)) + piece[2] * (r * v)
-    }
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis.

@@ -63,7 +63,7 @@ fn a_sun_shadow_edge_is_at_most_two_pixels_wide() {
     let scene = board_in_the_sun();
     let settings = Settings::adaptive();
     assert_eq!(settings.final_gather, FinalGather::Direct);
-    let mut mesh_settings = settings.mesh.clone();
+    let mut mesh_settings = settings.mesh;
     let hint = scene.default_mesh_sizes();
     mesh_settings.patch_size = hint.patch_size;
     mesh_settings.element_size = hint.element_size;
@@ -109,7 +109,7 @@ fn a_sun_shadow_edge_is_at_most_two_pixels_wide() {
         );
         (across, along)
     };
-    let pass = FinalPass::new(&solver, FinalGather::Direct).with_samples(9);
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
     let display = solver.display_radiosity(true);
     let ambient = solver.ambient();
     let sharp = render::render_shaded(
@@ -172,7 +172,7 @@ fn direct_and_indirect_add_up_to_the_total_at_every_vertex() {
         intensity: 30.0,
     });
     let settings = Settings::adaptive();
-    let mut mesh_settings = settings.mesh.clone();
+    let mut mesh_settings = settings.mesh;
     let hint = scene.default_mesh_sizes();
     mesh_settings.patch_size = hint.patch_size;
     mesh_settings.element_size = hint.element_size;
@@ -239,7 +239,7 @@ fn an_emitting_patch_gives_its_closed_form() {
     let surfaces = common::lamp_over_floor(0.5, side, height, exitance);
     let scene = scene_of(surfaces.clone());
     let settings = Settings::adaptive();
-    let mut mesh_settings = settings.mesh.clone();
+    let mut mesh_settings = settings.mesh;
     mesh_settings.patch_size = 0.25;
     mesh_settings.element_size = 0.25;
     let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
@@ -314,7 +314,7 @@ fn a_full_gather_in_the_furnace_gives_the_closed_form() {
         converge: 1e-5,
         ..Settings::adaptive()
     };
-    let mut mesh_settings = settings.mesh.clone();
+    let mut mesh_settings = settings.mesh;
     mesh_settings.patch_size = 0.5;
     mesh_settings.element_size = 0.25;
     let mesh = Mesh::build(&scene, &mesh_settings).unwrap();

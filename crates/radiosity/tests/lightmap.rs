@@ -13,8 +13,8 @@ use std::path::Path;
 use common::{quad, scene_of};
 use glam::{DVec2, DVec3};
 use radiosity::export::gltf::BakeMode;
-use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::export::lightmap::{self, AtlasSettings, LightmapBake, LightmapReport};
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::scene::gltf::{Appearance, load_slice};
 use radiosity::scene::{Camera, LoadOptions, Scene};
 use radiosity::solver::refine::refined_mesh;
@@ -244,7 +244,9 @@ fn a_sun_shadow_edge_in_a_lightmap_is_at_most_two_texels_wide() {
             final_gather,
             Settings::adaptive().converge,
         );
-        let exr = files.iter().find(|(p, _)| p.to_string_lossy().ends_with(".exr"));
+        let exr = files
+            .iter()
+            .find(|(p, _)| p.to_string_lossy().ends_with(".exr"));
         let (pixels, _, _) = exr_pixels(&exr.unwrap().1);
         let lit = pixels.iter().map(|p| p[1]).fold(0.0f32, f32::max);
         let between = pixels

@@ -217,9 +217,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let final_start = Instant::now();
     let pass = (settings.final_gather != FinalGather::Off
         && (shown || lightmap || job.sensors.is_some()))
-    .then(|| {
-        FinalPass::new(&solver, settings.final_gather).with_samples(view.supersampling.pow(2))
-    });
+    .then(|| FinalPass::new(&solver, settings.final_gather));
     final_gather_time += final_start.elapsed();
     let mut exposure = None;
     if shown {

@@ -345,11 +345,7 @@ impl Emission {
 
     /// The emission power of `units` (unit, its surface, its area) still
     /// pending, which are now shot.
-    pub fn take(
-        &mut self,
-        scene: &Scene,
-        units: impl Iterator<Item = (usize, u32, f64)>,
-    ) -> DVec3 {
+    pub fn take(&mut self, scene: &Scene, units: impl Iterator<Item = (usize, u32, f64)>) -> DVec3 {
         let mut power = DVec3::ZERO;
         for (i, surface, area) in units {
             if std::mem::take(&mut self.pending[i]) {

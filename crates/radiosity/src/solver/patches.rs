@@ -15,9 +15,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::method::{
-    Emission,
-    Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot, ShotInputs,
-    Stats, VISIBILITY, Value, Visibility,
+    Counter, Emission, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
+    ShotInputs, Stats, VISIBILITY, Value, Visibility,
 };
 use super::{Receiver, Settings};
 use crate::accel::{self, Occluder};

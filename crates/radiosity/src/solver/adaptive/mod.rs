@@ -52,9 +52,8 @@ pub use super::hierarchy::transfer::FAR_RATIO;
 use super::hierarchy::transfer::Transfer;
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
-    Emission,
-    self, Checkpoint, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter,
-    Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
+    self, Checkpoint, Counter, Emission, Kind, Method, MethodError, Parameter, Received, SetError,
+    Shooter, Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
 };
 use super::{Receiver, Settings};
 use crate::luminance;

@@ -37,9 +37,8 @@ use super::hierarchy::Hierarchy;
 use super::hierarchy::sources::Sources;
 use super::hierarchy::transfer::Transfer;
 use super::method::{
-    Emission,
-    self, Counter, Kind, Method, MethodError, Parameter, Received, SetError, Shooter, Shot,
-    ShotInputs, Stats, Value,
+    self, Counter, Emission, Kind, Method, MethodError, Parameter, Received, SetError, Shooter,
+    Shot, ShotInputs, Stats, Value,
 };
 use super::{Receiver, Settings};
 use crate::luminance;
