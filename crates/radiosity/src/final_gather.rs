@@ -27,16 +27,19 @@
 //! same estimator as at any other point ([`FinalPass::direct`]).
 //!
 //! **Direct light at a point.** The scene's lights as their shots do
-//! ([`lights::gather`]); each emitting surface by its exact unoccluded
-//! factor (equation (2), [`form_factor::analytic`]) times the fraction of
-//! it in view, from shadow rays in directions drawn in proportion to the
-//! projected solid angle (Arvo's spherical triangles, kept with probability
-//! their cosine), each dimmed by the glass it crosses: exact where nothing
-//! blocks, whatever the emitter's size, and as many rays for a sky opening
-//! of two hundred patches as for a bulb. A picture's sample casts one ray
-//! per emitting surface, the `s x s` samples of a pixel taking the cells of
-//! a grid over it in turn; a vertex, texel or sensor casts
-//! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`], stratified the same way.
+//! ([`lights::gather`]); each emitting surface in pieces (the paper's
+//! subsources of each of its triangles or quads, `s x s` a side), each
+//! piece's exact factor (equation (2), [`form_factor::analytic`], clipped
+//! to the receiver's front) times what passes along a shadow ray from a
+//! point of it, dimmed by the glass it crosses: exact where nothing blocks,
+//! and as many rays for a sky opening of two hundred patches as for a
+//! bulb. A picture's sample casts one ray per emitting surface: the `s x s`
+//! samples of a pixel take the pieces of an `s x s` grid in turn from a
+//! place of the pixel's own, each from a point drawn uniformly in it, so a
+//! pixel sums every piece's factor and a penumbra is smooth noise, not
+//! copies of a shadow; a vertex, texel or sensor casts
+//! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each piece's
+//! centroid.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -45,8 +48,7 @@ use crate::accel::{self, Occluder};
 use crate::export::lightmap::texels::Locator;
 use crate::form_factor;
 use crate::geometry;
-use crate::geometry::spherical;
-use crate::mesh::Mesh;
+use crate::mesh::{self, Mesh};
 use crate::scene::{Scene, glass};
 use crate::solver::method::{ShotInputs, Stats};
 use crate::solver::{Abort, Receiver, Settings, Solver, lights, surface_receivers};
@@ -105,7 +107,24 @@ struct Emitter {
     offset: f64,
     emission: DVec3,
     group: u32,
+    /// Its pieces at 1 to [`PRESPLIT`] per side (index `side - 1`).
+    pieces: Vec<Vec<Piece>>,
 }
+
+/// A piece of an emitting surface.
+struct Piece {
+    polygon: Vec<DVec3>,
+    centroid: DVec3,
+    area: f64,
+}
+
+/// Grids of pieces set up beforehand per emitter: up to this many per side.
+const PRESPLIT: u32 = 6;
+
+/// A picture's sample casts `SAMPLE_SPLIT^2` rays to each emitting surface,
+/// so a pixel of `s x s` samples sees it through a grid of
+/// `s SAMPLE_SPLIT` pieces a side.
+pub const SAMPLE_SPLIT: u32 = 2;
 
 /// A solved scene ready to be shown point by point.
 pub struct FinalPass<'a> {
@@ -371,21 +390,50 @@ impl<'a> FinalPass<'a> {
         if e.polygon.iter().all(|c| r.normal.dot(*c - r.point) <= 0.0) {
             return DVec3::ZERO;
         }
-        let factor = form_factor::analytic(r.point, r.normal, &e.polygon);
-        if factor <= 0.0 {
-            return DVec3::ZERO;
-        }
-        let Some(view) = SphericalPolygon::new(r.point, r.normal, &e.polygon) else {
-            return DVec3::ZERO;
-        };
-        // What passes from the emitter along `direction`: 0 where a
-        // surface blocks it, else the glass's transmittance.
-        let seen = |direction: DVec3| -> DVec3 {
-            let along = e.normal.dot(direction);
-            if along >= 0.0 {
+        // A piece's exact factor (equation (2), clipped to the receiver's
+        // front) times what passes from a point of it (`at`, or its
+        // centroid): a piece crossing the receiver's tangent plane is seen
+        // from its clipped part.
+        let through = |piece: &[DVec3], at: Option<DVec3>| -> DVec3 {
+            let factor = form_factor::analytic(r.point, r.normal, piece);
+            if factor <= 0.0 {
                 return DVec3::ZERO;
             }
-            let c = r.point + direction * ((e.offset - e.normal.dot(r.point)) / along);
+            let front = |c: DVec3| r.normal.dot(c - r.point) > 0.0;
+            let c = match at {
+                Some(c) if front(c) => c,
+                _ if piece.iter().all(|c| front(*c)) => geometry::centroid(piece),
+                _ => {
+                    let mut clipped = Vec::with_capacity(piece.len() + 2);
+                    geometry::clip_to_half_space(piece, r.point, r.normal, 0.0, &mut clipped);
+                    if clipped.len() < 3 {
+                        return DVec3::ZERO;
+                    }
+                    geometry::centroid(&clipped)
+                }
+            };
+            let (a, b) = accel::shorten(c, r.point);
+            if self.occluder.occluded(a, b, [e.group, r.group]) {
+                DVec3::ZERO
+            } else if self.scene.panes.is_empty() {
+                DVec3::splat(factor)
+            } else {
+                factor * glass::transmittance(&self.scene.panes, c, r.point)
+            }
+        };
+        // What passes from `at` (a point of `piece`; its clipped part's
+        // centroid when `at` lies behind the receiver's tangent plane).
+        let seen_from = |piece: &[DVec3], at: DVec3| -> DVec3 {
+            let c = if r.normal.dot(at - r.point) > 0.0 {
+                at
+            } else {
+                let mut clipped = Vec::with_capacity(piece.len() + 2);
+                geometry::clip_to_half_space(piece, r.point, r.normal, 0.0, &mut clipped);
+                if clipped.len() < 3 {
+                    return DVec3::ZERO;
+                }
+                geometry::centroid(&clipped)
+            };
             let (a, b) = accel::shorten(c, r.point);
             if self.occluder.occluded(a, b, [e.group, r.group]) {
                 DVec3::ZERO
@@ -396,102 +444,68 @@ impl<'a> FinalPass<'a> {
             }
         };
         let passed = match sample {
-            // A pixel's `k`-th of `n` samples: the `k`-th cell of a grid
-            // over the emitter's projected solid angle, shifted per pixel.
+            // One piece of an `s x s` grid (`s^2 >= n`) a sample, the
+            // pixel's samples taking them in turn from a place of the
+            // pixel's own, seen from a point drawn uniformly in it.
             Some((k, n)) => {
-                let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1);
-                let shift = [unit(seed, 2), unit(seed, 3)];
-                let cell = [f64::from(k % side), f64::from(k / side)];
-                let u = [0, 1].map(|i| ((cell[i] + shift[i]) / f64::from(side)).fract());
-                seen(view.sample(r.normal, u, seed, u64::from(k)))
-            }
-            None => {
-                let side = EMITTER_SIDE;
-                let mut sum = DVec3::ZERO;
-                for k in 0..side * side {
-                    let cell = [f64::from(k % side), f64::from(k / side)];
-                    let u = [0, 1].map(|i| {
-                        (cell[i] + unit(seed, 2 * u64::from(k) + 4 + i as u64)) / f64::from(side)
-                    });
-                    sum += seen(view.sample(r.normal, u, seed, u64::from(k)));
+                let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1) * SAMPLE_SPLIT;
+                let own;
+                let pieces = match e.pieces.get(side as usize - 1) {
+                    Some(pieces) => pieces,
+                    None => {
+                        own = pieces(&e.polygon, side);
+                        &own
+                    }
+                };
+                let count = pieces.len() as u64;
+                if count == 0 {
+                    return DVec3::ZERO;
                 }
-                sum / f64::from(side * side)
+                // `SAMPLE_SPLIT^2` pieces a sample, `n` apart: the pixel's
+                // samples take every piece of the grid once (when there are
+                // no more than that: a triangle or a quad), from a place of
+                // the pixel's own. Each piece's share of the surface's
+                // exact factor is its point factor's share of theirs (the
+                // surface's factor is then exact where nothing blocks; one
+                // exact factor a sample, not one a piece).
+                let whole = form_factor::analytic(r.point, r.normal, &e.polygon);
+                if whole <= 0.0 {
+                    return DVec3::ZERO;
+                }
+                let weight = |piece: &Piece| {
+                    let d = piece.centroid - r.point;
+                    let d2 = d.length_squared();
+                    let cosines = (r.normal.dot(d) * -e.normal.dot(d)).max(0.0);
+                    piece.area * cosines / (d2 * d2)
+                };
+                let total: f64 = pieces.iter().map(|p| weight(p)).sum();
+                if total <= 0.0 {
+                    return DVec3::ZERO;
+                }
+                let rays = u64::from(SAMPLE_SPLIT * SAMPLE_SPLIT);
+                let mut sum = DVec3::ZERO;
+                for j in 0..rays {
+                    let index = (u64::from(k) + j * u64::from(n) + seed % count) % count;
+                    let piece = &pieces[index as usize];
+                    let share = weight(piece) / total;
+                    if share <= 0.0 {
+                        continue;
+                    }
+                    let stream = (u64::from(k) * rays + j) * 2 + 2;
+                    let at = point_in(&piece.polygon, unit(seed, stream), unit(seed, stream + 1));
+                    sum += seen_from(&piece.polygon, at) * share;
+                }
+                // Each piece drawn stands for `count / rays` of them.
+                sum * (whole * count as f64 / rays as f64)
             }
+            None => e.pieces[EMITTER_SIDE as usize - 1]
+                .iter()
+                .map(|piece| through(&piece.polygon, None))
+                .sum(),
         };
-        e.emission * factor * passed
+        e.emission * passed
     }
 }
-
-/// A polygon seen from a point: its part in front of the point's tangent
-/// plane as spherical triangles (a fan), for directions drawn in proportion
-/// to the projected solid angle.
-struct SphericalPolygon {
-    /// Each triangle and where its share of the solid angle ends.
-    triangles: Vec<(spherical::Triangle, f64, f64)>,
-    total: f64,
-}
-
-impl SphericalPolygon {
-    fn new(p: DVec3, normal: DVec3, polygon: &[DVec3]) -> Option<SphericalPolygon> {
-        let mut clipped = Vec::with_capacity(polygon.len() + 2);
-        geometry::clip_to_half_space(polygon, p, normal, 0.0, &mut clipped);
-        let corners: Vec<DVec3> = clipped
-            .iter()
-            .filter_map(|c| (*c - p).try_normalize())
-            .collect();
-        if corners.len() < 3 {
-            return None;
-        }
-        let mut triangles = Vec::with_capacity(corners.len() - 2);
-        let mut total = 0.0;
-        for pair in corners[1..].windows(2) {
-            let omega = spherical::solid_angle(corners[0], pair[0], pair[1]);
-            if omega > 0.0 {
-                triangles.push((
-                    spherical::Triangle::new(corners[0], pair[0], pair[1], omega),
-                    total,
-                    total + omega,
-                ));
-                total += omega;
-            }
-        }
-        (total > 0.0).then_some(SphericalPolygon { triangles, total })
-    }
-
-    /// A direction drawn in proportion to the cosine to `normal` over the
-    /// solid angle: the first try at `u` (stratified by the caller), then
-    /// fresh numbers from `seed` and `stream` until one is kept with
-    /// probability its cosine (at most [`MAX_TRIES`]; the last is kept).
-    fn sample(&self, normal: DVec3, u: [f64; 2], seed: u64, stream: u64) -> DVec3 {
-        let mut numbers = u;
-        let mut direction = DVec3::ZERO;
-        for attempt in 0..MAX_TRIES {
-            // The triangle by its share of the solid angle; `numbers[0]`
-            // re-used within it.
-            let at = numbers[0] * self.total;
-            let index = self
-                .triangles
-                .partition_point(|(_, _, end)| *end <= at)
-                .min(self.triangles.len() - 1);
-            let (triangle, start, end) = &self.triangles[index];
-            let within = ((at - start) / (end - start)).clamp(0.0, 1.0);
-            direction = triangle.sample(within, numbers[1]);
-            let keep = unit(
-                seed,
-                1_000 + stream * u64::from(MAX_TRIES) + u64::from(attempt),
-            );
-            if keep < normal.dot(direction) {
-                return direction;
-            }
-            let next = 2 * (stream * u64::from(MAX_TRIES) + u64::from(attempt)) + 100_000;
-            numbers = [unit(seed, next), unit(seed, next + 1)];
-        }
-        direction
-    }
-}
-
-/// Most directions drawn for one kept in proportion to the cosine.
-const MAX_TRIES: u32 = 64;
 
 /// The scene's emitting surfaces.
 fn emitters(scene: &Scene) -> Vec<Emitter> {
@@ -505,8 +519,57 @@ fn emitters(scene: &Scene) -> Vec<Emitter> {
             offset: s.offset,
             emission: s.emission,
             group: s.group,
+            pieces: (1..=PRESPLIT.max(EMITTER_SIDE))
+                .map(|side| pieces(&s.polygon, side))
+                .collect(),
         })
         .collect()
+}
+
+/// `polygon` in pieces: a triangle's or quad's `side x side` subsources
+/// (the paper's), a larger polygon's triangles' each.
+fn pieces(polygon: &[DVec3], side: u32) -> Vec<Piece> {
+    let split = |p: &[DVec3]| -> Vec<Piece> {
+        mesh::subsources(p, side)
+            .into_iter()
+            .map(|k| Piece {
+                polygon: k.polygon,
+                centroid: k.centroid,
+                area: k.area,
+            })
+            .collect()
+    };
+    if polygon.len() <= 4 {
+        return split(polygon);
+    }
+    let Some(normal) = geometry::normal(polygon) else {
+        return Vec::new();
+    };
+    let u = (polygon[1] - polygon[0]).normalize_or_zero();
+    let v = normal.cross(u);
+    let flat: Vec<glam::DVec2> = polygon
+        .iter()
+        .map(|p| glam::DVec2::new((*p - polygon[0]).dot(u), (*p - polygon[0]).dot(v)))
+        .collect();
+    let triangles = geometry::triangulate::triangulate(&flat)
+        .unwrap_or_else(|| (1..polygon.len() - 1).map(|i| [0, i, i + 1]).collect());
+    triangles
+        .iter()
+        .flat_map(|t| split(&t.map(|i| polygon[i])))
+        .collect()
+}
+
+/// The point at `(u, v)` in `[0, 1)^2` of a triangle (uniform by area) or
+/// a quad (bilinear: uniform by area on a parallelogram).
+fn point_in(piece: &[DVec3], u: f64, v: f64) -> DVec3 {
+    if piece.len() == 4 {
+        let bottom = piece[0].lerp(piece[1], u);
+        let top = piece[3].lerp(piece[2], u);
+        bottom.lerp(top, v)
+    } else {
+        let r = u.sqrt();
+        piece[0] * (1.0 - r) + piece[1] * (r * (1.0 - v)) + piece[2] * (r * v)
+    }
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis.
