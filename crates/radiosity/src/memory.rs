@@ -31,8 +31,8 @@ pub const BASE: u64 = 6 << 20;
 pub const SURFACE: f64 = 310.0;
 /// A mesh element.
 pub const ELEMENT: f64 = 60.0;
-/// A mesh vertex.
-pub const VERTEX: f64 = 84.0;
+/// A mesh vertex (with its direct part, booked apart).
+pub const VERTEX: f64 = 108.0;
 /// A mesh patch.
 pub const PATCH: f64 = 180.0;
 /// The shadow-ray accelerator, per surface.
@@ -45,8 +45,16 @@ pub const DISPLAY_VERTEX: f64 = 24.0;
 pub const SAMPLE: f64 = 13.0;
 /// A picture pixel (colour and coverage).
 pub const PIXEL: f64 = 16.0;
-/// An element projected for the picture (two screen triangles).
-pub const SCREEN_ELEMENT: f64 = 160.0;
+/// An element projected for the picture (two screen triangles, with their
+/// world corners for the final pass).
+pub const SCREEN_ELEMENT: f64 = 320.0;
+
+/// The final pass ([`crate::final_gather`]), per vertex: the indirect part
+/// (`direct`), and the reflected radiosity (`full`).
+pub const FINAL_VERTEX: f64 = 48.0;
+
+/// `full`'s index of the element triangles, per element.
+pub const FINAL_ELEMENT: f64 = 400.0;
 /// The default view's BVH while it is built, per surface
 /// ([`crate::view::interior`]).
 pub const VIEW_SURFACE: f64 = 625.0;
@@ -96,6 +104,8 @@ pub struct Sizes {
     pub bake: bool,
     /// Texels of a lightmap bake (an upper bound); 0 for none.
     pub lightmap_texels: u64,
+    /// The final pass the outputs take.
+    pub final_gather: crate::final_gather::FinalGather,
 }
 
 /// One part of an estimate.
@@ -241,6 +251,22 @@ pub fn estimate(sizes: &Sizes, solver: SolverCosts) -> Estimate {
             count: 1,
             each: sizes.vertices as f64 * BAKE_VERTEX + sizes.elements as f64 * BAKE_ELEMENT,
             remedy: element_remedy,
+        });
+    }
+    if sizes.final_gather != crate::final_gather::FinalGather::Off
+        && (sizes.samples > 0 || sizes.lightmap_texels > 0)
+    {
+        let full = sizes.final_gather == crate::final_gather::FinalGather::Full;
+        kept.push(Part {
+            name: "final pass",
+            count: 1,
+            each: sizes.vertices as f64 * FINAL_VERTEX
+                + if full {
+                    sizes.elements as f64 * FINAL_ELEMENT
+                } else {
+                    0.0
+                },
+            remedy: "--final-gather off",
         });
     }
     if sizes.lightmap_texels > 0 {
@@ -506,6 +532,7 @@ mod tests {
             view: false,
             bake: false,
             lightmap_texels: 0,
+            final_gather: crate::final_gather::FinalGather::Off,
         };
         let e = estimate(&sizes, Settings::adaptive().method.method().memory());
         // The shot's buffers are the largest last stage.

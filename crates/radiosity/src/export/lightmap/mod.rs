@@ -161,41 +161,42 @@ pub fn appearance_of_scene(scene: &Scene) -> io::Result<Appearance> {
 /// The lightmap's linear values, `width x height`, top row first; the
 /// counts of texels shown and texels that found no surface; and which
 /// placed primitives show their back side.
-/// Adds what the final pass gives at each texel's surface points (a
-/// batch at a time) to their values.
+/// Adds what the final pass gives at each texel's surface points to their
+/// values, a batch of texels at a time (their points found per batch, so
+/// the whole lightmap's points are never held at once).
 fn add_final_pass(
     shade: crate::render::Shade<'_>,
-    points: &[[Option<(u32, DVec3)>; 2]],
+    texel_point: &(dyn Fn(usize) -> [Option<(u32, DVec3)>; 2] + Sync),
     values: &mut [[Vec3; 2]],
 ) {
     const BATCH: usize = 1 << 16;
-    let mut batch = Vec::with_capacity(BATCH);
-    let mut at = Vec::with_capacity(BATCH);
-    let flush = |batch: &mut Vec<crate::final_gather::Point>,
-                 at: &mut Vec<(usize, usize)>,
-                 values: &mut [[Vec3; 2]]| {
-        for ((texel, side), added) in at.drain(..).zip(shade(batch)) {
-            values[texel][side] += added.as_vec3();
-        }
-        batch.clear();
-    };
-    for (texel, pair) in points.iter().enumerate() {
-        for (side, point) in pair.iter().enumerate() {
-            if let Some((surface, position)) = *point {
-                batch.push(crate::final_gather::Point {
-                    surface,
-                    position,
-                    sample: None,
-                    seed: (texel * 2 + side) as u64,
-                });
-                at.push((texel, side));
-                if batch.len() == BATCH {
-                    flush(&mut batch, &mut at, values);
+    for start in (0..values.len()).step_by(BATCH) {
+        let end = (start + BATCH).min(values.len());
+        let pairs: Vec<[Option<(u32, DVec3)>; 2]> =
+            (start..end).into_par_iter().map(texel_point).collect();
+        let mut batch = Vec::new();
+        let mut at = Vec::new();
+        for (offset, pair) in pairs.iter().enumerate() {
+            for (side, point) in pair.iter().enumerate() {
+                if let Some((surface, position)) = *point {
+                    let texel = start + offset;
+                    batch.push(crate::final_gather::Point {
+                        surface,
+                        position,
+                        sample: None,
+                        seed: (texel * 2 + side) as u64,
+                    });
+                    at.push((texel, side));
                 }
             }
         }
+        if batch.is_empty() {
+            continue;
+        }
+        for ((texel, side), added) in at.into_iter().zip(shade(&batch)) {
+            values[texel][side] += added.as_vec3();
+        }
     }
-    flush(&mut batch, &mut at, values);
 }
 
 fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize, Vec<bool>) {
@@ -260,10 +261,9 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
     };
     // Front and (for double-sided materials) back values of every texel,
     // NaN: none; and their surface points.
-    let mut points: Vec<[Option<(u32, DVec3)>; 2]> = Vec::new();
     let value = |p: DVec3, n: DVec3| located(p, n).0;
-    let texel_point = |claim: &Option<texels::Claim>| -> [Option<(u32, DVec3)>; 2] {
-        let Some(c) = *claim else {
+    let texel_point = |texel: usize| -> [Option<(u32, DVec3)>; 2] {
+        let Some(c) = claims[texel] else {
             return [None; 2];
         };
         let (corners, n) = world[c.primitive as usize][c.triangle as usize];
@@ -276,9 +276,6 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         };
         [located(p, n).1, back]
     };
-    if bake.shade.is_some() {
-        points = claims.par_iter().map(texel_point).collect();
-    }
     let mut both: Vec<[Vec3; 2]> = claims
         .par_iter()
         .map(|claim| {
@@ -301,7 +298,7 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         })
         .collect();
     if let Some(shade) = bake.shade {
-        add_final_pass(shade, &points, &mut both);
+        add_final_pass(shade, &texel_point, &mut both);
     }
     // Each double-sided primitive shows its brighter side.
     let mut sums = vec![[0.0f64; 2]; primitives.len()];
