@@ -478,7 +478,7 @@ impl<'a> FinalPass<'a> {
                     let cosines = (r.normal.dot(d) * -e.normal.dot(d)).max(0.0);
                     piece.area * cosines / (d2 * d2)
                 };
-                let total: f64 = pieces.iter().map(|p| weight(p)).sum();
+                let total: f64 = pieces.iter().map(&weight).sum();
                 if total <= 0.0 {
                     return DVec3::ZERO;
                 }
