@@ -195,6 +195,9 @@ try {
   for (const file of Object.values(out)) assert.ok(written.includes(file), `${written} lists ${file}`);
   assert.ok(await page.isDisabled('#stop'));
   assert.ok(await page.isDisabled('#pause'));
+  // The paper's preset has no final pass: no final picture is offered
+  // (tests/serve.rs checks the server's picture under the default).
+  assert.equal(await page.evaluate(() => document.getElementById('final-row').hidden), true);
 
   // The picker, now on the final state: the vertex nearest the click,
   // with the solver's value (once the page shows the answer to this
