@@ -37,6 +37,7 @@ pub mod early;
 pub mod error_picture;
 pub mod form_factor_accuracy;
 pub mod plot;
+pub mod points;
 pub mod reference;
 pub mod report;
 mod solving;

@@ -337,8 +337,7 @@ impl Harness {
         json: &Path,
         lights: Option<&str>,
     ) -> Result<Scored, Error> {
-        let script = lights.map(|flags| ("reference_lights.py", LIGHTS, flags));
-        self.score_by(scene, csv, accuracy, json, script, SAMPLE)
+        self.score_rows(scene, csv, accuracy, json, lights, SAMPLE)
     }
 
     /// [`Harness::score`] of `n` rows of the CSV (all of them when it has

@@ -20,11 +20,12 @@ use glam::DVec3;
 
 pub use super::error_picture::{ERROR_RANGE, ErrorPoint, error_picture, error_pictures};
 use super::plot::Picture;
+pub use super::points::{SENSOR_POINTS, random_points, uniform, write_rows};
 use super::reference::{self, Harness};
 use super::{Context, Error, Report, table, write_file};
 use radiosity::app;
 use radiosity::export;
-use radiosity::final_gather::{FinalGather, FinalPass, Point};
+use radiosity::final_gather::{FinalGather, FinalPass, points_at};
 use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::sky::{
@@ -322,16 +323,7 @@ pub fn solve_lit(
     let sensor_full = if points.is_empty() || solver.settings().final_gather == FinalGather::Off {
         Vec::new()
     } else {
-        let at: Vec<Point> = solver.receivers()[solver.mesh().vertices.len()..]
-            .iter()
-            .enumerate()
-            .map(|(i, r)| Point {
-                surface: r.surface,
-                position: r.point,
-                sample: None,
-                seed: i as u64,
-            })
-            .collect();
+        let at = points_at(&solver.receivers()[solver.mesh().vertices.len()..]);
         FinalPass::new(&solver, FinalGather::Full).irradiance(&at)
     };
     let radiosity = solver.radiosity().to_vec();
@@ -353,80 +345,6 @@ pub fn solve_lit(
         unshot,
         device_shots,
     })
-}
-
-/// Uniform numbers in [0, 1) by SplitMix64 from `seed`: the same sequence
-/// on every machine.
-pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed;
-    move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// Sensor points `validate` scores per scene.
-pub const SENSOR_POINTS: usize = 300;
-
-/// `n` points drawn uniformly by area over `scene`'s surfaces (a fixed
-/// sequence for a given scene), each with its surface's normal and index.
-#[must_use]
-pub fn random_points(scene: &Scene, n: usize) -> Vec<(SensorPoint, usize)> {
-    // A fixed seed: the same points, so the same cached reference, on
-    // every run.
-    let mut unit = uniform(0x5EED);
-    let mut triangles = Vec::new();
-    for (index, surface) in scene.surfaces.iter().enumerate() {
-        let v0 = surface.polygon[0];
-        for pair in surface.polygon[1..].windows(2) {
-            let area = (pair[0] - v0).cross(pair[1] - v0).length() / 2.0;
-            triangles.push(([v0, pair[0], pair[1]], area, index));
-        }
-    }
-    let total: f64 = triangles.iter().map(|t| t.1).sum();
-    (0..n)
-        .map(|_| {
-            let mut pick = unit() * total;
-            let &(corners, _, surface) = triangles
-                .iter()
-                .find(|t| {
-                    pick -= t.1;
-                    pick < 0.0
-                })
-                .unwrap_or_else(|| triangles.last().expect("a scene has surfaces"));
-            let (mut a, mut b) = (unit(), unit());
-            if a + b > 1.0 {
-                (a, b) = (1.0 - a, 1.0 - b);
-            }
-            let position =
-                corners[0] + (corners[1] - corners[0]) * a + (corners[2] - corners[0]) * b;
-            (
-                SensorPoint {
-                    position,
-                    normal: scene.surfaces[surface].normal,
-                    line: 0,
-                },
-                surface,
-            )
-        })
-        .collect()
-}
-
-/// Writes rows of a vertices CSV (`export::VERTEX_CSV_HEADER`): position,
-/// normal, input face and `B`.
-pub fn write_rows(path: &Path, rows: &[(DVec3, DVec3, u32, DVec3)]) -> Result<(), Error> {
-    let mut text = String::from(export::VERTEX_CSV_HEADER);
-    text.push('\n');
-    for (p, n, face, b) in rows {
-        text.push_str(&format!(
-            "{},{},{},{},{},{},{face},{},{},{}\n",
-            p.x, p.y, p.z, n.x, n.y, n.z, b.x, b.y, b.z
-        ));
-    }
-    write_file(path, text.as_bytes())
 }
 
 /// The vertices CSV of a solve, as `--vertices` writes it.
@@ -536,42 +454,33 @@ pub fn validate_compute(context: &Context, harness: &Harness) -> Result<Vec<Vali
             let b: Vec<DVec3> = scored.rows.iter().map(|&r| solved.radiosity[r]).collect();
             let ours = reference::score(&b, &scored.reference);
             ours.check_against(&scored, &format!("{} {preset}", case.name))?;
-            let rows: Vec<(DVec3, DVec3, u32, DVec3)> = drawn
-                .iter()
-                .zip(&solved.sensor_irradiance)
-                .map(|(&(p, surface), e)| {
-                    let s = &scene.surfaces[surface];
-                    (p.position, p.normal, s.face, s.emission + s.rho * *e)
-                })
-                .collect();
-            let sensors_csv = context.path(&format!("{stem}-sensors.csv"));
-            write_rows(&sensors_csv, &rows)?;
-            let sensors = harness.score(
-                &path,
-                &sensors_csv,
-                accuracy(context),
-                &context.path(&format!("{stem}-sensors.json")),
-                reference_flags.as_deref(),
-            )?;
-            let sensors_full = if solved.sensor_full.is_empty() {
-                None
-            } else {
+            // The sensors' `B` from their irradiance, scored as a vertices CSV.
+            let score_sensors = |irradiance: &[DVec3], stem: &str| {
                 let rows: Vec<(DVec3, DVec3, u32, DVec3)> = drawn
                     .iter()
-                    .zip(&solved.sensor_full)
+                    .zip(irradiance)
                     .map(|(&(p, surface), e)| {
                         let s = &scene.surfaces[surface];
                         (p.position, p.normal, s.face, s.emission + s.rho * *e)
                     })
                     .collect();
-                let csv = context.path(&format!("{stem}-sensors-full.csv"));
+                let csv = context.path(&format!("{stem}.csv"));
                 write_rows(&csv, &rows)?;
-                Some(harness.score(
+                harness.score(
                     &path,
                     &csv,
                     accuracy(context),
-                    &context.path(&format!("{stem}-sensors-full.json")),
+                    &context.path(&format!("{stem}.json")),
                     reference_flags.as_deref(),
+                )
+            };
+            let sensors = score_sensors(&solved.sensor_irradiance, &format!("{stem}-sensors"))?;
+            let sensors_full = if solved.sensor_full.is_empty() {
+                None
+            } else {
+                Some(score_sensors(
+                    &solved.sensor_full,
+                    &format!("{stem}-sensors-full"),
                 )?)
             };
             let edges = if case.lights.is_none() && preset == Preset::Adaptive.name() {

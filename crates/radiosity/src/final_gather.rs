@@ -85,6 +85,22 @@ pub const GATHER_ERROR: f64 = 0.01;
 /// Rays a picture's pixel gathers over its samples in `full`.
 pub const PIXEL_GATHER_RAYS: u32 = 64;
 
+/// Points at `receivers` (sensors), every ray at once, seeded by their
+/// order.
+#[must_use]
+pub fn points_at(receivers: &[Receiver]) -> Vec<Point> {
+    receivers
+        .iter()
+        .enumerate()
+        .map(|(i, r)| Point {
+            surface: r.surface,
+            position: r.point,
+            sample: None,
+            seed: i as u64,
+        })
+        .collect()
+}
+
 /// A point to shade.
 #[derive(Clone, Copy, Debug)]
 pub struct Point {
@@ -390,15 +406,10 @@ impl<'a> FinalPass<'a> {
         if e.polygon.iter().all(|c| r.normal.dot(*c - r.point) <= 0.0) {
             return DVec3::ZERO;
         }
-        // A piece's exact factor (equation (2), clipped to the receiver's
-        // front) times what passes from a point of it (`at`, or its
-        // centroid): a piece crossing the receiver's tangent plane is seen
-        // from its clipped part.
-        let through = |piece: &[DVec3], at: Option<DVec3>| -> DVec3 {
-            let factor = form_factor::analytic(r.point, r.normal, piece);
-            if factor <= 0.0 {
-                return DVec3::ZERO;
-            }
+        // What passes from `at` (a point of `piece`, or its centroid when
+        // `None`): a piece crossing the receiver's tangent plane is seen
+        // from its clipped part's centroid when `at` lies behind.
+        let seen_from = |piece: &[DVec3], at: Option<DVec3>| -> DVec3 {
             let front = |c: DVec3| r.normal.dot(c - r.point) > 0.0;
             let c = match at {
                 Some(c) if front(c) => c,
@@ -416,32 +427,19 @@ impl<'a> FinalPass<'a> {
             if self.occluder.occluded(a, b, [e.group, r.group]) {
                 DVec3::ZERO
             } else if self.scene.panes.is_empty() {
-                DVec3::splat(factor)
-            } else {
-                factor * glass::transmittance(&self.scene.panes, c, r.point)
-            }
-        };
-        // What passes from `at` (a point of `piece`; its clipped part's
-        // centroid when `at` lies behind the receiver's tangent plane).
-        let seen_from = |piece: &[DVec3], at: DVec3| -> DVec3 {
-            let c = if r.normal.dot(at - r.point) > 0.0 {
-                at
-            } else {
-                let mut clipped = Vec::with_capacity(piece.len() + 2);
-                geometry::clip_to_half_space(piece, r.point, r.normal, 0.0, &mut clipped);
-                if clipped.len() < 3 {
-                    return DVec3::ZERO;
-                }
-                geometry::centroid(&clipped)
-            };
-            let (a, b) = accel::shorten(c, r.point);
-            if self.occluder.occluded(a, b, [e.group, r.group]) {
-                DVec3::ZERO
-            } else if self.scene.panes.is_empty() {
                 DVec3::ONE
             } else {
                 glass::transmittance(&self.scene.panes, c, r.point)
             }
+        };
+        // A piece's exact factor (equation (2), clipped to the receiver's
+        // front) times what passes from its centroid.
+        let through = |piece: &[DVec3]| -> DVec3 {
+            let factor = form_factor::analytic(r.point, r.normal, piece);
+            if factor <= 0.0 {
+                return DVec3::ZERO;
+            }
+            seen_from(piece, None) * factor
         };
         let passed = match sample {
             // One piece of an `s x s` grid (`s^2 >= n`) a sample, the
@@ -493,14 +491,14 @@ impl<'a> FinalPass<'a> {
                     }
                     let stream = (u64::from(k) * rays + j) * 2 + 2;
                     let at = point_in(&piece.polygon, unit(seed, stream), unit(seed, stream + 1));
-                    sum += seen_from(&piece.polygon, at) * share;
+                    sum += seen_from(&piece.polygon, Some(at)) * share;
                 }
                 // Each piece drawn stands for `count / rays` of them.
                 sum * (whole * count as f64 / rays as f64)
             }
             None => e.pieces[EMITTER_SIDE as usize - 1]
                 .iter()
-                .map(|piece| through(&piece.polygon, None))
+                .map(|piece| through(&piece.polygon))
                 .sum(),
         };
         e.emission * passed

@@ -11,36 +11,10 @@ use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::form_factor::closed_form;
 use radiosity::mesh::Mesh;
 use radiosity::render::{self, RenderSettings};
-use radiosity::scene::{Camera, Light, LightKind, Scene};
+use radiosity::scene::{Camera, Light, LightKind};
 use radiosity::solver::{Settings, Solver};
 
 use common::{quad, scene_of};
-
-/// The scene: a 1 x 1 m black board 1 m above a 6 x 6 m floor, a
-/// parallel sun 60 degrees high from +x.
-fn board_in_the_sun() -> Scene {
-    let floor = quad(
-        DVec3::new(-3.0, 0.0, -3.0),
-        DVec3::Z * 6.0,
-        DVec3::X * 6.0,
-        0.5,
-        0.0,
-        0,
-    );
-    let board = quad(DVec3::new(-0.5, 1.0, -0.5), DVec3::Z, DVec3::X, 0.0, 0.0, 1);
-    assert!(floor.normal.y > 0.99 && board.normal.y > 0.99);
-    let mut scene = scene_of(vec![floor, board]);
-    let elevation = 60f64.to_radians();
-    scene.lights.push(Light {
-        name: "sun".into(),
-        kind: LightKind::Sun {
-            direction: DVec3::new(-elevation.cos(), -elevation.sin(), 0.0),
-        },
-        colour: DVec3::ONE,
-        intensity: 100_000.0,
-    });
-    scene
-}
 
 /// Pixels from `from` to `to` (inclusive, along a row or a column) whose
 /// luminance lies strictly between 10% and 90% of the lit level `lit`
@@ -60,7 +34,7 @@ fn ramp_width(image: &render::Image, pixels: impl Iterator<Item = (u32, u32)>, l
 /// across the sun's direction and along it; the mesh alone (`off`) cannot.
 #[test]
 fn a_sun_shadow_edge_is_at_most_two_pixels_wide() {
-    let scene = board_in_the_sun();
+    let scene = common::board_in_the_sun();
     let settings = Settings::adaptive();
     assert_eq!(settings.final_gather, FinalGather::Direct);
     let mut mesh_settings = settings.mesh;

@@ -214,26 +214,7 @@ fn two_rooms() -> Scene {
 /// texels), where the mesh alone smears it over its elements.
 #[test]
 fn a_sun_shadow_edge_in_a_lightmap_is_at_most_two_texels_wide() {
-    let floor = quad(
-        DVec3::new(-3.0, 0.0, -3.0),
-        DVec3::Z * 6.0,
-        DVec3::X * 6.0,
-        0.5,
-        0.0,
-        0,
-    );
-    let board = quad(DVec3::new(-0.5, 1.0, -0.5), DVec3::Z, DVec3::X, 0.0, 0.0, 1);
-    let mut scene = scene_of(vec![floor, board]);
-    let elevation = 60f64.to_radians();
-    scene.lights.push(radiosity::scene::Light {
-        name: "sun".into(),
-        kind: radiosity::scene::LightKind::Sun {
-            direction: DVec3::new(-elevation.cos(), -elevation.sin(), 0.0),
-        },
-        colour: DVec3::ONE,
-        intensity: 100_000.0,
-    });
-    let (scene, appearance) = exported(&scene);
+    let (scene, appearance) = exported(&common::board_in_the_sun());
     let density = AtlasSettings::default().density;
     let width = |final_gather| {
         let (files, _) = bake_with(

@@ -349,17 +349,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let sensor_start = Instant::now();
     let sensor_irradiance = match &pass {
         Some(pass) if pass.mode() == FinalGather::Full => {
-            let points: Vec<Point> = sensor_receivers
-                .iter()
-                .enumerate()
-                .map(|(i, r)| Point {
-                    surface: r.surface,
-                    position: r.point,
-                    sample: None,
-                    seed: i as u64,
-                })
-                .collect();
-            pass.irradiance(&points)
+            pass.irradiance(&crate::final_gather::points_at(&sensor_receivers))
         }
         _ => solver.sensor_irradiance().to_vec(),
     };

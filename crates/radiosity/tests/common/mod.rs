@@ -8,7 +8,7 @@ pub mod soup;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use radiosity::scene::{Scene, Surface};
+use radiosity::scene::{Light, LightKind, Scene, Surface};
 
 /// The clone's root: two levels above the core crate (this file is shared
 /// with the command's tests at the root, whose manifest folder is the
@@ -110,6 +110,32 @@ pub fn furnace(side: f64, rho: f64, emission: f64) -> Scene {
         );
     }
     scene_of(surfaces)
+}
+
+/// A 1 x 1 m black board 1 m above a 6 x 6 m floor, a
+/// parallel sun 60 degrees high from +x.
+pub fn board_in_the_sun() -> Scene {
+    let floor = quad(
+        DVec3::new(-3.0, 0.0, -3.0),
+        DVec3::Z * 6.0,
+        DVec3::X * 6.0,
+        0.5,
+        0.0,
+        0,
+    );
+    let board = quad(DVec3::new(-0.5, 1.0, -0.5), DVec3::Z, DVec3::X, 0.0, 0.0, 1);
+    assert!(floor.normal.y > 0.99 && board.normal.y > 0.99);
+    let mut scene = scene_of(vec![floor, board]);
+    let elevation = 60f64.to_radians();
+    scene.lights.push(Light {
+        name: "sun".into(),
+        kind: LightKind::Sun {
+            direction: DVec3::new(-elevation.cos(), -elevation.sin(), 0.0),
+        },
+        colour: DVec3::ONE,
+        intensity: 100_000.0,
+    });
+    scene
 }
 
 /// A scene from surfaces.
