@@ -11,8 +11,10 @@
 //!   triangles, the lightmap (the EXR copy, i.e. before 8-bit rounding,
 //!   sampled bilinearly at the point's `TEXCOORD_1`, as a GPU samples) against
 //!   the radiosity `B` the same solve gathers at the point as a sensor
-//!   (`--sensors`); the bake holds `B` (exposure 1, no ambient term), so
-//!   the two are directly comparable;
+//!   (`--sensors`); the bake holds `B` (exposure 1, no ambient term) under
+//!   the default final pass (the direct light at each texel's point, the
+//!   mesh's indirect part: [`radiosity::final_gather`]), so the two are
+//!   directly comparable; beside it, the mesh's own value there;
 //! - the bake's own time (layout, texels, encoding), beyond the solve.
 
 use std::path::{Path, PathBuf};
@@ -22,11 +24,14 @@ use glam::DVec3;
 use radiosity::app;
 use radiosity::export::gltf::BakeMode;
 use radiosity::export::lightmap::{self, AtlasSettings, LightmapBake, LightmapReport};
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
+use radiosity::render::Shade;
+use radiosity::scene::sky::Daylight;
 use radiosity::scene::{self, LoadOptions};
 use radiosity::sensors::{self, SensorPoint};
-use radiosity::solver::Settings;
+use radiosity::solver::{Settings, Solver};
 
-use crate::validate::{solve, uniform};
+use crate::validate::{solve_then, uniform};
 use crate::{Context, Error, Report, table};
 
 /// Points compared per scene.
@@ -257,7 +262,38 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
     }
     let mut settings = Settings::adaptive();
     settings.time_limit = case.time_limit;
-    let solved = solve(&case.input, &settings, None, &points)?;
+    let out = context.path(&format!("lightmap-{}.glb", case.name));
+    // The bake under the default final pass (the direct light at each
+    // texel), made while the solver is there.
+    let bake_with = |solver: &Solver<'_>| {
+        let pass = FinalPass::new(solver, solver.settings().final_gather);
+        let values = pass.vertex_display(solver.radiosity(), DVec3::ZERO);
+        let shade = |p: &[Point]| pass.shade(p);
+        let bake = LightmapBake {
+            scene: solver.scene(),
+            mesh: solver.mesh(),
+            appearance: &appearance,
+            values: &values,
+            shade: (pass.mode() != FinalGather::Off).then_some(&shade as Shade<'_>),
+            mode: BakeMode::Lit,
+            settings: AtlasSettings {
+                density: case.density,
+                ..AtlasSettings::default()
+            },
+            camera: radiosity::view::camera_or_framing(solver.scene()),
+            aspect_ratio: 4.0 / 3.0,
+            metadata: serde_json::json!({}),
+        };
+        lightmap::bake(&bake, &out)
+    };
+    let (solved, baked) = solve_then(
+        &case.input,
+        Daylight::default(),
+        &settings,
+        None,
+        &points,
+        bake_with,
+    )?;
     let receivers = sensors::receivers(&solved.scene, &points, Path::new("lightmap points"))
         .map_err(app::Error::from)?;
     let exact: Vec<DVec3> = receivers
@@ -265,23 +301,7 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
         .zip(&solved.sensor_irradiance)
         .map(|(r, e)| sensors::radiosity(&solved.scene, r, *e))
         .collect();
-    let out = context.path(&format!("lightmap-{}.glb", case.name));
-    let bake = LightmapBake {
-        scene: &solved.scene,
-        mesh: &solved.mesh,
-        appearance: &appearance,
-        values: &solved.radiosity,
-        shade: None,
-        mode: BakeMode::Lit,
-        settings: AtlasSettings {
-            density: case.density,
-            ..AtlasSettings::default()
-        },
-        camera: radiosity::view::camera_or_framing(&solved.scene),
-        aspect_ratio: 4.0 / 3.0,
-        metadata: serde_json::json!({}),
-    };
-    let (files, report) = lightmap::bake(&bake, &out).map_err(|e| failed("bake", e.to_string()))?;
+    let (files, report) = baked.map_err(|e| failed("bake", e.to_string()))?;
     for (path, bytes) in &files {
         crate::write_file(path, bytes)?;
     }
@@ -507,15 +527,17 @@ pub fn lightmap(context: &Context) -> Result<Report, Error> {
         &body,
     ));
     report.paragraph(&format!(
-        "\nLit lightmap bakes holding B (exposure 1, no ambient term), read back from the written \
-         .glb and its EXR (values before 8-bit rounding), sampled bilinearly at the TEXCOORD_1 of \
-         {POINTS} points drawn uniformly by area over the input's triangles, against B gathered \
-         at the same points as sensors in the same solve. L1 = sum |lightmap - B| / sum B over \
-         points and channels. Overlapping texels: texel centres strictly inside two TEXCOORD_1 \
-         triangles. Mesh L1: the element mesh itself, interpolated at the same points as the \
-         picture and the vertex bake interpolate it (what the lightmap's texels sample). A point's \
-         relative error is taken against its own B, or a tenth of the mean B for points darker \
-         than that. Built-in scenes are baked from their export-scene .glb."
+        "\nLit lightmap bakes holding B (exposure 1, no ambient term) under the default final \
+         pass (the direct light evaluated at each texel's point plus the mesh's indirect part), \
+         read back from the written .glb and its EXR (values before 8-bit rounding), sampled \
+         bilinearly at the TEXCOORD_1 of {POINTS} points drawn uniformly by area over the \
+         input's triangles, against B gathered at the same points as sensors in the same solve. \
+         L1 = sum |lightmap - B| / sum B over points and channels. Overlapping texels: texel \
+         centres strictly inside two TEXCOORD_1 triangles. Mesh L1: the element mesh itself, \
+         interpolated at the same points as the picture and the vertex bake interpolate it \
+         (what the texels held with --final-gather off). A point's relative error is taken \
+         against its own B, or a tenth of the mean B for points darker than that. Built-in \
+         scenes are baked from their export-scene .glb."
     ));
     report.files.extend(
         rows.iter()

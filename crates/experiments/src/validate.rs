@@ -290,6 +290,19 @@ pub fn solve_lit(
     patch_size: Option<f64>,
     points: &[SensorPoint],
 ) -> Result<Solved, Error> {
+    solve_then(path, daylight, settings, patch_size, points, |_| ()).map(|(solved, ())| solved)
+}
+
+/// [`solve_lit`], calling `then` with the solver before it is dropped
+/// (for what needs the solve's own state: the final pass).
+pub fn solve_then<T>(
+    path: &Path,
+    daylight: Daylight,
+    settings: &Settings,
+    patch_size: Option<f64>,
+    points: &[SensorPoint],
+    then: impl FnOnce(&Solver<'_>) -> T,
+) -> Result<(Solved, T), Error> {
     let name = path.to_string_lossy();
     let options = LoadOptions {
         daylight,
@@ -331,8 +344,9 @@ pub fn solve_lit(
     let shots = solver.stats().shots;
     let unshot = solver.unshot_fraction();
     let device_shots = solver.device_report().device_shots;
+    let after = then(&solver);
     drop(solver);
-    Ok(Solved {
+    let solved = Solved {
         scene,
         mesh,
         radiosity,
@@ -344,7 +358,8 @@ pub fn solve_lit(
         shots,
         unshot,
         device_shots,
-    })
+    };
+    Ok((solved, after))
 }
 
 /// The vertices CSV of a solve, as `--vertices` writes it.
