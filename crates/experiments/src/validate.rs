@@ -25,7 +25,7 @@ use super::reference::{self, Harness};
 use super::{Context, Error, Report, table, write_file};
 use radiosity::app;
 use radiosity::export;
-use radiosity::final_gather::{FinalGather, FinalPass, points_at};
+use radiosity::final_gather::{FinalGather, FinalPass};
 use radiosity::luminance;
 use radiosity::mesh::{Mesh, MeshSettings};
 use radiosity::scene::sky::{
@@ -336,8 +336,7 @@ pub fn solve_then<T>(
     let sensor_full = if points.is_empty() || solver.settings().final_gather == FinalGather::Off {
         Vec::new()
     } else {
-        let at = points_at(&solver.receivers()[solver.mesh().vertices.len()..]);
-        FinalPass::new(&solver, FinalGather::Full).irradiance(&at)
+        FinalPass::new(&solver, FinalGather::Full).sensors(&solver)
     };
     let radiosity = solver.radiosity().to_vec();
     let display = solver.display_radiosity(true);

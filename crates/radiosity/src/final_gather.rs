@@ -27,7 +27,10 @@
 //! same estimator as at any other point ([`FinalPass::direct`]).
 //!
 //! **Direct light at a point.** The scene's lights as their shots do
-//! ([`lights::gather`]); each emitting surface in pieces (the paper's
+//! ([`lights::gather`]), but skies: a sky's light changes slowly across a
+//! surface and its estimate at one point takes hundreds of rays (a daylit
+//! room's picture took minutes), so its part stays with the mesh's
+//! ([`Solver::sky_irradiance`]); each emitting surface in pieces (the paper's
 //! subsources of each of its triangles or quads, `s x s` a side), each
 //! piece's exact factor (equation (2), [`form_factor::analytic`], clipped
 //! to the receiver's front) times what passes along a shadow ray from a
@@ -49,7 +52,7 @@ use crate::export::lightmap::texels::Locator;
 use crate::form_factor;
 use crate::geometry;
 use crate::mesh::{self, Mesh};
-use crate::scene::{Scene, glass};
+use crate::scene::{LightKind, Scene, glass};
 use crate::solver::method::{ShotInputs, Stats};
 use crate::solver::{Abort, Receiver, Settings, Solver, lights, surface_receivers};
 
@@ -150,8 +153,11 @@ pub struct FinalPass<'a> {
     occluder: &'a dyn Occluder,
     mode: FinalGather,
     emitters: Vec<Emitter>,
-    /// Per vertex: the irradiance that is not direct.
+    /// Per vertex: the irradiance that is not direct (a sky's counts as
+    /// not direct here).
     indirect: Vec<DVec3>,
+    /// Per vertex: the skies' irradiance, which stays with the mesh.
+    sky: Vec<DVec3>,
     /// Per vertex: the reflected radiosity `rho E` (emission left out; the
     /// display's ambient term is the point's own), what a gather ray that
     /// hits it brings back.
@@ -178,6 +184,7 @@ impl<'a> FinalPass<'a> {
             mode,
             emitters,
             indirect: Vec::new(),
+            sky: Vec::new(),
             reflected: Vec::new(),
             locator: None,
             reach: lights::sun_reach(scene),
@@ -186,12 +193,19 @@ impl<'a> FinalPass<'a> {
             return pass;
         }
         let vertices = mesh.vertices.len();
-        let direct = &solver.direct_irradiance()[..vertices];
+        // Skies' light stays with the mesh's part (see
+        // `Solver::sky_irradiance`).
+        let direct: Vec<DVec3> = solver.direct_irradiance()[..vertices]
+            .iter()
+            .zip(solver.sky_irradiance())
+            .map(|(direct, sky)| *direct - *sky)
+            .collect();
+        pass.sky = solver.sky_irradiance()[..vertices].to_vec();
         pass.indirect = if solver.direct_complete() {
             solver
                 .irradiance()
                 .iter()
-                .zip(direct)
+                .zip(&direct)
                 .map(|(total, direct)| *total - *direct)
                 .collect()
         } else {
@@ -202,7 +216,7 @@ impl<'a> FinalPass<'a> {
             solver
                 .irradiance()
                 .iter()
-                .zip(direct)
+                .zip(&direct)
                 .zip(&from_emitters)
                 .map(|((total, light), emitted)| *total - *light - *emitted)
                 .collect()
@@ -237,12 +251,16 @@ impl<'a> FinalPass<'a> {
     }
 
     /// The direct irradiance at each point (W/m^2 per channel): the scene's
-    /// lights' and the emitting surfaces'.
+    /// lights' (but skies', which the mesh carries: see
+    /// [`Solver::sky_irradiance`]) and the emitting surfaces'.
     #[must_use]
     pub fn direct(&self, points: &[Point]) -> Vec<DVec3> {
         let receivers = self.receivers(points);
         let mut out = self.emitted(&receivers, Some(points));
         for light in &self.scene.lights {
+            if matches!(light.kind, LightKind::Sky { .. }) {
+                continue;
+            }
             let inputs = ShotInputs {
                 scene: self.scene,
                 mesh: self.mesh,
@@ -592,8 +610,9 @@ fn unit(seed: u64, stream: u64) -> f64 {
 impl FinalPass<'_> {
     /// What the mesh shows at each vertex under this mode, given what it
     /// shows with every part (`display`, `B + rho ambient`): all of it for
-    /// `off`; the emission, the reflected indirect part and the ambient
-    /// for `direct`; the emission and the ambient for `full`.
+    /// `off`; the emission, the reflected indirect part (skies' light
+    /// included) and the ambient for `direct`; the emission, the skies'
+    /// reflected light and the ambient for `full`.
     #[must_use]
     pub fn vertex_display(&self, display: &[DVec3], ambient: DVec3) -> Vec<DVec3> {
         self.vertex_part(ambient)
@@ -618,7 +637,7 @@ impl FinalPass<'_> {
         match self.mode {
             FinalGather::Off => vec![None; self.mesh.vertices.len()],
             FinalGather::Direct => self.indirect.iter().map(|e| Some(*e + ambient)).collect(),
-            FinalGather::Full => vec![Some(ambient); self.mesh.vertices.len()],
+            FinalGather::Full => self.sky.iter().map(|s| Some(*s + ambient)).collect(),
         }
     }
 
@@ -636,6 +655,23 @@ impl FinalPass<'_> {
             .into_iter()
             .zip(gathered)
             .map(|(d, g)| d + g)
+            .collect()
+    }
+
+    /// The irradiance at `solver`'s sensors under this mode: `full`'s
+    /// ([`FinalPass::irradiance`] plus the skies' part each gathered in the
+    /// solve); the sensors' own for `off` and `direct` (each gathers every
+    /// shot at its point, the direct light included).
+    #[must_use]
+    pub fn sensors(&self, solver: &Solver<'_>) -> Vec<DVec3> {
+        if self.mode != FinalGather::Full {
+            return solver.sensor_irradiance().to_vec();
+        }
+        let vertices = self.mesh.vertices.len();
+        self.irradiance(&points_at(&solver.receivers()[vertices..]))
+            .into_iter()
+            .zip(&solver.sky_irradiance()[vertices..])
+            .map(|(e, sky)| e + *sky)
             .collect()
     }
 

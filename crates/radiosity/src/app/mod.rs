@@ -348,10 +348,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     }
     let sensor_start = Instant::now();
     let sensor_irradiance = match &pass {
-        Some(pass) if pass.mode() == FinalGather::Full => {
-            pass.irradiance(&crate::final_gather::points_at(&sensor_receivers))
-        }
-        _ => solver.sensor_irradiance().to_vec(),
+        Some(pass) => pass.sensors(&solver),
+        None => solver.sensor_irradiance().to_vec(),
     };
     if pass.is_some() {
         final_gather_time += sensor_start.elapsed();

@@ -56,7 +56,7 @@ use crate::accel::Occluder;
 use crate::geometry;
 use crate::luminance;
 use crate::mesh::Mesh;
-use crate::scene::Scene;
+use crate::scene::{LightKind, Scene};
 
 /// A duration as a number of seconds.
 fn seconds<S: serde::Serializer>(time: &Duration, serializer: S) -> Result<S::Ok, S::Error> {
@@ -193,6 +193,9 @@ pub struct Solver<'a> {
     /// scene's lights' shots (point, spot, IES, sun, sky) and the emitting
     /// surfaces' first shots, booked apart.
     direct: Vec<DVec3>,
+    /// The part of `direct` from skies, which the final pass leaves to the
+    /// mesh ([`Solver::sky_irradiance`]).
+    sky: Vec<DVec3>,
     /// Set when a shot that sent emission was booked on a device (its
     /// irradiance stays there) or a device's failure made shots again:
     /// `direct` then holds the lights' part only.
@@ -289,6 +292,7 @@ impl<'a> Solver<'a> {
             irradiance: vec![DVec3::ZERO; receivers.len()],
             direct: vec![DVec3::ZERO; receivers.len()],
             direct_partial: false,
+            sky: vec![DVec3::ZERO; receivers.len()],
             receivers,
             radiosity,
             energy: Energy::default(),
@@ -363,6 +367,16 @@ impl<'a> Solver<'a> {
     #[must_use]
     pub fn direct_irradiance(&self) -> &[DVec3] {
         &self.direct
+    }
+
+    /// The part of [`Solver::direct_irradiance`] that skies sent (vertices,
+    /// then sensors). A sky's light changes slowly across a surface, and
+    /// its estimate at one point takes hundreds of rays, so the final pass
+    /// ([`crate::final_gather`]) takes it from the mesh, as the indirect
+    /// part, rather than at every point shown.
+    #[must_use]
+    pub fn sky_irradiance(&self) -> &[DVec3] {
+        &self.sky
     }
 
     /// Whether [`Solver::direct_irradiance`] holds the emitting surfaces'
@@ -723,6 +737,13 @@ impl<'a> Solver<'a> {
         if share != DVec3::ZERO {
             for (d, e) in self.direct.iter_mut().zip(&irradiance) {
                 *d += *e * share;
+            }
+        }
+        if let Some(index) = light
+            && matches!(self.scene.lights[index].kind, LightKind::Sky { .. })
+        {
+            for (d, e) in self.sky.iter_mut().zip(&irradiance) {
+                *d += *e;
             }
         }
         if let Some(index) = light {
