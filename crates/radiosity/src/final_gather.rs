@@ -31,18 +31,20 @@
 //! surface and its estimate at one point takes hundreds of rays (a daylit
 //! room's picture took minutes), so its part stays with the mesh's
 //! ([`Solver::sky_irradiance`]); each emitting surface in pieces (the paper's
-//! subsources of each of its triangles or quads, `s x s` a side), each
-//! piece's exact factor (equation (2), [`form_factor::analytic`], clipped
-//! to the receiver's front) times what passes along a shadow ray from a
-//! point of it, dimmed by the glass it crosses: exact where nothing blocks,
-//! and as many rays for a sky opening of two hundred patches as for a
-//! bulb. A picture's sample casts one ray per emitting surface: the `s x s`
-//! samples of a pixel take the pieces of an `s x s` grid in turn from a
-//! place of the pixel's own, each from a point drawn uniformly in it, so a
-//! pixel sums every piece's factor and a penumbra is smooth noise, not
-//! copies of a shadow; a vertex, texel or sensor casts
+//! subsources of each of its triangles or quads), each piece's share of
+//! the light times what passes along a shadow ray from a point of it,
+//! dimmed by the glass it crosses: exact where nothing blocks, and as many
+//! rays for a sky opening of two hundred patches as for a bulb. A picture's
+//! sample casts [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays per emitting
+//! surface: the samples of an `s x s` pixel take the pieces of a grid
+//! `s SAMPLE_SPLIT` a side in turn from a place of the pixel's own, each
+//! from a point drawn uniformly in it, and a piece's share of the surface's
+//! exact factor (equation (2), [`form_factor::analytic()`], clipped to the
+//! receiver's front) is its point factor's share of theirs, so a pixel
+//! sums the whole factor and a penumbra is smooth noise, not copies of a
+//! shadow; a vertex, texel or sensor casts
 //! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each piece's
-//! centroid.
+//! centroid, each piece with its own exact factor.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -111,9 +113,9 @@ pub struct Point {
     pub surface: u32,
     /// Where.
     pub position: DVec3,
-    /// `Some((k, n))` for one sample of `n` (a pixel's `k`-th): one ray
-    /// per emitting patch and `1/n` of a pixel's gather rays. `None`: every
-    /// ray at once.
+    /// `Some((k, n))` for one sample of `n` (a pixel's `k`-th):
+    /// [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays per emitting surface and
+    /// `1/n` of a pixel's gather rays. `None`: every ray at once.
     pub sample: Option<(u32, u32)>,
     /// Seeds the point's random numbers (a pixel's or texel's index).
     pub seed: u64,
