@@ -36,6 +36,7 @@ pub mod hierarchy;
 pub mod lights;
 pub mod method;
 pub mod patches;
+mod receiver;
 pub mod refine;
 pub mod registry;
 mod settings;
@@ -50,10 +51,10 @@ use glam::DVec3;
 pub use self::abort::Abort;
 use self::method::{Checkpoint, Received, ShotInputs};
 pub use self::method::{Counter, Method, Shooter, Stats, Visibility};
+pub use self::receiver::{GATHER_NUDGE, Receiver, surface_receivers, vertex_receivers};
 pub use self::registry::{MethodSettings, Shooting};
 pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, SettingsError};
 use crate::accel::Occluder;
-use crate::geometry;
 use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::{LightKind, Scene};
@@ -121,59 +122,6 @@ impl StopReason {
             StopReason::Stopped => "stopped",
         }
     }
-}
-
-/// A point that gathers light: a mesh vertex or a sensor.
-#[derive(Clone, Copy, Debug)]
-pub struct Receiver {
-    /// Where it gathers (a vertex is moved a hair into its surface, see
-    /// [`GATHER_NUDGE`]).
-    pub point: DVec3,
-    /// Unit normal of its side.
-    pub normal: DVec3,
-    /// The surface it lies on.
-    pub surface: u32,
-    /// That surface's id ([`crate::scene::Surface::group`]).
-    pub group: u32,
-}
-
-/// A vertex gathers at a point moved this fraction of the way towards its
-/// surface's centroid. A vertex on the edge where two surfaces meet lies in
-/// the neighbour's plane and sees it exactly edge-on (factor 0), while every
-/// point of its own surface next to it sees the neighbour at up to half its
-/// hemisphere; the displaced point takes the one-sided limit that the
-/// element's interior tends to, and stays within 1e-6 of its size of the
-/// vertex.
-pub const GATHER_NUDGE: f64 = 1e-6;
-
-/// The receivers of a mesh: its vertices at their gathering points.
-#[must_use]
-pub fn vertex_receivers(scene: &Scene, mesh: &Mesh) -> Vec<Receiver> {
-    surface_receivers(scene, mesh.vertices.iter().map(|v| (v.surface, v.position)))
-}
-
-/// Receivers at `(surface, point)` pairs, each moved [`GATHER_NUDGE`] of
-/// the way towards its surface's centroid, with the surface's normal.
-pub fn surface_receivers(
-    scene: &Scene,
-    points: impl Iterator<Item = (u32, DVec3)>,
-) -> Vec<Receiver> {
-    let centroids: Vec<DVec3> = scene
-        .surfaces
-        .iter()
-        .map(|s| geometry::centroid(&s.polygon))
-        .collect();
-    points
-        .map(|(surface, p)| {
-            let s = &scene.surfaces[surface as usize];
-            Receiver {
-                point: p + (centroids[surface as usize] - p) * GATHER_NUDGE,
-                normal: s.normal,
-                surface,
-                group: s.group,
-            }
-        })
-        .collect()
 }
 
 /// The state of a progressive solve.

@@ -158,26 +158,33 @@ pub fn appearance_of_scene(scene: &Scene) -> io::Result<Appearance> {
     Ok(appearance)
 }
 
-/// The lightmap's linear values, `width x height`, top row first; the
-/// counts of texels shown and texels that found no surface; and which
-/// placed primitives show their back side.
-/// Adds what the final pass gives at each texel's surface points to their
-/// values, a batch of texels at a time (their points found per batch, so
-/// the whole lightmap's points are never held at once).
-fn add_final_pass(
-    shade: crate::render::Shade<'_>,
-    texel_point: &(dyn Fn(usize) -> [Option<(u32, DVec3)>; 2] + Sync),
-    values: &mut [[Vec3; 2]],
-) {
+/// A texel side: the mesh's value there (NaN: none) and its surface point
+/// (surface, position), if one was found.
+type Side = (Vec3, Option<(u32, DVec3)>);
+
+/// Every texel's front and back (for double-sided materials) values, a
+/// batch of texels at a time: what `sides` gives (the mesh's value, NaN
+/// for none, and the surface point), plus what the final pass gives at
+/// the point when there is one (`shade`). A batch's points are found once
+/// and never held for the whole lightmap.
+fn side_values(
+    texels: usize,
+    sides: &(dyn Fn(usize) -> [Side; 2] + Sync),
+    shade: Option<crate::render::Shade<'_>>,
+) -> Vec<[Vec3; 2]> {
     const BATCH: usize = 1 << 16;
-    for start in (0..values.len()).step_by(BATCH) {
-        let end = (start + BATCH).min(values.len());
-        let pairs: Vec<[Option<(u32, DVec3)>; 2]> =
-            (start..end).into_par_iter().map(texel_point).collect();
+    let mut values = Vec::with_capacity(texels);
+    for start in (0..texels).step_by(BATCH) {
+        let end = (start + BATCH).min(texels);
+        let pairs: Vec<[Side; 2]> = (start..end).into_par_iter().map(sides).collect();
+        values.extend(pairs.iter().map(|[front, back]| [front.0, back.0]));
+        let Some(shade) = shade else {
+            continue;
+        };
         let mut batch = Vec::new();
         let mut at = Vec::new();
         for (offset, pair) in pairs.iter().enumerate() {
-            for (side, point) in pair.iter().enumerate() {
+            for (side, (_, point)) in pair.iter().enumerate() {
                 if let Some((surface, position)) = *point {
                     let texel = start + offset;
                     batch.push(crate::final_gather::Point {
@@ -197,8 +204,12 @@ fn add_final_pass(
             values[texel][side] += added.as_vec3();
         }
     }
+    values
 }
 
+/// The lightmap's linear values, `width x height`, top row first; the
+/// counts of texels shown and texels that found no surface; and which
+/// placed primitives show their back side.
 fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, usize, Vec<bool>) {
     let (width, height) = (layout.width, layout.height);
     let primitives = &bake.appearance.primitives;
@@ -259,47 +270,27 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
                 (value, Some((surface, p)))
             })
     };
-    // Front and (for double-sided materials) back values of every texel,
-    // NaN: none; and their surface points.
-    let value = |p: DVec3, n: DVec3| located(p, n).0;
-    let texel_point = |texel: usize| -> [Option<(u32, DVec3)>; 2] {
+    // Front and (for double-sided materials) back of every texel: the
+    // mesh's value (NaN: none) and the surface point.
+    let texel_sides = |texel: usize| {
+        let none = (Vec3::NAN, None);
         let Some(c) = claims[texel] else {
-            return [None; 2];
+            return [none; 2];
         };
         let (corners, n) = world[c.primitive as usize][c.triangle as usize];
+        // A hair inside the triangle: a texel clamped onto an edge shared
+        // with another surface in the same plane (a ceiling around its
+        // lamp) takes its own surface's light.
         let w = c.bary.map(|w| f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0);
         let p = corners[0] + (corners[1] - corners[0]) * w[1] + (corners[2] - corners[0]) * w[2];
         let back = if primitives[c.primitive as usize].double_sided {
-            located(p, -n).1
+            located(p, -n)
         } else {
-            None
+            none
         };
-        [located(p, n).1, back]
+        [located(p, n), back]
     };
-    let mut both: Vec<[Vec3; 2]> = claims
-        .par_iter()
-        .map(|claim| {
-            let Some(c) = *claim else {
-                return [Vec3::NAN; 2];
-            };
-            let (corners, n) = world[c.primitive as usize][c.triangle as usize];
-            // A hair inside the triangle: a texel clamped onto an edge
-            // shared with another surface in the same plane (a ceiling
-            // around its lamp) takes its own surface's light.
-            let w = c.bary.map(|w| f64::from(w) * (1.0 - INSIDE) + INSIDE / 3.0);
-            let p =
-                corners[0] + (corners[1] - corners[0]) * w[1] + (corners[2] - corners[0]) * w[2];
-            let back = if primitives[c.primitive as usize].double_sided {
-                value(p, -n)
-            } else {
-                Vec3::NAN
-            };
-            [value(p, n), back]
-        })
-        .collect();
-    if let Some(shade) = bake.shade {
-        add_final_pass(shade, &texel_point, &mut both);
-    }
+    let both = side_values(claims.len(), &texel_sides, bake.shade);
     // Each double-sided primitive shows its brighter side.
     let mut sums = vec![[0.0f64; 2]; primitives.len()];
     for (claim, pair) in claims.iter().zip(&both) {
