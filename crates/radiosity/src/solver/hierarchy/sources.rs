@@ -57,6 +57,41 @@ pub struct Bin {
     pub representative: u32,
     /// The dominant axis and sign of its normals (0..6).
     pub axis: u8,
+    /// The point source the sums above make, derived from them once all
+    /// bins are merged ([`Bin::finished`]) rather than at every receiver.
+    pub point: PointSource,
+}
+
+/// A bin as [`point_factor`] uses it: its sums divided by its weight.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PointSource {
+    /// The power-weighted centre, relative to the shooting node's centre.
+    pub centre: DVec3,
+    /// The unit mean normal.
+    pub normal: DVec3,
+    /// The length of the weighted mean of the normals (1 for a flat bin,
+    /// less where its normals spread).
+    pub length: f64,
+    /// The covariance of the bin's points about its centre.
+    pub covariance: DMat3,
+}
+
+impl Bin {
+    /// The bin with its [`PointSource`] derived from its sums.
+    #[must_use]
+    pub fn finished(mut self) -> Bin {
+        let w = self.weight;
+        let centre = self.position / w;
+        let mean_normal = self.normal / w;
+        let length = mean_normal.length();
+        self.point = PointSource {
+            centre,
+            normal: mean_normal / length,
+            length,
+            covariance: self.moment * (1.0 / w) - outer(centre),
+        };
+        self
+    }
 }
 
 impl Sources {
@@ -97,6 +132,7 @@ impl Sources {
                         moment: (outer(offset) + hierarchy.covariances[e as usize]) * weight,
                         representative: e,
                         axis: axis_of(normal),
+                        point: PointSource::default(),
                     });
                 }
             } else {
@@ -119,6 +155,9 @@ impl Sources {
                 bins: merged.len() as u8,
             };
             self.bins.extend_from_slice(&merged);
+        }
+        for bin in &mut self.bins {
+            *bin = bin.finished();
         }
     }
 }
@@ -166,6 +205,7 @@ fn merge_bins(a: &[Bin], b: &[Bin], centroids: &[DVec3], origin: DVec3, out: &mu
                     x.representative
                 },
                 axis: x.axis,
+                point: PointSource::default(),
             });
             i += 1;
             j += 1;
@@ -199,21 +239,21 @@ pub fn outer(v: DVec3) -> DMat3 {
 /// where the expansion fails (a receiver seeing the source almost edge-on,
 /// whose factor is then small anyway).
 pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
-    let w = bin.weight;
-    let centre = bin.position / w;
+    let PointSource {
+        centre,
+        normal: s,
+        length,
+        covariance,
+    } = bin.point;
     let d = point - origin - centre;
     let q = d.length_squared();
-    let mean_normal = bin.normal / w;
-    let length = mean_normal.length();
     if q <= 0.0 || length <= 0.0 {
         return 0.0;
     }
-    let s = mean_normal / length;
     let (a, b) = (s.dot(d), normal.dot(d));
     if a <= 0.0 || b >= 0.0 {
         return 0.0;
     }
-    let covariance = bin.moment * (1.0 / w) - outer(centre);
     let c = normal.dot(covariance * s) / (a * b)
         - 4.0 * d.dot(covariance * (normal * a + s * b)) / (a * b * q)
         - 2.0 * (covariance.x_axis.x + covariance.y_axis.y + covariance.z_axis.z) / q
@@ -257,7 +297,9 @@ mod tests {
                 moment: hierarchy::second_moment(&rectangle, DVec3::ZERO) * area,
                 representative: 0,
                 axis: 4,
-            };
+                point: PointSource::default(),
+            }
+            .finished();
             let radius = (hx * hx + hy * hy).sqrt();
             let (mut worst, mut worst_near, mut worst_plain): (f64, f64, f64) = (0.0, 0.0, 0.0);
             let mut tested = 0;

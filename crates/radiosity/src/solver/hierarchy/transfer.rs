@@ -31,6 +31,26 @@ pub const FAR_RATIO: f64 = 3.0;
 /// ([`point_factor`]).
 pub const QUADRATURE_RATIO: f64 = 4.0;
 
+/// Most bins a node's power is kept in: one per axis and sign of its
+/// elements' normals ([`super::sources`]).
+pub(crate) const MAX_BINS: usize = 6;
+
+/// The irradiance each of a node's bins sends a receiver, ignoring
+/// occlusion ([`Transfer::node_geometry`]): one value per bin, in the
+/// bins' order, kept on the stack.
+pub(crate) struct Geometry {
+    values: [DVec3; MAX_BINS],
+    count: usize,
+}
+
+impl std::ops::Deref for Geometry {
+    type Target = [DVec3];
+
+    fn deref(&self) -> &[DVec3] {
+        &self.values[..self.count]
+    }
+}
+
 /// One ray or factor in this many is timed, for the statistics' phase
 /// times (a clock read costs a tenth of a ray).
 pub(crate) const TIMING_SAMPLE: u64 = 16;
@@ -197,7 +217,7 @@ impl Transfer<'_> {
         let Some((bin, _)) = self
             .bins_of(n)
             .iter()
-            .zip(&geometry)
+            .zip(geometry.iter())
             .filter(|(_, g)| **g != DVec3::ZERO)
             .max_by(|a, b| luminance(*a.1).total_cmp(&luminance(*b.1)))
         else {
@@ -292,11 +312,19 @@ impl Transfer<'_> {
         r: &Receiver,
         scratch: &mut Scratch,
         cost: &mut Cost,
-    ) -> Vec<DVec3> {
+    ) -> Geometry {
         let timed = cost.factors.is_multiple_of(TIMING_SAMPLE);
         let t0 = timed.then(Instant::now);
-        let axes: Vec<u8> = self.bins_of(n).iter().map(|b| b.axis).collect();
-        let mut geometry = vec![DVec3::ZERO; axes.len()];
+        let bins = self.bins_of(n);
+        let mut axes = [0u8; MAX_BINS];
+        for (a, b) in axes.iter_mut().zip(bins) {
+            *a = b.axis;
+        }
+        let axes = &axes[..bins.len()];
+        let mut geometry = Geometry {
+            values: [DVec3::ZERO; MAX_BINS],
+            count: bins.len(),
+        };
         let slot = |axis: u8| axes.iter().position(|&a| a == axis);
         let mut pieces = std::mem::take(&mut scratch.pieces);
         pieces.clear();
@@ -313,7 +341,7 @@ impl Transfer<'_> {
             }
             for bin in self.bins_of(piece) {
                 let Some(k) = slot(bin.axis) else { continue };
-                geometry[k] += if near {
+                geometry.values[k] += if near {
                     // An element close by: its exact factor.
                     let e = bin.representative;
                     self.element_factor(e, r, &mut scratch.polygon) * self.unshot[e as usize]
