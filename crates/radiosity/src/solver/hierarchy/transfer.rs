@@ -445,6 +445,15 @@ impl Transfer<'_> {
                 .iter()
                 .map(|&v| self.mesh.vertices[v as usize].position),
         );
+        if self.form_factor == FormFactor::Analytic {
+            // The element's normal is its surface's: not computed again.
+            return crate::form_factor::analytic::analytic_facing(
+                r.point,
+                r.normal,
+                polygon,
+                surface.normal,
+            );
+        }
         self.form_factor.evaluate(
             r.point,
             r.normal,
