@@ -95,7 +95,10 @@ fn ours(quick: bool) -> Vec<Ours> {
                 series,
                 setting: format!("--tolerance {tolerance:e} --converge {converge:e}"),
                 settings: Settings {
-                    method: MethodSettings::Adaptive(AdaptiveSettings { tolerance }),
+                    method: MethodSettings::Adaptive(AdaptiveSettings {
+                        tolerance,
+                        ..AdaptiveSettings::default()
+                    }),
                     converge,
                     ..Settings::adaptive()
                 },

@@ -92,7 +92,11 @@ fn sensors_at_vertices_get_the_vertex_values() {
             method: if exact {
                 settings.method.clone()
             } else {
-                AdaptiveSettings { tolerance: 1e-5 }.into()
+                AdaptiveSettings {
+                    tolerance: 1e-5,
+                    ..AdaptiveSettings::default()
+                }
+                .into()
             },
             ..settings
         };

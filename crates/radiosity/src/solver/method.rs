@@ -75,8 +75,18 @@ pub trait Shooter: Send {
     /// Its shooting units: how many there are.
     fn shooters(&self) -> usize;
 
-    /// Unshot power left, per channel (W).
+    /// Unshot power left, per channel (W): the sum the energy ledger
+    /// balances, where negative power (overshooting's) offsets positive.
     fn unshot_power(&self, mesh: &Mesh) -> DVec3;
+
+    /// Unshot power left in magnitude, per channel (W): each shooting
+    /// unit's counted as positive, what the stopping rule compares
+    /// ([`super::Solver::unshot_fraction`]). The same as
+    /// [`Shooter::unshot_power`] for a method whose unshot power is never
+    /// negative.
+    fn unshot_magnitude(&self, mesh: &Mesh) -> DVec3 {
+        self.unshot_power(mesh)
+    }
 
     /// One shot: the shooter it chooses sends its unshot radiosity to every
     /// receiver. Returns `None`, having changed nothing, when

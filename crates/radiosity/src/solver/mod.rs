@@ -450,14 +450,23 @@ impl<'a> Solver<'a> {
         &self.light_power
     }
 
-    /// Unshot power left over emitted power (luminance-weighted).
+    /// Unshot power left over emitted power (luminance-weighted). The
+    /// unshot power is taken in magnitude, element by element
+    /// ([`Shooter::unshot_magnitude`]): with `--overshoot` an element may
+    /// hold negative unshot radiosity, which must be shot back too, so it
+    /// counts as much as positive radiosity still to be shot.
     #[must_use]
     pub fn unshot_fraction(&self) -> f64 {
         let emitted = luminance(self.energy.emitted);
         if emitted <= 0.0 {
             return 0.0;
         }
-        luminance(self.unshot_power()) / emitted
+        let pending: DVec3 = self
+            .lights_pending
+            .iter()
+            .filter_map(|&i| self.scene.lights[i].flux())
+            .sum();
+        luminance(self.shooter.unshot_magnitude(self.mesh) + pending) / emitted
     }
 
     /// The ambient term of Cohen et al. (1988) for display:

@@ -39,6 +39,7 @@
 //! [`super::hierarchy::sources::point_factor`].
 
 mod gather;
+mod overshoot;
 mod resident;
 
 use std::time::Instant;
@@ -69,18 +70,39 @@ pub struct AdaptiveSettings {
     /// scene's mean radiosity (or of what the receiver has gathered, if
     /// more), or when it is far and below [`FAR_FACTOR`] times that.
     pub tolerance: f64,
+    /// Overshooting ([`overshoot`]): each element of a shooter also sends
+    /// this many times its reflectance times the ambient irradiance of the
+    /// power still unshot elsewhere, light it is bound to receive and
+    /// reflect; 0 shoots exactly what has arrived.
+    pub overshoot: f64,
 }
 
 /// Default `--tolerance`.
 pub const DEFAULT_TOLERANCE: f64 = 1e-3;
 
+/// Default `--overshoot`: off, until the GPU's transfers send negative
+/// power too.
+pub const DEFAULT_OVERSHOOT: f64 = 0.0;
+
 impl Default for AdaptiveSettings {
     fn default() -> Self {
         AdaptiveSettings {
             tolerance: DEFAULT_TOLERANCE,
+            overshoot: DEFAULT_OVERSHOOT,
         }
     }
 }
+
+/// `--overshoot`.
+const OVERSHOOT: Parameter = Parameter {
+    name: "overshoot",
+    value_name: "FACTOR",
+    help: "Overshooting (Feda & Purgathofer 1992): a shooter also sends FACTOR times its \
+           reflectance times the ambient irradiance of the power still unshot elsewhere, which \
+           leaves it negative unshot radiosity that a later shot sends back; fewer shots to \
+           converge. 0 (the default) is off; CPU only",
+    kind: Kind::Number,
+};
 
 /// `--tolerance`.
 const TOLERANCE: Parameter = Parameter {
@@ -98,6 +120,9 @@ pub enum AdaptiveSettingsError {
     /// Tolerance outside (0, 1].
     #[error("--tolerance must be a fraction in (0, 1], not {0}")]
     Tolerance(f64),
+    /// Overshoot outside [0, 2].
+    #[error("--overshoot must be a factor in [0, 2], not {0}")]
+    Overshoot(f64),
     /// The hemicube pre-test asked of adaptive shooting.
     #[error(
         "the hemicube pre-test places a hemicube at each subsource of a patch: use it with \
@@ -110,12 +135,13 @@ impl Method for AdaptiveSettings {
     /// Its tolerance, and visibility, which is rays only: it takes
     /// `--visibility ray` and refuses the pre-test.
     fn parameters(&self) -> &'static [Parameter] {
-        &[TOLERANCE, VISIBILITY]
+        &[TOLERANCE, OVERSHOOT, VISIBILITY]
     }
 
     fn set(&mut self, name: &str, value: &Value) -> Result<(), SetError> {
         match name {
             "tolerance" => self.tolerance = value.number(name)?,
+            "overshoot" => self.overshoot = value.number(name)?,
             "visibility" => match value.choice(name)? {
                 Visibility::Ray => {}
                 Visibility::HemicubePretest => {
@@ -132,6 +158,7 @@ impl Method for AdaptiveSettings {
     fn values(&self) -> Vec<(&'static str, serde_json::Value)> {
         vec![
             ("tolerance", self.tolerance.into()),
+            ("overshoot", self.overshoot.into()),
             ("visibility", Visibility::Ray.name().into()),
         ]
     }
@@ -140,6 +167,11 @@ impl Method for AdaptiveSettings {
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance <= 1.0) {
             return Err(MethodError::new(AdaptiveSettingsError::Tolerance(
                 self.tolerance,
+            )));
+        }
+        if !(0.0..=2.0).contains(&self.overshoot) {
+            return Err(MethodError::new(AdaptiveSettingsError::Overshoot(
+                self.overshoot,
             )));
         }
         Ok(())
@@ -167,11 +199,7 @@ impl Method for AdaptiveSettings {
         receivers: &[Receiver],
     ) -> Box<dyn Shooter + 'a> {
         Box::new(AdaptiveShooting::new(
-            scene,
-            mesh,
-            settings,
-            self.tolerance,
-            receivers,
+            scene, mesh, settings, self, receivers,
         ))
     }
 }
@@ -192,11 +220,18 @@ struct AdaptiveShooting {
     hierarchy: Hierarchy,
     /// The receivers' tree (vertices, then sensors).
     receiver_tree: Tree,
-    /// Unshot radiosity of each element.
+    /// Unshot radiosity of each element (negative where overshooting sent
+    /// more than had arrived).
     unshot: Vec<DVec3>,
+    /// `--overshoot`.
+    overshoot: f64,
+    /// What the shooter's elements send in the current pass, zero
+    /// elsewhere ([`overshoot`]).
+    sending: Vec<DVec3>,
     /// The elements whose emission is still unshot.
     emission: Emission,
-    /// Unshot power (luminance) of each shooter.
+    /// Unshot power (luminance, its magnitude element by element) of each
+    /// shooter.
     shooter_power: Vec<f64>,
     /// Irradiance (luminance, W/m^2) a source may send and still be
     /// accepted whole, for a receiver with no more than the scene's mean
@@ -236,9 +271,10 @@ impl AdaptiveShooting {
         scene: &Scene,
         mesh: &Mesh,
         settings: &Settings,
-        tolerance: f64,
+        method: &AdaptiveSettings,
         receivers: &[Receiver],
     ) -> AdaptiveShooting {
+        let tolerance = method.tolerance;
         let hierarchy = Hierarchy::build(scene, mesh, settings.mesh.patch_size);
         let receiver_tree = hierarchy::receiver_tree(receivers, settings.mesh.patch_size);
         let unshot: Vec<DVec3> = mesh
@@ -266,7 +302,9 @@ impl AdaptiveShooting {
             emission: Emission::new(scene, mesh.elements.len(), |i| mesh.elements[i].surface),
             hierarchy,
             receiver_tree,
+            sending: vec![DVec3::ZERO; unshot.len()],
             unshot,
+            overshoot: method.overshoot,
             tolerance,
             power,
             per_watt,
@@ -320,12 +358,13 @@ impl AdaptiveShooting {
             .zip(&self.unshot)
             .zip(&self.hierarchy.shooter_of)
         {
-            self.shooter_power[*s as usize] += luminance(*u) * e.area;
+            self.shooter_power[*s as usize] += luminance(*u).abs() * e.area;
         }
     }
 
     /// The node that shoots next: the shooter with the most unshot power
-    /// (the first of equals).
+    /// (the first of equals), in magnitude: negative power left by
+    /// overshooting is shot back like positive.
     fn choose_shooting_node(&self) -> u32 {
         let (best, _) =
             self.shooter_power
@@ -360,14 +399,19 @@ impl AdaptiveShooting {
 impl AdaptiveShooting {
     /// The shot's transfers on the CPU: the receivers' tree refined
     /// against the shooting node, in parallel; `None` when abandoned.
-    fn gather_on_cpu(&self, inputs: &ShotInputs<'_>, root: u32) -> Option<(Vec<DVec3>, Counters)> {
+    fn gather_on_cpu(
+        &self,
+        inputs: &ShotInputs<'_>,
+        root: u32,
+        unshot: &[DVec3],
+    ) -> Option<(Vec<DVec3>, Counters)> {
         let negligible = self.receiver_negligible(inputs.irradiance);
         let gatherer = Gatherer {
             transfer: Transfer {
                 scene: inputs.scene,
                 mesh: inputs.mesh,
                 hierarchy: &self.hierarchy,
-                unshot: &self.unshot,
+                unshot,
                 sources: &self.sources,
                 root,
                 origin: self.hierarchy.tree.nodes[root as usize].centre,
@@ -413,8 +457,22 @@ impl Shooter for AdaptiveShooting {
             .sum()
     }
 
-    /// One shot of the chosen node; its elements' unshot radiosity is
-    /// zeroed.
+    /// Element by element, so overshooting's negative unshot power does
+    /// not cancel positive power still to be shot elsewhere.
+    fn unshot_magnitude(&self, mesh: &Mesh) -> DVec3 {
+        if let Some(power) = self.resident.as_ref().map(|r| r.unshot_power) {
+            return power;
+        }
+        mesh.elements
+            .iter()
+            .zip(&self.unshot)
+            .map(|(e, u)| u.abs() * e.area)
+            .sum()
+    }
+
+    /// One shot of the chosen node: its elements' unshot radiosity and
+    /// overshoot ([`overshoot`]), in a pass per sign; what they leave is
+    /// minus the overshoot (zero without).
     fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
         if self.device.is_some() {
             return self.shoot_on_device(inputs, stats);
@@ -425,18 +483,13 @@ impl Shooter for AdaptiveShooting {
         let start = Instant::now();
         let (scene, mesh) = (inputs.scene, inputs.mesh);
         let root = self.choose_shooting_node();
-        self.sources
-            .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);
-        let mut power = DVec3::ZERO;
-        let mut elements = 0u64;
-        for &e in self.hierarchy.tree.items_of(root) {
-            power += self.unshot[e as usize] * mesh.elements[e as usize].area;
-            elements += 1;
-        }
-        let emitted = self.take_emission(scene, mesh, root);
+        let plan = overshoot::Plan::new(self, scene, mesh, root);
+        let elements = self.hierarchy.tree.items_of(root).len() as u64;
         let gather_start = Instant::now();
-        let (irradiance, counters) = self.gather_on_cpu(inputs, root)?;
+        let (irradiance, counters) = self.send(inputs, root, &plan)?;
         let gather_end = Instant::now();
+        let emitted = self.take_emission(scene, mesh, root);
+        let power = plan.power;
 
         self.counters += counters;
         let cost = counters.cost;
@@ -447,9 +500,7 @@ impl Shooter for AdaptiveShooting {
         stats.pretest_time += (gather_end - gather_start)
             .mul_f64(rayon::current_num_threads() as f64)
             .saturating_sub(cost.ray_time + cost.form_factor_time);
-        for &e in self.hierarchy.tree.items_of(root) {
-            self.unshot[e as usize] = DVec3::ZERO;
-        }
+        plan.leave(self, scene, mesh, root);
         stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
         Some(Shot {

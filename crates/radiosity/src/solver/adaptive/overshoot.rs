@@ -1,0 +1,178 @@
+//! Overshooting (Feda & Purgathofer 1992, "Accelerating radiosity by
+//! overshooting"; Gortler, Cohen & Slusallek 1993, "Radiosity and
+//! relaxation methods", who show it is over-relaxation of the shooting
+//! iteration): a shooter sends, besides the light that has arrived at its
+//! elements, the part of the light still unshot elsewhere that they are
+//! bound to receive and reflect, so the bounces between two surfaces take
+//! fewer shots back and forth.
+//!
+//! The light still to arrive at element `e` is estimated as the paper's
+//! ambient term does it (Cohen, Chen, Wallace & Greenberg 1988): the power
+//! unshot elsewhere spread over the scene's area, `U = sum dB_j A_j /
+//! sum A_j` over the elements `j` outside the shooter (per channel,
+//! never below zero). Element `e` then sends `dB_e + w rho_e U` (`w` is
+//! `--overshoot`) and is left with `-w rho_e U`: negative unshot
+//! radiosity, which the light it later receives cancels, or a later shot
+//! of it sends back as negative light where the estimate was too high.
+//!
+//! Negative light in the shot's sources: a source node's point sources
+//! and visibility samples ([`crate::solver::hierarchy::sources`]) are
+//! weighted by their elements' power, which must have one sign. So a
+//! shooter whose elements' sending radiosities differ in sign (by their
+//! luminance) shoots twice: once its positive elements, once its negative
+//! ones negated, whose irradiance is then subtracted. Each pass is an
+//! ordinary transfer. Without overshooting nothing is ever negative and
+//! a shot is one pass, as before, to the last bit.
+//!
+//! The energy ledger stays exact: the power shot is what the elements
+//! send, and what they are left with is what they had less that. The
+//! stopping rule and the choice of shooter take unshot power element by
+//! element in magnitude ([`super::Shooter::unshot_magnitude`]), so
+//! negative power never hides positive power still to be shot.
+
+use glam::DVec3;
+
+use super::{AdaptiveShooting, Counters};
+use crate::luminance;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::solver::method::ShotInputs;
+
+/// What one shot's elements send.
+pub(super) struct Plan {
+    /// The overshoot per unit of reflectance: `w U` per channel.
+    over: DVec3,
+    /// The power sent, per channel (W): the shot's power.
+    pub(super) power: DVec3,
+    /// Whether some element sends positive light, and some negative (by
+    /// luminance).
+    signs: [bool; 2],
+}
+
+impl Plan {
+    /// The plan for shooting node `root`.
+    pub(super) fn new(shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, root: u32) -> Plan {
+        let items = shooting.hierarchy.tree.items_of(root);
+        let over = if shooting.overshoot > 0.0 {
+            let mut elsewhere: DVec3 = mesh
+                .elements
+                .iter()
+                .zip(&shooting.unshot)
+                .map(|(e, u)| *u * e.area)
+                .sum();
+            for &e in items {
+                elsewhere -= shooting.unshot[e as usize] * mesh.elements[e as usize].area;
+            }
+            let area = mesh.total_area();
+            if area > 0.0 {
+                (elsewhere / area).max(DVec3::ZERO) * shooting.overshoot
+            } else {
+                DVec3::ZERO
+            }
+        } else {
+            DVec3::ZERO
+        };
+        let mut plan = Plan {
+            over,
+            power: DVec3::ZERO,
+            signs: [false; 2],
+        };
+        for &e in items {
+            let send = plan.sends(shooting, scene, mesh, e);
+            plan.power += send * mesh.elements[e as usize].area;
+            let l = luminance(send);
+            plan.signs[0] |= l > 0.0;
+            plan.signs[1] |= l < 0.0;
+        }
+        plan
+    }
+
+    /// The overshoot of element `e`: its reflectance times the plan's
+    /// ambient irradiance, where its unshot radiosity is positive. An
+    /// element with none, or with negative radiosity to send back, sends
+    /// no more than it has: an element of no power is left out of its
+    /// node's point sources and visibility samples, and must stay so.
+    fn overshoot(&self, shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, e: u32) -> DVec3 {
+        if self.over == DVec3::ZERO || luminance(shooting.unshot[e as usize]) <= 0.0 {
+            return DVec3::ZERO;
+        }
+        scene.surfaces[mesh.elements[e as usize].surface as usize].rho * self.over
+    }
+
+    /// What element `e` sends: its unshot radiosity and its overshoot.
+    fn sends(&self, shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, e: u32) -> DVec3 {
+        shooting.unshot[e as usize] + self.overshoot(shooting, scene, mesh, e)
+    }
+
+    /// What the shooter's elements are left with: minus their overshoot
+    /// (zero without).
+    pub(super) fn leave(
+        &self,
+        shooting: &mut AdaptiveShooting,
+        scene: &Scene,
+        mesh: &Mesh,
+        root: u32,
+    ) {
+        for i in 0..shooting.hierarchy.tree.items_of(root).len() {
+            let e = shooting.hierarchy.tree.items_of(root)[i];
+            let over = self.overshoot(shooting, scene, mesh, e);
+            shooting.unshot[e as usize] = -over;
+        }
+    }
+}
+
+impl AdaptiveShooting {
+    /// The shot's transfers: one pass per sign the plan's elements send,
+    /// each an ordinary transfer of light of one sign, the negative pass's
+    /// irradiance subtracted; `None` when abandoned.
+    pub(super) fn send(
+        &mut self,
+        inputs: &ShotInputs<'_>,
+        root: u32,
+        plan: &Plan,
+    ) -> Option<(Vec<DVec3>, Counters)> {
+        let (scene, mesh) = (inputs.scene, inputs.mesh);
+        let mut total: Option<(Vec<DVec3>, Counters)> = None;
+        for (pass, sign) in [(0, 1.0), (1, -1.0)] {
+            if !plan.signs[pass] {
+                continue;
+            }
+            let mut sending = std::mem::take(&mut self.sending);
+            for &e in self.hierarchy.tree.items_of(root) {
+                let send = plan.sends(self, scene, mesh, e);
+                sending[e as usize] = if sign * luminance(send) > 0.0 {
+                    send * sign
+                } else {
+                    DVec3::ZERO
+                };
+            }
+            self.sources
+                .prepare(scene, mesh, &self.hierarchy, &sending, root);
+            let gathered = self.gather_on_cpu(inputs, root, &sending);
+            for &e in self.hierarchy.tree.items_of(root) {
+                sending[e as usize] = DVec3::ZERO;
+            }
+            self.sending = sending;
+            let (irradiance, counters) = gathered?;
+            total = Some(match total {
+                None if sign > 0.0 => (irradiance, counters),
+                None => (irradiance.into_iter().map(|e| -e).collect(), counters),
+                Some((mut sum, mut all)) => {
+                    for (s, e) in sum.iter_mut().zip(irradiance) {
+                        *s += sign * e;
+                    }
+                    all += counters;
+                    (sum, all)
+                }
+            });
+        }
+        // Nothing to send (every element's radiosity zero): a shot that
+        // gathers nothing, as a pass over empty sources would.
+        Some(total.unwrap_or_else(|| {
+            (
+                vec![DVec3::ZERO; inputs.receivers.len()],
+                Counters::default(),
+            )
+        }))
+    }
+}
