@@ -32,6 +32,7 @@
 
 pub mod embree;
 pub mod gpu;
+pub mod own;
 
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -287,6 +288,8 @@ pub struct RaysScene {
     pub timed: usize,
     /// What the accelerators did on them.
     pub outcome: Outcome,
+    /// The BVH and Embree on the default method's own segments.
+    pub own: own::Own,
     /// What the GPU did on every recorded segment, when one was used.
     pub gpu: Option<gpu::GpuRun>,
 }
@@ -336,6 +339,7 @@ pub fn rays_compute(context: &Context, scenes: &[SceneSpec]) -> Result<Rays, Err
             .map_err(|e| Error::App(app::Error::Mesh(e)))?;
         let recorded = record(&scene, &mesh, recorded_shots(context.quick));
         let segments = sample(&recorded, segment_budget(context.quick));
+        let own = own::measure(context, spec.name, &scene, &mesh)?;
         drop(mesh);
         let outcome = measure(context, spec.name, &scene, &segments)?;
         let gpu = match &device {
@@ -353,6 +357,7 @@ pub fn rays_compute(context: &Context, scenes: &[SceneSpec]) -> Result<Rays, Err
             recorded: recorded.len(),
             timed: segments.len(),
             outcome,
+            own,
             gpu,
         });
     }
@@ -522,6 +527,7 @@ pub fn rays_report(data: &Rays) -> Report {
         ],
         &build_rows,
     ));
+    own::report(data, &mut report);
     if let Some(adapter) = &data.adapter {
         let rows: Vec<Vec<String>> = data
             .scenes
@@ -575,13 +581,18 @@ pub fn rays_report(data: &Rays) -> Report {
 /// and returns the segments cast during `shots` (1-based), in receiver
 /// order.
 pub fn record(scene: &Scene, mesh: &Mesh, shots: &[u64]) -> Vec<Segment> {
+    record_with(scene, mesh, shots, Settings::wong_tsang93())
+}
+
+/// [`record`] with the solve's settings given (their shot limit replaced).
+pub fn record_with(scene: &Scene, mesh: &Mesh, shots: &[u64], settings: Settings) -> Vec<Segment> {
     let log = Mutex::new(Vec::new());
     let recording = AtomicBool::new(shots.contains(&1));
     let last = shots.iter().copied().max().unwrap_or(0);
     {
         let settings = Settings {
             max_shots: Some(last),
-            ..Settings::wong_tsang93()
+            ..settings
         };
         let recorder = Recorder {
             inner: Box::new(Bvh::new(&scene.surfaces)),
