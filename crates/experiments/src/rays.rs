@@ -780,10 +780,7 @@ fn measure(
                     .ns_per_ray
                     .push(1e9 * seconds / brute_sample.len().max(1) as f64);
             } else if let Some(run) = &embree {
-                let result = run.run()?;
-                embree_timing.ns_per_ray.push(result.ns_per_ray);
-                embree_timing.build_seconds.push(result.build_seconds);
-                outcome.embree_agreement = Some(result.agreement);
+                outcome.embree_agreement = Some(run.time_into(&mut embree_timing)?);
             }
         }
     }

@@ -67,6 +67,15 @@ impl EmbreeRun {
         Ok(run)
     }
 
+    /// Runs the script once and adds its time per ray and build time to
+    /// `timing`; returns its agreement with our answers.
+    pub(super) fn time_into(&self, timing: &mut super::Timing) -> Result<f64, Error> {
+        let result = self.run()?;
+        timing.ns_per_ray.push(result.ns_per_ray);
+        timing.build_seconds.push(result.build_seconds);
+        Ok(result.agreement)
+    }
+
     /// Runs the script once: it builds Embree's scene and times every
     /// segment.
     pub(super) fn run(&self) -> Result<EmbreeResult, Error> {

@@ -107,10 +107,7 @@ pub fn measure(context: &Context, name: &str, scene: &Scene, mesh: &Mesh) -> Res
                 let seconds = time_queries(&bvh, &segments);
                 own.bvh.ns_per_ray.push(1e9 * seconds / n as f64);
             } else if let Some(run) = &embree {
-                let result = run.run()?;
-                embree_timing.ns_per_ray.push(result.ns_per_ray);
-                embree_timing.build_seconds.push(result.build_seconds);
-                own.embree_agreement = Some(result.agreement);
+                own.embree_agreement = Some(run.time_into(&mut embree_timing)?);
             }
         }
     }

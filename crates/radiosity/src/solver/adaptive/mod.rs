@@ -442,33 +442,34 @@ impl AdaptiveShooting {
     }
 }
 
+impl AdaptiveShooting {
+    /// `sum f(unshot_e) A_e` over the elements, or the device's sum while
+    /// it holds the state (which never overshoots: nothing is negative).
+    fn unshot_sum(&self, mesh: &Mesh, f: impl Fn(DVec3) -> DVec3) -> DVec3 {
+        if let Some(power) = self.resident.as_ref().map(|r| r.unshot_power) {
+            return power;
+        }
+        mesh.elements
+            .iter()
+            .zip(&self.unshot)
+            .map(|(e, u)| f(*u) * e.area)
+            .sum()
+    }
+}
+
 impl Shooter for AdaptiveShooting {
     fn shooters(&self) -> usize {
         self.hierarchy.shooters.len()
     }
 
     fn unshot_power(&self, mesh: &Mesh) -> DVec3 {
-        if let Some(power) = self.resident.as_ref().map(|r| r.unshot_power) {
-            return power;
-        }
-        mesh.elements
-            .iter()
-            .zip(&self.unshot)
-            .map(|(e, u)| *u * e.area)
-            .sum()
+        self.unshot_sum(mesh, |u| u)
     }
 
     /// Element by element, so overshooting's negative unshot power does
     /// not cancel positive power still to be shot elsewhere.
     fn unshot_magnitude(&self, mesh: &Mesh) -> DVec3 {
-        if let Some(power) = self.resident.as_ref().map(|r| r.unshot_power) {
-            return power;
-        }
-        mesh.elements
-            .iter()
-            .zip(&self.unshot)
-            .map(|(e, u)| u.abs() * e.area)
-            .sum()
+        self.unshot_sum(mesh, DVec3::abs)
     }
 
     /// One shot of the chosen node: its elements' unshot radiosity and

@@ -54,12 +54,7 @@ impl Plan {
     pub(super) fn new(shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, root: u32) -> Plan {
         let items = shooting.hierarchy.tree.items_of(root);
         let over = if shooting.overshoot > 0.0 {
-            let mut elsewhere: DVec3 = mesh
-                .elements
-                .iter()
-                .zip(&shooting.unshot)
-                .map(|(e, u)| *u * e.area)
-                .sum();
+            let mut elsewhere = shooting.unshot_sum(mesh, |u| u);
             for &e in items {
                 elsewhere -= shooting.unshot[e as usize] * mesh.elements[e as usize].area;
             }
