@@ -537,13 +537,13 @@ mod tests {
         let e = estimate(&sizes, Settings::adaptive().method.method().memory());
         // The shot's buffers are the largest last stage.
         let expected =
-            120e6 * (ELEMENT + 270.0) + 100e6 * (VERTEX + 104.0 + DISPLAY_VERTEX + SHOT_VERTEX);
+            120e6 * (ELEMENT + 294.0) + 100e6 * (VERTEX + 104.0 + DISPLAY_VERTEX + SHOT_VERTEX);
         assert!((e.total() as f64 - expected).abs() / expected < 0.01);
         let text = e.to_string();
         let gib = expected / f64::from(1u32 << 30);
         assert!(
             text.starts_with(&format!(
-                "about {gib:.1} GiB (elements 120M at 330 B each, "
+                "about {gib:.1} GiB (elements 120M at 354 B each, "
             )),
             "{text}"
         );
