@@ -35,6 +35,11 @@
 //!   if more): a bright source is shot carefully everywhere, a dim one
 //!   coarsely where it adds little.
 //!
+//! * **Overshooting** (`--overshoot`, off by default; `overshoot.rs`): a
+//!   shooter may also send light it is bound to receive, estimated by the
+//!   ambient term, and keep the negative remainder for a later shot (Feda
+//!   & Purgathofer 1992): fewer shots to the stopping rule.
+//!
 //! How accurate an accepted node's geometry is, is said once, at
 //! [`super::hierarchy::sources::point_factor`].
 
@@ -70,10 +75,10 @@ pub struct AdaptiveSettings {
     /// scene's mean radiosity (or of what the receiver has gathered, if
     /// more), or when it is far and below [`FAR_FACTOR`] times that.
     pub tolerance: f64,
-    /// Overshooting ([`overshoot`]): each element of a shooter also sends
-    /// this many times its reflectance times the ambient irradiance of the
-    /// power still unshot elsewhere, light it is bound to receive and
-    /// reflect; 0 shoots exactly what has arrived.
+    /// Overshooting (Feda & Purgathofer 1992): each lit element of a
+    /// shooter also sends this many times its reflectance times the ambient
+    /// irradiance of the power still unshot elsewhere, light it is bound to
+    /// receive and reflect; 0 shoots exactly what has arrived.
     pub overshoot: f64,
 }
 
@@ -182,8 +187,8 @@ impl Method for AdaptiveSettings {
     }
 
     fn memory(&self) -> memory::SolverCosts {
-        // Measured on the shared scenes (EXPERIMENTS.md, "Memory"), and
-        // the 24 bytes an element that overshooting's passes send from.
+        // Measured on the shared scenes (EXPERIMENTS.md, "Memory"), plus
+        // 24 bytes an element for the buffer each pass sends from.
         memory::SolverCosts {
             vertex: 104.0,
             element: 294.0,
