@@ -445,6 +445,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "max_shots",
             "max_subsources",
             "merge_coplanar",
+            "overshoot",
             "patch_size",
             "refine_levels",
             "refine_tolerance",
@@ -456,6 +457,7 @@ fn cornell_writes_picture_vertices_and_stats() {
         ]
     );
     assert_eq!(stats["settings"]["accel"], "bvh");
+    assert_eq!(stats["settings"]["overshoot"], 0.0);
     assert_eq!(stats["settings"]["final_gather"], "direct");
     assert!(stats["final_gather_seconds"].as_f64().unwrap() > 0.0);
     assert_eq!(stats["stop_reason"], "converged");
