@@ -12,12 +12,11 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 use radiosity::solver::device::{
     AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError,
 };
 use radiosity::solver::hierarchy::NONE;
-use radiosity::solver::hierarchy::sources::outer;
 use radiosity::solver::method::Received;
 use wgpu::util::DeviceExt;
 
@@ -394,17 +393,15 @@ impl GpuTransfers {
             .bins
             .iter()
             .map(|b| {
-                let w = b.weight;
-                let mean_normal = b.normal / w;
-                let length = mean_normal.length();
-                let centre = b.position / w;
-                let covariance: DMat3 = b.moment * (1.0 / w) - outer(centre);
+                // The point source the CPU's point_factor uses, derived once.
+                let p = &b.point;
+                let covariance = p.covariance;
                 GpuBin {
                     power: b.power.as_vec3().to_array(),
-                    weight: w as f32,
-                    normal: (mean_normal / length).as_vec3().to_array(),
-                    length: length as f32,
-                    centre: centre.as_vec3().to_array(),
+                    weight: b.weight as f32,
+                    normal: p.normal.as_vec3().to_array(),
+                    length: p.length as f32,
+                    centre: p.centre.as_vec3().to_array(),
                     representative: b.representative,
                     diagonal: [
                         covariance.x_axis.x as f32,

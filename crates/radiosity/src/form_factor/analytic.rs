@@ -102,9 +102,8 @@ pub fn analytic_facing(
     let tolerance = ON_PLANE * scale;
     let facing = receiver_normal.dot(source_normal);
     let tangential = source_normal - facing * receiver_normal;
-    let tangential_length = tangential.length();
     // Normalised only where a degenerate edge needs it ([`Contour::approach`]).
-    let approach = if tangential_length > DEGENERATE {
+    let approach = if tangential.length() > DEGENERATE {
         Approach::Tangential(tangential)
     } else if facing > 0.0 {
         // The receiver faces the way the polygon does: the polygon is behind
@@ -135,8 +134,6 @@ pub fn analytic_facing(
     super::clamp_factor(-sum / TAU)
 }
 
-/// The clipped polygon's corners as the clip emits them, accumulating
-/// `sum n . Gamma_g` one edge at a time.
 /// The direction from which the receiver approaches a degenerate edge:
 /// the polygon's normal projected on the receiver's tangent plane (to be
 /// normalised), or the polygon's normal itself.
@@ -146,6 +143,8 @@ enum Approach {
     Normal(DVec3),
 }
 
+/// The clipped polygon's corners as the clip emits them, accumulating
+/// `sum n . Gamma_g` one edge at a time.
 struct Contour {
     receiver: DVec3,
     normal: DVec3,

@@ -507,7 +507,7 @@ impl Shooter for AdaptiveShooting {
         stats.pretest_time += (gather_end - gather_start)
             .mul_f64(rayon::current_num_threads() as f64)
             .saturating_sub(cost.ray_time + cost.form_factor_time);
-        plan.leave(self, scene, mesh, root);
+        plan.leave(self, root);
         stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
         Some(Shot {

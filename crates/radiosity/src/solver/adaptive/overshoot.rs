@@ -40,8 +40,12 @@ use crate::solver::method::ShotInputs;
 
 /// What one shot's elements send.
 pub(super) struct Plan {
-    /// The overshoot per unit of reflectance: `w U` per channel.
-    over: DVec3,
+    /// Per element of the shooter, in its items' order: what it sends,
+    /// its unshot radiosity and its overshoot.
+    sends: Vec<DVec3>,
+    /// Per element likewise: its overshoot, which it keeps as negative
+    /// unshot radiosity.
+    overs: Vec<DVec3>,
     /// The power sent, per channel (W): the shot's power.
     pub(super) power: DVec3,
     /// Whether some element sends positive light, and some negative (by
@@ -50,10 +54,15 @@ pub(super) struct Plan {
 }
 
 impl Plan {
-    /// The plan for shooting node `root`.
+    /// The plan for shooting node `root`. An element overshoots by its
+    /// reflectance times the ambient irradiance where its unshot radiosity
+    /// is positive; one with none, or with negative radiosity to send
+    /// back, sends no more than it has: an element of no power is left out
+    /// of its node's point sources and visibility samples, and must stay
+    /// so.
     pub(super) fn new(shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, root: u32) -> Plan {
         let items = shooting.hierarchy.tree.items_of(root);
-        let over = if shooting.overshoot > 0.0 {
+        let ambient = if shooting.overshoot > 0.0 {
             let mut elsewhere = shooting.unshot_sum(mesh, |u| u);
             for &e in items {
                 elsewhere -= shooting.unshot[e as usize] * mesh.elements[e as usize].area;
@@ -68,50 +77,41 @@ impl Plan {
             DVec3::ZERO
         };
         let mut plan = Plan {
-            over,
+            sends: Vec::with_capacity(items.len()),
+            overs: Vec::with_capacity(items.len()),
             power: DVec3::ZERO,
             signs: [false; 2],
         };
         for &e in items {
-            let send = plan.sends(shooting, scene, mesh, e);
-            plan.power += send * mesh.elements[e as usize].area;
+            let element = &mesh.elements[e as usize];
+            let unshot = shooting.unshot[e as usize];
+            let over = if ambient == DVec3::ZERO || luminance(unshot) <= 0.0 {
+                DVec3::ZERO
+            } else {
+                scene.surfaces[element.surface as usize].rho * ambient
+            };
+            let send = unshot + over;
+            plan.power += send * element.area;
             let l = luminance(send);
             plan.signs[0] |= l > 0.0;
             plan.signs[1] |= l < 0.0;
+            plan.sends.push(send);
+            plan.overs.push(over);
         }
         plan
     }
 
-    /// The overshoot of element `e`: its reflectance times the plan's
-    /// ambient irradiance, where its unshot radiosity is positive. An
-    /// element with none, or with negative radiosity to send back, sends
-    /// no more than it has: an element of no power is left out of its
-    /// node's point sources and visibility samples, and must stay so.
-    fn overshoot(&self, shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, e: u32) -> DVec3 {
-        if self.over == DVec3::ZERO || luminance(shooting.unshot[e as usize]) <= 0.0 {
-            return DVec3::ZERO;
-        }
-        scene.surfaces[mesh.elements[e as usize].surface as usize].rho * self.over
-    }
-
-    /// What element `e` sends: its unshot radiosity and its overshoot.
-    fn sends(&self, shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, e: u32) -> DVec3 {
-        shooting.unshot[e as usize] + self.overshoot(shooting, scene, mesh, e)
-    }
-
     /// What the shooter's elements are left with: minus their overshoot
     /// (zero without).
-    pub(super) fn leave(
-        &self,
-        shooting: &mut AdaptiveShooting,
-        scene: &Scene,
-        mesh: &Mesh,
-        root: u32,
-    ) {
-        for i in 0..shooting.hierarchy.tree.items_of(root).len() {
-            let e = shooting.hierarchy.tree.items_of(root)[i];
-            let over = self.overshoot(shooting, scene, mesh, e);
-            shooting.unshot[e as usize] = -over;
+    pub(super) fn leave(&self, shooting: &mut AdaptiveShooting, root: u32) {
+        for (&e, over) in shooting
+            .hierarchy
+            .tree
+            .items_of(root)
+            .iter()
+            .zip(&self.overs)
+        {
+            shooting.unshot[e as usize] = -*over;
         }
     }
 }
@@ -133,8 +133,7 @@ impl AdaptiveShooting {
                 continue;
             }
             let mut sending = std::mem::take(&mut self.sending);
-            for &e in self.hierarchy.tree.items_of(root) {
-                let send = plan.sends(self, scene, mesh, e);
+            for (&e, &send) in self.hierarchy.tree.items_of(root).iter().zip(&plan.sends) {
                 sending[e as usize] = if sign * luminance(send) > 0.0 {
                     send * sign
                 } else {

@@ -15,6 +15,10 @@ use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
+/// Most bins a node's power is kept in: one per axis and sign of its
+/// elements' normals.
+pub(crate) const MAX_BINS: usize = 6;
+
 /// The sources of one shot: per node of the shooting subtree (indexed from
 /// its root), its power and bins.
 #[derive(Clone, Debug, Default)]
@@ -112,7 +116,7 @@ impl Sources {
         self.nodes
             .resize((end - root) as usize, NodeSource::default());
         self.bins.clear();
-        let mut merged: Vec<Bin> = Vec::with_capacity(6);
+        let mut merged: Vec<Bin> = Vec::with_capacity(MAX_BINS);
         for n in (root..end).rev() {
             let node = &nodes[n as usize];
             merged.clear();

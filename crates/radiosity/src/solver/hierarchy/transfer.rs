@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
-use super::sources::{Bin, NodeSource, Sources, point_factor};
+use super::sources::{Bin, MAX_BINS, NodeSource, Sources, point_factor};
 use super::{Hierarchy, NONE, Node, Tree};
 use crate::accel::{self, Occluder};
 use crate::form_factor::{FormFactor, Source};
@@ -30,10 +30,6 @@ pub const FAR_RATIO: f64 = 3.0;
 /// many of their radii from the receiver, each a corrected point source
 /// ([`point_factor`]).
 pub const QUADRATURE_RATIO: f64 = 4.0;
-
-/// Most bins a node's power is kept in: one per axis and sign of its
-/// elements' normals ([`super::sources`]).
-pub(crate) const MAX_BINS: usize = 6;
 
 /// The irradiance each of a node's bins sends a receiver, ignoring
 /// occlusion ([`Transfer::node_geometry`]): one value per bin, in the
@@ -316,16 +312,11 @@ impl Transfer<'_> {
         let timed = cost.factors.is_multiple_of(TIMING_SAMPLE);
         let t0 = timed.then(Instant::now);
         let bins = self.bins_of(n);
-        let mut axes = [0u8; MAX_BINS];
-        for (a, b) in axes.iter_mut().zip(bins) {
-            *a = b.axis;
-        }
-        let axes = &axes[..bins.len()];
         let mut geometry = Geometry {
             values: [DVec3::ZERO; MAX_BINS],
             count: bins.len(),
         };
-        let slot = |axis: u8| axes.iter().position(|&a| a == axis);
+        let slot = |axis: u8| bins.iter().position(|b| b.axis == axis);
         let mut pieces = std::mem::take(&mut scratch.pieces);
         pieces.clear();
         pieces.push(n);
