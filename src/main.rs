@@ -148,20 +148,44 @@ fn warn_unused(warnings: &[String]) {
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
+    let mut events = args
+        .progress_json
+        .as_deref()
+        .map(cli::events::Events::open)
+        .transpose()?;
+    let result = render_with(args, &mut events);
+    if let (Some(events), Err(e)) = (&mut events, &result) {
+        events.error(e);
+    }
+    result
+}
+
+/// [`render`], its events written to `events` (taken by the progress
+/// display during the run and given back for the last one).
+fn render_with(args: &RenderArgs, events: &mut Option<cli::events::Events>) -> Result<()> {
     let (job, warnings) = args.job()?;
     warn_unused(&warnings);
     app::validate(&job)?;
     let pool = pool(args.threads)?;
     let interrupted = interrupt_handler()?;
-    let mut display = ProgressDisplay::new(args.quiet, interrupted);
+    if let Some(path) = &args.stop_file {
+        cli::events::watch_stop_file(path.clone(), Arc::clone(&interrupted))?;
+    }
+    let mut display = ProgressDisplay::new(args.quiet, interrupted).with_events(events.take());
     let outcome = pool.install(|| app::run(&job, &mut display));
     display.finish();
+    *events = display.take_events();
     let outcome = outcome?;
     for warning in &outcome.warnings {
         eprintln!("warning: {warning}");
     }
-    if !args.quiet {
+    // Events on standard output take the place of the summary there.
+    let events_on_stdout = args.progress_json.as_deref() == Some(std::path::Path::new("-"));
+    if !args.quiet && !events_on_stdout {
         print_summary(&outcome);
+    }
+    if let Some(events) = events {
+        events.done(&outcome);
     }
     Ok(())
 }
@@ -195,6 +219,12 @@ fn view(args: &ViewArgs) -> Result<()> {
 }
 
 fn serve(args: &ServeArgs) -> Result<()> {
+    if args.render.progress_json.is_some() || args.render.stop_file.is_some() {
+        return Err(anyhow!(
+            "--progress-json and --stop-file are for `render`: `serve` shows its progress and \
+             its stop button in the browser"
+        ));
+    }
     let (job, warnings) = args.render.job()?;
     warn_unused(&warnings);
     app::validate(&job)?;

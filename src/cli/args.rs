@@ -470,6 +470,21 @@ pub struct RenderArgs {
     #[arg(short, long)]
     pub quiet: bool,
 
+    /// Machine-readable progress: one JSON object a line (`stage`,
+    /// `progress`, `done` or `error` events, see the README's "Progress for
+    /// other programs"), written to FILE as the run goes, or to standard
+    /// output for `-` (then with no summary). For front ends such as the
+    /// Blender add-on; independent of --quiet.
+    #[arg(long, value_name = "FILE")]
+    pub progress_json: Option<PathBuf>,
+
+    /// Stop the solve, and write the outputs from the state reached, once
+    /// FILE exists (checked ten times a second), as a first Ctrl-C does: a
+    /// way to stop that works on every system. FILE must not exist when
+    /// the run starts.
+    #[arg(long, value_name = "FILE")]
+    pub stop_file: Option<PathBuf>,
+
     /// Largest scene file (OBJ or MTL) read, MiB [default: 1024].
     #[arg(long, value_name = "MIB", help_heading = LIMITS, allow_negative_numbers = true,
           value_parser = positive::<u64>())]

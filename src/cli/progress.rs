@@ -9,6 +9,8 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::events::Events;
+
 use radiosity::app::{self, Outcome};
 use radiosity::mesh::Mesh;
 use radiosity::scene::Scene;
@@ -29,6 +31,8 @@ pub struct ProgressDisplay {
     /// What is being solved, until it has been said.
     header: Option<String>,
     interrupted: Arc<AtomicBool>,
+    /// `--progress-json`'s stream.
+    events: Option<Events>,
 }
 
 impl ProgressDisplay {
@@ -49,7 +53,20 @@ impl ProgressDisplay {
             last_line: Instant::now(),
             header: None,
             interrupted,
+            events: None,
         }
+    }
+
+    /// Also writes the run's events to `events` (`--progress-json`).
+    #[must_use]
+    pub fn with_events(mut self, events: Option<Events>) -> ProgressDisplay {
+        self.events = events;
+        self
+    }
+
+    /// The event stream, given back for the run's last event.
+    pub fn take_events(&mut self) -> Option<Events> {
+        self.events.take()
     }
 
     pub fn finish(&self) {
@@ -71,12 +88,26 @@ fn clock(d: Duration) -> String {
 
 impl app::Observer for ProgressDisplay {
     fn refining(&mut self) {
+        if let Some(events) = &mut self.events {
+            events.stage("refining", serde_json::json!({}));
+        }
         if let Some(bar) = &self.bar {
             bar.set_message("refining the mesh: a coarse solve");
         }
     }
 
     fn started(&mut self, scene: &Scene, mesh: &Mesh) {
+        if let Some(events) = &mut self.events {
+            events.stage(
+                "solving",
+                serde_json::json!({
+                    "scene": scene.name,
+                    "surfaces": scene.surfaces.len(),
+                    "elements": mesh.elements.len(),
+                    "vertices": mesh.vertices.len(),
+                }),
+            );
+        }
         self.meter = app::ProgressMeter::new();
         self.last_line = Instant::now();
         // Said with the first progress line, so a short run's log holds
@@ -92,6 +123,9 @@ impl app::Observer for ProgressDisplay {
 
     fn shot(&mut self, solver: &Solver<'_>) -> Flow {
         let p = self.meter.update(solver);
+        if let Some(events) = &mut self.events {
+            events.progress(&p, solver.settings().converge);
+        }
         let left = p.remaining.map_or_else(
             || "estimating time left".to_string(),
             |r| format!("about {} left", clock(r)),
@@ -126,6 +160,9 @@ impl app::Observer for ProgressDisplay {
     }
 
     fn writing(&mut self, what: &str) {
+        if let Some(events) = &mut self.events {
+            events.stage("writing", serde_json::json!({ "message": what }));
+        }
         if let Some(bar) = &self.bar {
             bar.set_message(what.to_string());
         } else if self.lines {
