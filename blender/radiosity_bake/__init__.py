@@ -18,7 +18,11 @@ from . import apply, job
 from .prepare import BakeError
 
 PRESETS = [
-    ("adaptive", "Adaptive", "The default: element-resolution shooting, refined meshes, final pass"),
+    (
+        "adaptive",
+        "Adaptive",
+        "The default: element-resolution shooting, refined meshes, final pass",
+    ),
     ("wong-tsang93", "Wong & Tsang 1993", "The paper's method, on the CPU"),
     ("wallace89", "Wallace et al. 1989", "Ray-traced form factors, on the CPU"),
 ]
@@ -128,7 +132,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
 
     bl_idname = "radiosity.bake"
     bl_label = "Bake Radiosity"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER"}  # noqa: RUF012 (Blender reads it)
 
     _job = None
     _timer = None
@@ -215,7 +219,7 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
 
     bl_idname = "radiosity.clear"
     bl_label = "Remove Radiosity Lightmap"
-    bl_options = {"REGISTER", "UNDO"}
+    bl_options = {"REGISTER", "UNDO"}  # noqa: RUF012 (Blender reads it)
 
     def execute(self, context):
         restored = apply.clear()

@@ -307,4 +307,3 @@ def clear():
     if image is not None and image.get(OWNED):
         bpy.data.images.remove(image)
     return restored
-

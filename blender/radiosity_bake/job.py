@@ -172,6 +172,9 @@ class Job:
         self.changes.keep()
         self.warnings += done.get("warnings", [])
         self.timings["total"] = time.perf_counter() - self.started
+        self.timings["program"] = self.solve.seconds or 0.0
+        # The add-on's own share: all but the program's run.
+        self.timings["add-on"] = self.timings["total"] - self.timings["program"]
         self.result = {
             "objects": len(self.objects),
             "materials": materials,

@@ -252,22 +252,32 @@ def ensure_lightmap_uvs(objects, density, changes):
     area = sum(world_area(o) for _, o in pack)
     # The pack is about 60% full; margins of two texels of its side.
     side = max(16.0, density * math.sqrt(area / 0.6))
-    actives = []
-    for m, _ in pack:
-        actives.append((m, m.uv_layers.active_index))
-        m.uv_layers.active = m.uv_layers[LIGHTMAP_UV]
+    # Lightmap Pack sizes faces by their area in the mesh's own units:
+    # packed on copies in world units, so a scaled object gets the same
+    # texels per metre as the rest; the coordinates are copied back (a
+    # mesh's copy keeps its corners' order).
+    copies = []
     try:
+        for m, o in pack:
+            copy = m.copy()
+            copy.transform(o.matrix_world)
+            copy.uv_layers.active = copy.uv_layers[LIGHTMAP_UV]
+            copies.append(copy)
         lightmap_uvpack(
-            [m for m, _ in pack],
+            copies,
             PREF_SEL_ONLY=False,
             PREF_NEW_UVLAYER=False,
             PREF_PACK_IN_ONE=True,
             PREF_BOX_DIV=12,
             PREF_MARGIN_DIV=max(16, min(4096, int(side / 2.0))),
         )
+        for (m, _), copy in zip(pack, copies):
+            uv = [0.0] * (2 * len(copy.loops))
+            copy.uv_layers[LIGHTMAP_UV].uv.foreach_get("vector", uv)
+            m.uv_layers[LIGHTMAP_UV].uv.foreach_set("vector", uv)
     finally:
-        for m, index in actives:
-            m.uv_layers.active_index = index
+        for copy in copies:
+            bpy.data.meshes.remove(copy)
     return [m.name for m in new]
 
 
@@ -343,7 +353,9 @@ def area_light_stand_ins(lights, warnings):
         if light.type != "AREA" or light.energy <= 0.0:
             continue
         if getattr(light, "spread", math.pi) < math.pi - 1e-6:
-            warnings.append(f"area light {obj.name!r}: its spread is left out (baked as 180 degrees)")
+            warnings.append(
+                f"area light {obj.name!r}: its spread is left out (baked as 180 degrees)"
+            )
         corners, area = area_light_polygon(light)
         sx, sy = obj.matrix_world.to_3x3().col[0].length, obj.matrix_world.to_3x3().col[1].length
         world = area * sx * sy
@@ -399,7 +411,9 @@ def world_sky(scene, warnings):
             (n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output),
             None,
         ) or next((n for n in world.node_tree.nodes if n.type == "OUTPUT_WORLD"), None)
-        link = output.inputs["Surface"].links[0] if output and output.inputs["Surface"].links else None
+        link = (
+            output.inputs["Surface"].links[0] if output and output.inputs["Surface"].links else None
+        )
         if link is None:
             return None
         node = link.from_node
@@ -435,9 +449,10 @@ def material_emits(material):
                 strength.links or strength.default_value > 0
             ):
                 return True
-        if node.type == "EMISSION":
-            if node.inputs["Strength"].links or node.inputs["Strength"].default_value > 0:
-                return True
+        if node.type == "EMISSION" and (
+            node.inputs["Strength"].links or node.inputs["Strength"].default_value > 0
+        ):
+            return True
     return False
 
 
@@ -490,7 +505,10 @@ def export(context, path, objects, lights):
         for o in selected:
             o.select_set(False)
         chosen = objects + [o for o in lights if o.data.type != "AREA"] + stand_ins
-        if context.scene.camera is not None and context.scene.camera.name in context.view_layer.objects:
+        if (
+            context.scene.camera is not None
+            and context.scene.camera.name in context.view_layer.objects
+        ):
             chosen.append(context.scene.camera)
         for o in chosen:
             o.select_set(True)

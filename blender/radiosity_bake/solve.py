@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import subprocess
+import time
 
 from .prepare import BakeError
 
@@ -92,10 +93,12 @@ class Solve:
         self.done = None
         self.error = None
         self.stopping = False
+        self.started = time.perf_counter()
+        #: Seconds the program ran (seen ended by :meth:`poll`).
+        self.seconds = None
         with open(self.log, "wb") as log:
             self.process = subprocess.Popen(
-                command
-                + ["--progress-json", self.events.path, "--stop-file", self.stop_file],
+                command + ["--progress-json", self.events.path, "--stop-file", self.stop_file],
                 stdout=log,
                 stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
@@ -105,6 +108,8 @@ class Solve:
     def poll(self):
         """Reads new events; True once the program has ended."""
         ended = self.process.poll() is not None
+        if ended and self.seconds is None:
+            self.seconds = time.perf_counter() - self.started
         for event in self.events.read():
             kind = event.get("event")
             if kind == "progress":
@@ -179,7 +184,7 @@ class Solve:
 
 def format_seconds(seconds):
     """`1:02:03` or `2:03`."""
-    s = int(round(seconds))
+    s = round(seconds)
     if s >= 3600:
         return f"{s // 3600}:{s // 60 % 60:02}:{s % 60:02}"
     return f"{s // 60}:{s % 60:02}"

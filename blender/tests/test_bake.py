@@ -39,10 +39,10 @@ from mathutils import Vector
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "blender"))
 
-import radiosity_bake  # noqa: E402
-from radiosity_bake import apply as bake_apply  # noqa: E402
-from radiosity_bake import job as bake_job  # noqa: E402
-from radiosity_bake.prepare import LIGHTMAP_UV, BakeError  # noqa: E402
+import radiosity_bake
+from radiosity_bake import apply as bake_apply
+from radiosity_bake import job as bake_job
+from radiosity_bake.prepare import LIGHTMAP_UV, BakeError
 
 BINARY = os.environ.get("RADIOSITY_BIN") or str(ROOT / "target" / "release" / "radiosity")
 WIDTH, HEIGHT = 120, 90
@@ -238,8 +238,12 @@ class BakeTest(unittest.TestCase):
         settings = self.scene.radiosity_bake
         sky = bake_job.prepare.world_sky(self.scene, [])
         command = bake_job.settings_command(
-            BINARY, settings, self.scene, os.path.join(self.folder, "scene.glb"),
-            os.path.join(self.folder, "sensors"), sky,
+            BINARY,
+            settings,
+            self.scene,
+            os.path.join(self.folder, "scene.glb"),
+            os.path.join(self.folder, "sensors"),
+            sky,
         )
         os.makedirs(os.path.join(self.folder, "sensors"), exist_ok=True)
         subprocess.run(command + ["--sensors", sensors, "--sensors-out", out, "-q"], check=True)
@@ -426,8 +430,17 @@ class ConsentTest(unittest.TestCase):
         mirrored.name = "mirrored"
         mirrored.data.materials.append(bpy.data.materials["cube"])
         modifier = mirrored.modifiers.new("mirror", "MIRROR")
-        modifier.use_axis = (False, True, False)
+        modifier.use_axis = (True, False, False)
         modifier.mirror_object = cube
+        # A cube scaled twice and one of its size: the same texels per
+        # metre (Lightmap Pack sizes faces in powers of two, so the same
+        # world size gives the same boxes, and the scale ignored a quarter).
+        bpy.ops.mesh.primitive_cube_add(size=0.4, location=(0.5, 2.0, 0.4))
+        scaled = bpy.context.active_object
+        scaled.name = "scaled"
+        scaled.scale = (2.0, 2.0, 2.0)
+        bpy.ops.mesh.primitive_cube_add(size=0.8, location=(3.5, 3.5, 0.4))
+        bpy.context.active_object.name = "reference"
         cls.folder = tempfile.mkdtemp(prefix="radiosity-blender-consent-")
         settings = cls.scene.radiosity_bake
         settings.work_folder = cls.folder
@@ -452,6 +465,24 @@ class ConsentTest(unittest.TestCase):
         self.assertNotEqual(cube.data, twin.data)
         for o in (cube, twin):
             self.assertEqual(o.data.uv_layers.find(LIGHTMAP_UV), 1, o.name)
+
+    def test_texels_per_metre_do_not_depend_on_an_objects_scale(self):
+        def uv_per_world_area(o):
+            mesh = o.data
+            mesh.calc_loop_triangles()
+            uv = mesh.uv_layers[LIGHTMAP_UV].uv
+            uv_area = world = 0.0
+            for tri in mesh.loop_triangles:
+                a, b, c = (Vector(uv[i].vector) for i in tri.loops)
+                uv_area += abs((b - a).x * (c - a).y - (b - a).y * (c - a).x) / 2
+                p, q, r = (o.matrix_world @ mesh.vertices[i].co for i in tri.vertices)
+                world += (q - p).cross(r - p).length / 2
+            return uv_area / world
+
+        ratio = uv_per_world_area(self.scene.objects["scaled"]) / uv_per_world_area(
+            self.scene.objects["reference"]
+        )
+        self.assertAlmostEqual(ratio, 1.0, delta=0.1)
 
     def test_cycles_renders_kept_shading_as_our_picture(self):
         self.assertLessEqual(cycles_against_picture(self.scene, self.folder), 2.0)
@@ -550,6 +581,7 @@ class AreaLightTest(unittest.TestCase):
             # The square's corners relative to the point, at height h.
             x0, x1 = (-side / 2 - px) / height, (side / 2 - px) / height
             y0, y1 = (-side / 2 - py) / height, (side / 2 - py) / height
+
             def signed(x, y):
                 # The rectangle from below the point to (x, y), signed.
                 return math.copysign(1.0, x) * math.copysign(1.0, y) * corner(abs(x), abs(y))
