@@ -178,6 +178,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
                 self._end(context)
                 self.report({"WARNING"}, "Radiosity bake abandoned: nothing was changed")
                 return {"CANCELLED"}
+            return {"RUNNING_MODAL"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         if not bake.poll():
