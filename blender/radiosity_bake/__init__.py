@@ -142,7 +142,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         bake = job.Job(context, binary_preference(context))
         try:
             result = bake.run(report=lambda line: print(line, flush=True))
-        except (BakeError, OSError) as e:
+        except (BakeError, OSError, ReferenceError) as e:
             self.report({"ERROR"}, f"Radiosity bake: {e}")
             return {"CANCELLED"}
         self._report_done(bake, result)
@@ -154,7 +154,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         bake = job.Job(context, binary_preference(context))
         try:
             bake.start()
-        except (BakeError, OSError) as e:
+        except (BakeError, OSError, ReferenceError) as e:
             self.report({"ERROR"}, f"Radiosity bake: {e}")
             return {"CANCELLED"}
         self._job = bake
@@ -188,7 +188,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         self._end(context)
         try:
             result = bake.finish()
-        except (BakeError, OSError) as e:
+        except (BakeError, OSError, ReferenceError) as e:
             self.report({"ERROR"}, f"Radiosity bake: {e}")
             return {"CANCELLED"}
         self._report_done(bake, result)

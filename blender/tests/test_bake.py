@@ -290,6 +290,18 @@ class BakeTest(unittest.TestCase):
             for slot in o.material_slots:
                 self.assertEqual(len(owned_nodes(slot.material)), 1, slot.material.name)
 
+    def test_zz_clear_restores_the_materials(self):
+        self.assertEqual(bpy.ops.radiosity.clear(), {"FINISHED"})
+        self.assertNotIn(bake_apply.IMAGE_NAME, bpy.data.images)
+        self.assertNotIn(bake_apply.GROUP_NAME, bpy.data.node_groups)
+        for o in self.meshes():
+            self.assertEqual(o.data.uv_layers.find(LIGHTMAP_UV), 1, o.name)
+            for slot in o.material_slots:
+                tree = slot.material.node_tree
+                self.assertEqual(owned_nodes(slot.material), [])
+                link = tree.get_output_node("ALL").inputs["Surface"].links[0]
+                self.assertEqual(link.from_node.type, "BSDF_PRINCIPLED", slot.material.name)
+
     def test_cycles_renders_the_lit_look_as_our_picture(self):
         self.assertLessEqual(cycles_against_picture(self.scene, self.folder), 2.0)
 
