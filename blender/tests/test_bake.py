@@ -290,12 +290,35 @@ class BakeTest(unittest.TestCase):
             for slot in o.material_slots:
                 self.assertEqual(len(owned_nodes(slot.material)), 1, slot.material.name)
 
+    def test_zy_a_lightmap_map_third_in_the_list_is_used(self):
+        # The room's Lightmap map moved third (behind a copy named Extra):
+        # the export puts it second for the time of the export, and the
+        # bake reads the same coordinates, so the lightmap is the same.
+        mesh = self.scene.objects["room"].data
+        lightmap = mesh.uv_layers[LIGHTMAP_UV]
+        uv = [0.0] * (2 * len(lightmap.uv))
+        lightmap.uv.foreach_get("vector", uv)
+        third = mesh.uv_layers.new(name="third")
+        third.uv.foreach_set("vector", uv)
+        lightmap.name = "Extra"
+        third.name = LIGHTMAP_UV
+        names = [layer.name for layer in mesh.uv_layers]
+        self.assertEqual(names, ["UVMap", "Extra", LIGHTMAP_UV])
+        self.assertEqual(bpy.ops.radiosity.bake(), {"FINISHED"})
+        self.assertEqual([layer.name for layer in mesh.uv_layers], names)
+        after = [0.0] * len(uv)
+        mesh.uv_layers[LIGHTMAP_UV].uv.foreach_get("vector", after)
+        self.assertEqual(after, uv)
+        pixels = list(bpy.data.images[bake_apply.IMAGE_NAME].pixels)
+        worst = max(abs(a - b) for a, b in zip(pixels, self.first_pixels))
+        self.assertLess(worst, 1e-6)
+
     def test_zz_clear_restores_the_materials(self):
         self.assertEqual(bpy.ops.radiosity.clear(), {"FINISHED"})
         self.assertNotIn(bake_apply.IMAGE_NAME, bpy.data.images)
         self.assertNotIn(bake_apply.GROUP_NAME, bpy.data.node_groups)
         for o in self.meshes():
-            self.assertEqual(o.data.uv_layers.find(LIGHTMAP_UV), 1, o.name)
+            self.assertIn(LIGHTMAP_UV, o.data.uv_layers, o.name)
             for slot in o.material_slots:
                 tree = slot.material.node_tree
                 self.assertEqual(owned_nodes(slot.material), [])
