@@ -178,7 +178,6 @@ fn settings_the_gpu_does_not_run_are_refused_by_name() {
         (&["--shooting", "cuts"][..], "--shooting cuts"),
         (&["--accel", "bsp"][..], "--accel bsp"),
         (&["--form-factor", "disk"][..], "--form-factor disk"),
-        (&["--overshoot", "1"][..], "--overshoot 1"),
     ] {
         let mut args = vec!["render", "cornell", "--device", "gpu", "--quiet"];
         args.extend_from_slice(extra);

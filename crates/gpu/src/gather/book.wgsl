@@ -1,11 +1,14 @@
 // The book-keeping of a shot on the GPU (design.md section 2, step 5, as
 // radiosity::solver does it on the host for the CPU): each receiver's
-// irradiance accumulated, the shooter's unshot radiosity zeroed, each
-// element's reflected share rho * (mean of its corners' irradiance) added
-// to its own, the ledger's sums (power received, absorbed, unshot left)
-// per workgroup in a fixed order, each shooter's unshot power. Appended to
-// trace.wgsl and gather.wgsl. No float atomics: a rerun gives the same
-// result to the last bit.
+// irradiance accumulated, the shooter's unshot radiosity set to what it is
+// left with (zero, or minus its overshoot), each element's reflected share
+// rho * (mean of its corners' irradiance) added to its own, the ledger's
+// sums (power received, absorbed, unshot left, in sign and in magnitude)
+// per workgroup in a fixed order, each shooter's unshot power (in
+// magnitude). An overshooting shot that sends negative light books it in
+// a second pass, its irradiance times the sign -1. Appended to trace.wgsl
+// and gather.wgsl. No float atomics: a rerun gives the same result to the
+// last bit.
 
 // An element's book-keeping data (by element id).
 struct ElementBook {
@@ -20,6 +23,7 @@ struct Partial {
     incident: vec4<f32>,
     absorbed: vec4<f32>,
     unshot: vec4<f32>,
+    magnitude: vec4<f32>,
 }
 
 struct Book {
@@ -29,8 +33,10 @@ struct Book {
     elements: u32,
     receivers: u32,
     shooters: u32,
-    pad0: u32,
-    pad1: u32,
+    // 1, or -1 for a pass of negative light sent negated.
+    sign: f32,
+    // 1: set the shooter's elements to the staging buffer's values first.
+    leave: u32,
     pad2: u32,
 }
 
@@ -48,6 +54,7 @@ const BOOK_WORKGROUP: u32 = 256u;
 var<workgroup> sum_incident: array<vec3<f32>, BOOK_WORKGROUP>;
 var<workgroup> sum_absorbed: array<vec3<f32>, BOOK_WORKGROUP>;
 var<workgroup> sum_unshot: array<vec3<f32>, BOOK_WORKGROUP>;
+var<workgroup> sum_magnitude: array<vec3<f32>, BOOK_WORKGROUP>;
 
 // The shooter's elements' unshot radiosity, in the tree's order, for the
 // host to prepare its sources.
@@ -60,14 +67,16 @@ fn collect(@builtin(global_invocation_id) id: vec3<u32>) {
     staging[id.x] = unshot[items[i]];
 }
 
-// The shooter has shot: its elements' unshot radiosity is gone.
+// The shooter has shot: its elements are left with what the host wrote
+// into the staging buffer (zero, or minus their overshoot); a second pass
+// leaves them.
 @compute @workgroup_size(256)
-fn zero_shooter(@builtin(global_invocation_id) id: vec3<u32>) {
+fn leave_shooter(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = book.first + id.x;
-    if (i >= book.last) {
+    if (i >= book.last || book.leave == 0u) {
         return;
     }
-    unshot[items[i]] = vec4<f32>(0.0);
+    unshot[items[i]] = staging[id.x];
 }
 
 // Each element's mean irradiance from its corners: its reflected share
@@ -79,6 +88,7 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
     var incident = vec3<f32>(0.0);
     var absorbed = vec3<f32>(0.0);
     var left = vec3<f32>(0.0);
+    var magnitude = vec3<f32>(0.0);
     if (e < book.elements) {
         let b = element_book[e];
         let count = elements[e].count;
@@ -86,22 +96,25 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
         for (var k = 0u; k < count; k += 1u) {
             sum += shot_irradiance[b.corners[k]].xyz;
         }
-        let mean = sum / f32(count);
+        let mean = book.sign * (sum / f32(count));
         let u = unshot[e].xyz + b.rho * mean;
         unshot[e] = vec4<f32>(u, 0.0);
         incident = mean * b.area;
         absorbed = (vec3<f32>(1.0) - b.rho) * mean * b.area;
         left = u * b.area;
+        magnitude = abs(u) * b.area;
     }
     sum_incident[local] = incident;
     sum_absorbed[local] = absorbed;
     sum_unshot[local] = left;
+    sum_magnitude[local] = magnitude;
     workgroupBarrier();
     for (var stride = BOOK_WORKGROUP / 2u; stride > 0u; stride = stride / 2u) {
         if (local < stride) {
             sum_incident[local] += sum_incident[local + stride];
             sum_absorbed[local] += sum_absorbed[local + stride];
             sum_unshot[local] += sum_unshot[local + stride];
+            sum_magnitude[local] += sum_magnitude[local + stride];
         }
         workgroupBarrier();
     }
@@ -110,6 +123,7 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
             vec4<f32>(sum_incident[0], 0.0),
             vec4<f32>(sum_absorbed[0], 0.0),
             vec4<f32>(sum_unshot[0], 0.0),
+            vec4<f32>(sum_magnitude[0], 0.0),
         );
     }
 }
@@ -120,11 +134,11 @@ fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.receivers) {
         return;
     }
-    total[id.x] += shot_irradiance[id.x];
+    total[id.x] += book.sign * shot_irradiance[id.x];
 }
 
-// Each shooter's unshot power (luminance), over its elements in the
-// tree's order.
+// Each shooter's unshot power (luminance, element by element in
+// magnitude), over its elements in the tree's order.
 @compute @workgroup_size(64)
 fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.shooters) {
@@ -134,7 +148,7 @@ fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
     var power = 0.0;
     for (var i = range.x; i < range.y; i += 1u) {
         let e = items[i];
-        power += luminance(unshot[e].xyz) * element_book[e].area;
+        power += abs(luminance(unshot[e].xyz)) * element_book[e].area;
     }
     powers[id.x] = power;
 }

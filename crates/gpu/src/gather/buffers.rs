@@ -203,6 +203,8 @@ pub struct GpuPartial {
     pub absorbed: [f32; 4],
     /// Unshot power left.
     pub unshot: [f32; 4],
+    /// Unshot power left in magnitude, element by element.
+    pub magnitude: [f32; 4],
 }
 
 /// A shot's book-keeping dispatches (WGSL `Book`).
@@ -219,10 +221,13 @@ pub struct GpuBook {
     pub receivers: u32,
     /// Shooters.
     pub shooters: u32,
-    /// Padding.
-    pub pad0: u32,
-    /// Padding.
-    pub pad1: u32,
+    /// 1, or -1 for a pass sending negative light negated: the gathered
+    /// irradiance is booked times this.
+    pub sign: f32,
+    /// 1: the shooter's elements are first set to the values the host
+    /// wrote into the staging buffer (what they are left with); 0: a
+    /// shot's second pass, which leaves them.
+    pub leave: u32,
     /// Padding.
     pub pad2: u32,
 }

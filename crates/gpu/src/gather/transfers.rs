@@ -73,7 +73,7 @@ impl Growing {
 struct Pipelines {
     gather: wgpu::ComputePipeline,
     collect: wgpu::ComputePipeline,
-    zero_shooter: wgpu::ComputePipeline,
+    leave_shooter: wgpu::ComputePipeline,
     receive: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     shooter_powers: wgpu::ComputePipeline,
@@ -227,7 +227,7 @@ impl GpuTransfers {
         let pipelines = Pipelines {
             gather: pipeline("gather"),
             collect: pipeline("collect"),
-            zero_shooter: pipeline("zero_shooter"),
+            leave_shooter: pipeline("leave_shooter"),
             receive: pipeline("receive"),
             accumulate: pipeline("accumulate"),
             shooter_powers: pipeline("shooter_powers"),
@@ -311,8 +311,10 @@ impl GpuTransfers {
             })
     }
 
-    /// The book-keeping's uniform for the shooter `items[first..last]`.
-    fn book(&self, first: u32, last: u32) -> wgpu::Buffer {
+    /// The book-keeping's uniform for the shooter `items[first..last]`,
+    /// booking the gathered light times `sign`, its elements first set to
+    /// the staging buffer's values when `leave`.
+    fn book(&self, first: u32, last: u32, sign: f64, leave: bool) -> wgpu::Buffer {
         uniform(
             &self.gpu,
             "book",
@@ -322,6 +324,8 @@ impl GpuTransfers {
                 elements: self.elements,
                 receivers: self.order.len() as u32,
                 shooters: self.shooters,
+                sign: sign as f32,
+                leave: u32::from(leave),
                 ..GpuBook::default()
             },
         )
@@ -433,7 +437,13 @@ impl GpuTransfers {
         let (origin, origin_lo) = split(shot.origin, self.origin);
         let count = self.order.len();
         let [first, last] = self.ranges[shot.root as usize];
-        let book = self.book(first, last);
+        if let Some(leave) = shot.leave {
+            // What the shooter's elements are left with, for leave_shooter.
+            let leave: Vec<[f32; 4]> = leave.iter().map(|&u| vec4(u)).collect();
+            gpu.queue
+                .write_buffer(&self.staging, 0, bytemuck::cast_slice(&nonempty(leave)));
+        }
+        let book = self.book(first, last, shot.sign, shot.leave.is_some());
         let mut encoder = self.encoder("shot");
         encoder.clear_buffer(&self.counters, 0, None);
         let mut groups = Vec::new();
@@ -473,11 +483,12 @@ impl GpuTransfers {
             );
             groups.push((group, (n as u32).div_ceil(WORKGROUP)));
         }
-        let zero = self.bind(
-            &self.pipelines.zero_shooter,
+        let leave = self.bind(
+            &self.pipelines.leave_shooter,
             &[
                 entry(15, &self.unshot),
                 entry(19, &self.items),
+                entry(21, &self.staging),
                 entry(22, &book),
             ],
         );
@@ -535,8 +546,8 @@ impl GpuTransfers {
         let mut encoder = self.encoder("book");
         let stages: [(&wgpu::ComputePipeline, &wgpu::BindGroup, u32); 4] = [
             (
-                &self.pipelines.zero_shooter,
-                &zero,
+                &self.pipelines.leave_shooter,
+                &leave,
                 (last - first).div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
@@ -596,18 +607,20 @@ impl GpuTransfers {
         let partials: &[GpuPartial] = bytemuck::cast_slice(
             &bytes[powers_bytes as usize..(powers_bytes + partial_bytes) as usize],
         );
-        let (mut incident, mut absorbed, mut unshot_power) =
-            (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+        let (mut incident, mut absorbed, mut unshot_power, mut unshot_magnitude) =
+            (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
         for p in partials {
             incident += dvec3(&p.incident);
             absorbed += dvec3(&p.absorbed);
             unshot_power += dvec3(&p.unshot);
+            unshot_magnitude += dvec3(&p.magnitude);
         }
         let counts: &[u32] =
             bytemuck::cast_slice(&bytes[(powers_bytes + partial_bytes) as usize..]);
         Ok(Some(Booked {
             received: Received { incident, absorbed },
             unshot_power,
+            unshot_magnitude,
             shooter_power,
             pairs: u64::from(counts[0]),
             rays: u64::from(counts[1]),
@@ -645,7 +658,7 @@ impl AdaptiveTransfers for GpuTransfers {
             return Ok(Vec::new());
         }
         self.scoped(|| {
-            let book = self.book(first, last);
+            let book = self.book(first, last, 1.0, false);
             let group = self.bind(
                 &self.pipelines.collect,
                 &[

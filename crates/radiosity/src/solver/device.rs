@@ -128,9 +128,11 @@ pub trait AdaptiveTransfers: Send {
     /// When the device fails.
     fn unshot(&mut self, first: u32, last: u32) -> Result<Vec<DVec3>, DeviceError>;
 
-    /// One shot: every receiver gathers from the shooting node; the device
-    /// adds it to the receivers' irradiance, zeroes the shooter's unshot
-    /// radiosity and adds each element's reflected share to its own.
+    /// One shot (or one pass of an overshooting shot): every receiver
+    /// gathers from the shooting node; the device sets the shooter's
+    /// unshot radiosity to [`AdaptiveShot::leave`], adds the irradiance
+    /// gathered (times [`AdaptiveShot::sign`]) to the receivers' and each
+    /// element's reflected share to its own.
     /// `None` when the shot was abandoned ([`AdaptiveShot::abort`]), with
     /// nothing changed.
     ///
@@ -157,8 +159,19 @@ pub struct AdaptiveShot<'a> {
     pub origin: DVec3,
     /// Its subtree's sources.
     pub sources: &'a Sources,
-    /// Unshot radiosity of each element: current for the shooter's.
+    /// Unshot radiosity of each element: current for the shooter's. In a
+    /// pass of overshooting, what each of the shooter's elements sends in
+    /// it (see `sign`).
     pub unshot: &'a [DVec3],
+    /// 1, or -1 for a pass that sends overshooting's negative light
+    /// negated (its sources need power of one sign): the irradiance
+    /// gathered is booked times this.
+    pub sign: f64,
+    /// What the shooter's elements (`items` of its node, in the tree's
+    /// order) are left with, set before the shot's light is booked: zero,
+    /// or minus their overshoot. `None` for a shot's second pass, which
+    /// leaves them as the first did.
+    pub leave: Option<&'a [DVec3]>,
     /// A receiver's negligible irradiance (luminance) is this...
     pub negligible: f64,
     /// ... times its irradiance's luminance over this, if more than one.
@@ -174,6 +187,9 @@ pub struct Booked {
     pub received: Received,
     /// Unshot power left after the shot, per channel (W).
     pub unshot_power: DVec3,
+    /// The same in magnitude, element by element (overshooting leaves
+    /// negative unshot power): what the stopping rule compares.
+    pub unshot_magnitude: DVec3,
     /// Each shooter's unshot power (luminance) after the shot.
     pub shooter_power: Vec<f64>,
     /// Receiver-source pairs considered.
@@ -192,6 +208,29 @@ pub struct Booked {
     pub kernel_time: Duration,
     /// Time reading the results back (host clock).
     pub readback_time: Duration,
+}
+
+impl Booked {
+    /// Two passes of one shot as one: what they received and cost added,
+    /// the state as `second` left it.
+    #[must_use]
+    pub fn then(self, second: Booked) -> Booked {
+        Booked {
+            received: Received {
+                incident: self.received.incident + second.received.incident,
+                absorbed: self.received.absorbed + second.received.absorbed,
+            },
+            pairs: self.pairs + second.pairs,
+            rays: self.rays + second.rays,
+            walks: self.walks + second.walks,
+            node_visits: self.node_visits + second.node_visits,
+            element_sources: self.element_sources + second.element_sources,
+            upload_time: self.upload_time + second.upload_time,
+            kernel_time: self.kernel_time + second.kernel_time,
+            readback_time: self.readback_time + second.readback_time,
+            ..second
+        }
+    }
 }
 
 /// A device's failure, as it said it.

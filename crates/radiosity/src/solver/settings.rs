@@ -252,11 +252,6 @@ impl Settings {
             Some(format!("--accel {}", self.accel))
         } else if self.form_factor != FormFactor::Analytic {
             Some(format!("--form-factor {}", self.form_factor))
-        } else if let MethodSettings::Adaptive(a) = &self.method
-            && a.overshoot > 0.0
-        {
-            // Its negative light is shot in a pass of its own, on the CPU.
-            Some(format!("--overshoot {}", a.overshoot))
         } else {
             None
         }

@@ -22,7 +22,10 @@
 //! luminance) shoots twice: once its positive elements, once its negative
 //! ones negated, whose irradiance is then subtracted. Each pass is an
 //! ordinary transfer. Without overshooting nothing is ever negative and
-//! a shot is one pass, as before, to the last bit.
+//! a shot is one pass, as before, to the last bit. On a device
+//! (`resident.rs`) each pass is a device shot booked with its sign, the
+//! first setting the shooter's elements to minus their overshoot; the
+//! second is never abandoned, since the first is booked already.
 //!
 //! The energy ledger stays exact: the power shot is what the elements
 //! send, and what they are left with is what they had less that. The
@@ -63,7 +66,7 @@ impl Plan {
     pub(super) fn new(shooting: &AdaptiveShooting, scene: &Scene, mesh: &Mesh, root: u32) -> Plan {
         let items = shooting.hierarchy.tree.items_of(root);
         let ambient = if shooting.overshoot > 0.0 {
-            let mut elsewhere = shooting.unshot_sum(mesh, |u| u);
+            let mut elsewhere = shooting.unshot_sum(mesh, false);
             for &e in items {
                 elsewhere -= shooting.unshot[e as usize] * mesh.elements[e as usize].area;
             }
@@ -116,6 +119,36 @@ impl Plan {
     }
 }
 
+impl Plan {
+    /// Which passes the shot takes: `[positive, negative]` (the positive
+    /// one alone when nothing is sent, a shot gathering nothing).
+    pub(super) fn passes(&self) -> [bool; 2] {
+        if self.signs == [false, false] {
+            [true, false]
+        } else {
+            self.signs
+        }
+    }
+
+    /// Sets `sending` for the shooter's elements `items` to what they send
+    /// in the pass of `sign`: their light of that sign, times `sign`;
+    /// zero for the others.
+    pub(super) fn fill(&self, items: &[u32], sign: f64, sending: &mut [DVec3]) {
+        for (&e, &send) in items.iter().zip(&self.sends) {
+            sending[e as usize] = if sign * luminance(send) > 0.0 {
+                send * sign
+            } else {
+                DVec3::ZERO
+            };
+        }
+    }
+
+    /// What the shooter's elements are left with, in its items' order.
+    pub(super) fn left(&self) -> Vec<DVec3> {
+        self.overs.iter().map(|o| -*o).collect()
+    }
+}
+
 impl AdaptiveShooting {
     /// The shot's transfers: one pass per sign the plan's elements send,
     /// each an ordinary transfer of light of one sign, the negative pass's
@@ -133,13 +166,7 @@ impl AdaptiveShooting {
                 continue;
             }
             let mut sending = std::mem::take(&mut self.sending);
-            for (&e, &send) in self.hierarchy.tree.items_of(root).iter().zip(&plan.sends) {
-                sending[e as usize] = if sign * luminance(send) > 0.0 {
-                    send * sign
-                } else {
-                    DVec3::ZERO
-                };
-            }
+            plan.fill(self.hierarchy.tree.items_of(root), sign, &mut sending);
             self.sources
                 .prepare(scene, mesh, &self.hierarchy, &sending, root);
             let gathered = self.gather_on_cpu(inputs, root, &sending);

@@ -12,9 +12,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::AdaptiveShooting;
 use super::gather::Counters;
-use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, DeviceError};
+use super::{AdaptiveShooting, overshoot};
+use crate::solver::Abort;
+use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, Booked, DeviceError};
 use crate::solver::hierarchy::transfer::Cost;
 use crate::solver::method::{Checkpoint, Shot, ShotInputs, Stats};
 
@@ -22,6 +23,8 @@ use crate::solver::method::{Checkpoint, Shot, ShotInputs, Stats};
 pub(super) struct Resident {
     /// Unshot power left, per channel, after the last shot.
     pub(super) unshot_power: DVec3,
+    /// The same in magnitude, element by element.
+    pub(super) unshot_magnitude: DVec3,
     /// Every element's unshot radiosity at the last checkpoint.
     saved: Vec<DVec3>,
     /// Shots on the device since then (undone if it fails).
@@ -69,6 +72,12 @@ impl AdaptiveShooting {
                     .zip(&self.unshot)
                     .map(|(e, u)| *u * e.area)
                     .sum(),
+                unshot_magnitude: mesh
+                    .elements
+                    .iter()
+                    .zip(&self.unshot)
+                    .map(|(e, u)| u.abs() * e.area)
+                    .sum(),
                 saved: self.unshot.clone(),
                 since_checkpoint: 0,
             });
@@ -87,12 +96,11 @@ impl AdaptiveShooting {
                 *host = u;
             }
         }
-        self.sources
-            .prepare(scene, mesh, &self.hierarchy, &self.unshot, root);
-        let mut power = DVec3::ZERO;
-        for &e in items {
-            power += self.unshot[e as usize] * mesh.elements[e as usize].area;
-        }
+        // What each element sends, in a pass per sign (overshooting's,
+        // as on the CPU: `overshoot.rs`); one pass of its unshot radiosity
+        // without.
+        let plan = overshoot::Plan::new(self, scene, mesh, root);
+        let power = plan.power;
         let emitted = self.emission.take(
             scene,
             items.iter().map(|&e| {
@@ -101,22 +109,52 @@ impl AdaptiveShooting {
             }),
         );
         let gather_start = Instant::now();
-        let shot = AdaptiveShot {
-            root,
-            origin: node.centre,
-            sources: &self.sources,
-            unshot: &self.unshot,
-            negligible: self.negligible,
-            mean_radiosity: self.mean_radiosity,
-            abort: inputs.abort,
-        };
-        let Some(booked) = device.shoot(&shot)? else {
+        let left = plan.left();
+        let mut booked: Option<Booked> = None;
+        // A second pass is not abandoned: the first is booked already.
+        let finish = Abort::default();
+        for (pass, sign) in [(0, 1.0), (1, -1.0)] {
+            if !plan.passes()[pass] {
+                continue;
+            }
+            let mut sending = std::mem::take(&mut self.sending);
+            plan.fill(items, sign, &mut sending);
+            self.sources
+                .prepare(scene, mesh, &self.hierarchy, &sending, root);
+            let shot = AdaptiveShot {
+                root,
+                origin: node.centre,
+                sources: &self.sources,
+                unshot: &sending,
+                sign,
+                leave: booked.is_none().then_some(left.as_slice()),
+                negligible: self.negligible,
+                mean_radiosity: self.mean_radiosity,
+                abort: if booked.is_none() {
+                    inputs.abort
+                } else {
+                    &finish
+                },
+            };
+            let result = device.shoot(&shot);
+            for &e in items {
+                sending[e as usize] = DVec3::ZERO;
+            }
+            self.sending = sending;
+            let Some(this) = result? else {
+                return Ok(None);
+            };
+            booked = Some(match booked {
+                None => this,
+                Some(first) => first.then(this),
+            });
+        }
+        let Some(booked) = booked else {
             return Ok(None);
         };
         let gather_end = Instant::now();
-        for &e in items {
-            self.unshot[e as usize] = DVec3::ZERO;
-        }
+        let elements = items.len() as u64;
+        plan.leave(self, root);
         if booked.shooter_power.len() != self.shooter_power.len() {
             return Err(DeviceError(format!(
                 "the device reported {} shooters' powers, not {}",
@@ -138,7 +176,7 @@ impl AdaptiveShooting {
         self.counters += counters;
         stats.pairs += booked.pairs;
         stats.rays_cast += booked.rays;
-        stats.subsources += items.len() as u64;
+        stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
         self.report.device_shots += 1;
         self.report.upload_time += booked.upload_time;
@@ -146,6 +184,7 @@ impl AdaptiveShooting {
         self.report.readback_time += booked.readback_time;
         if let Some(resident) = self.resident.as_mut() {
             resident.unshot_power = booked.unshot_power;
+            resident.unshot_magnitude = booked.unshot_magnitude;
             resident.since_checkpoint += 1;
         }
         Ok(Some(Shot {
