@@ -160,25 +160,17 @@ def wire(material, group, look, undo):
     surface = output.inputs["Surface"]
     node = _owned_node(tree)
     if node is None:
-        original = surface.links[0] if surface.links else None
+        original = surface.links[0].from_socket if surface.links else None
         node = tree.nodes.new("ShaderNodeGroup")
         node.name = NODE_NAME
         node.label = "Radiosity Lightmap"
         node[OWNED] = "lightmap node"
-        node[ORIGINAL] = (
-            json.dumps([original.from_node.name, original.from_socket.identifier])
-            if original
-            else ""
-        )
+        node[ORIGINAL] = json.dumps([original.node.name, original.identifier]) if original else ""
         node.location = (output.location.x - 200, output.location.y - 160)
         undo.append(lambda: _unwire(tree, node, output))
-    elif not node[ORIGINAL]:
-        original = None
-    else:
-        name, _ = json.loads(node[ORIGINAL])
-        original = tree.nodes.get(name)
     node.node_tree = group
-    source = original.from_node if hasattr(original, "from_node") else original
+    original = _original_socket(tree, node)
+    source = original.node if original is not None else None
     linked, colour = _base_colour(material, tree, source)
     for link in list(node.inputs["Base Color"].links):
         tree.links.remove(link)
@@ -189,18 +181,27 @@ def wire(material, group, look, undo):
     tree.links.new(node.outputs["Shader"], surface)
 
 
+def _original_socket(tree, node):
+    """The output socket that was the material's surface before the
+    add-on's `node` took its place (None if there was none, or it has been
+    deleted since)."""
+    record = node.get(ORIGINAL, "")
+    if not record:
+        return None
+    name, identifier = json.loads(record)
+    source = tree.nodes.get(name)
+    if source is None:
+        return None
+    return next((s for s in source.outputs if s.identifier == identifier), None)
+
+
 def _unwire(tree, node, output):
     """Removes the add-on's node from `tree`, the previous surface linked
     again."""
-    record = node.get(ORIGINAL, "")
+    original = _original_socket(tree, node)
     tree.nodes.remove(node)
-    if record:
-        name, identifier = json.loads(record)
-        source = tree.nodes.get(name)
-        if source is not None:
-            socket = next((s for s in source.outputs if s.identifier == identifier), None)
-            if socket is not None:
-                tree.links.new(socket, output.inputs["Surface"])
+    if original is not None:
+        tree.links.new(original, output.inputs["Surface"])
 
 
 @contextlib.contextmanager
@@ -220,15 +221,9 @@ def original_surfaces(objects):
             surface = output.inputs["Surface"]
             for link in list(surface.links):
                 tree.links.remove(link)
-            record = node.get(ORIGINAL, "")
-            if record:
-                name, identifier = json.loads(record)
-                source = tree.nodes.get(name)
-                socket = source and next(
-                    (s for s in source.outputs if s.identifier == identifier), None
-                )
-                if socket is not None:
-                    tree.links.new(socket, surface)
+            original = _original_socket(tree, node)
+            if original is not None:
+                tree.links.new(original, surface)
             swapped.append((tree, node, surface))
         yield
     finally:

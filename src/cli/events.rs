@@ -33,7 +33,6 @@ use anyhow::{Context, Result, anyhow};
 use serde_json::{Value, json};
 
 use radiosity::app::{Outcome, Progress};
-use radiosity::solver::StopReason;
 
 /// Progress events are written at most this often.
 pub const EVENT_INTERVAL: Duration = Duration::from_millis(100);
@@ -131,7 +130,7 @@ impl Events {
         self.flush_pending();
         let value = json!({
             "event": "done",
-            "stop_reason": stop_name(o.stop),
+            "stop_reason": o.stop.name(),
             "shots": o.stats.shots,
             "unshot_fraction": finite(o.unshot_fraction),
             "solve_s": o.solve_time.as_secs_f64(),
@@ -151,19 +150,6 @@ impl Events {
 /// JSON has no infinities or NaN: those become `null`.
 fn finite(x: f64) -> Option<f64> {
     x.is_finite().then_some(x)
-}
-
-/// A stop reason's name in events: one word, stable for programs.
-#[must_use]
-pub fn stop_name(reason: StopReason) -> &'static str {
-    match reason {
-        StopReason::Converged => "converged",
-        StopReason::MaxShots => "max-shots",
-        StopReason::MaxSubsources => "max-subsources",
-        StopReason::NothingUnshot => "nothing-unshot",
-        StopReason::TimeLimit => "time-limit",
-        StopReason::Stopped => "stopped",
-    }
 }
 
 /// Raises `flag` once `path` exists, looking every [`STOP_FILE_POLL`] from

@@ -188,6 +188,20 @@ fn relative_l1(gpu: &[DVec3], cpu: &[DVec3]) -> f64 {
     diff / total
 }
 
+/// The built-in scene `name` as the command line solves it by default:
+/// coplanar faces merged, the scene's mesh sizes, the adaptive settings,
+/// and its base mesh.
+fn built_in(name: &str) -> (scene::Scene, Settings, Mesh) {
+    let mut scene = scene::load(name).unwrap();
+    scene::merge::merge_coplanar(&mut scene.surfaces);
+    let sizes = scene.default_mesh_sizes();
+    let mut settings = Settings::adaptive();
+    settings.mesh.patch_size = sizes.patch_size;
+    settings.mesh.element_size = sizes.element_size;
+    let mesh = Mesh::build(&scene, &settings.mesh).unwrap();
+    (scene, settings, mesh)
+}
+
 /// Every built-in scene solved to the default's convergence on both
 /// devices: radiosity within 0.5% L1 of the CPU's, every shot of a surface
 /// on the GPU, and (the Cornell box) a rerun on the GPU, and one with the
@@ -197,13 +211,7 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
     let Some(gpu) = gpu() else { return };
     let device = Device::backend(Arc::new(GpuBackend::new(gpu)));
     for name in scene::builtin::names() {
-        let mut scene = scene::load(name).unwrap();
-        scene::merge::merge_coplanar(&mut scene.surfaces);
-        let sizes = scene.default_mesh_sizes();
-        let mut settings = Settings::adaptive();
-        settings.mesh.patch_size = sizes.patch_size;
-        settings.mesh.element_size = sizes.element_size;
-        let mesh = Mesh::build(&scene, &settings.mesh).unwrap();
+        let (scene, settings, mesh) = built_in(name);
         let solve = |device: Device| {
             let settings = Settings {
                 device,
@@ -267,13 +275,7 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
 fn overshooting_on_the_gpu_agrees_with_the_cpu() {
     let Some(gpu) = gpu() else { return };
     let device = Device::backend(Arc::new(GpuBackend::new(gpu)));
-    let mut scene = scene::load("cornell").unwrap();
-    scene::merge::merge_coplanar(&mut scene.surfaces);
-    let sizes = scene.default_mesh_sizes();
-    let mut settings = Settings::adaptive();
-    settings.mesh.patch_size = sizes.patch_size;
-    settings.mesh.element_size = sizes.element_size;
-    let mesh = Mesh::build(&scene, &settings.mesh).unwrap();
+    let (scene, settings, mesh) = built_in("cornell");
     let solve = |device: Device, overshoot: f64| {
         let mut settings = Settings {
             device,

@@ -122,6 +122,20 @@ impl StopReason {
             StopReason::Stopped => "stopped",
         }
     }
+
+    /// Its name for programs (`--progress-json`'s `done` event): one word,
+    /// stable.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::Converged => "converged",
+            StopReason::MaxShots => "max-shots",
+            StopReason::MaxSubsources => "max-subsources",
+            StopReason::NothingUnshot => "nothing-unshot",
+            StopReason::TimeLimit => "time-limit",
+            StopReason::Stopped => "stopped",
+        }
+    }
 }
 
 /// The state of a progressive solve.

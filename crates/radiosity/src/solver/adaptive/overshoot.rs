@@ -150,6 +150,33 @@ impl Plan {
 }
 
 impl AdaptiveShooting {
+    /// Starts the pass of `sign` of shooting `root` (on the CPU or a
+    /// device): what its elements send in it, in the send buffer (taken
+    /// out of `self` until [`AdaptiveShooting::end_pass`]), and its
+    /// sources prepared from that.
+    pub(super) fn begin_pass(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        root: u32,
+        plan: &Plan,
+        sign: f64,
+    ) -> Vec<DVec3> {
+        let mut sending = std::mem::take(&mut self.sending);
+        plan.fill(self.hierarchy.tree.items_of(root), sign, &mut sending);
+        self.sources
+            .prepare(scene, mesh, &self.hierarchy, &sending, root);
+        sending
+    }
+
+    /// Gives the send buffer back, zero again.
+    pub(super) fn end_pass(&mut self, root: u32, mut sending: Vec<DVec3>) {
+        for &e in self.hierarchy.tree.items_of(root) {
+            sending[e as usize] = DVec3::ZERO;
+        }
+        self.sending = sending;
+    }
+
     /// The shot's transfers: one pass per sign the plan's elements send,
     /// each an ordinary transfer of light of one sign, the negative pass's
     /// irradiance subtracted; `None` when abandoned.
@@ -165,15 +192,9 @@ impl AdaptiveShooting {
             if !plan.signs[pass] {
                 continue;
             }
-            let mut sending = std::mem::take(&mut self.sending);
-            plan.fill(self.hierarchy.tree.items_of(root), sign, &mut sending);
-            self.sources
-                .prepare(scene, mesh, &self.hierarchy, &sending, root);
+            let sending = self.begin_pass(scene, mesh, root, plan, sign);
             let gathered = self.gather_on_cpu(inputs, root, &sending);
-            for &e in self.hierarchy.tree.items_of(root) {
-                sending[e as usize] = DVec3::ZERO;
-            }
-            self.sending = sending;
+            self.end_pass(root, sending);
             let (irradiance, counters) = gathered?;
             total = Some(match total {
                 None if sign > 0.0 => (irradiance, counters),

@@ -108,6 +108,7 @@ impl AdaptiveShooting {
                 (e as usize, element.surface, element.area)
             }),
         );
+        let elements = items.len() as u64;
         let gather_start = Instant::now();
         let left = plan.left();
         let mut booked: Option<Booked> = None;
@@ -117,10 +118,7 @@ impl AdaptiveShooting {
             if !plan.passes()[pass] {
                 continue;
             }
-            let mut sending = std::mem::take(&mut self.sending);
-            plan.fill(items, sign, &mut sending);
-            self.sources
-                .prepare(scene, mesh, &self.hierarchy, &sending, root);
+            let sending = self.begin_pass(scene, mesh, root, &plan, sign);
             let shot = AdaptiveShot {
                 root,
                 origin: node.centre,
@@ -137,10 +135,7 @@ impl AdaptiveShooting {
                 },
             };
             let result = device.shoot(&shot);
-            for &e in items {
-                sending[e as usize] = DVec3::ZERO;
-            }
-            self.sending = sending;
+            self.end_pass(root, sending);
             let Some(this) = result? else {
                 return Ok(None);
             };
@@ -153,7 +148,6 @@ impl AdaptiveShooting {
             return Ok(None);
         };
         let gather_end = Instant::now();
-        let elements = items.len() as u64;
         plan.leave(self, root);
         if booked.shooter_power.len() != self.shooter_power.len() {
             return Err(DeviceError(format!(
