@@ -183,9 +183,18 @@ pub fn pictures(context: &Context) -> Result<Report, Error> {
         let (path, scene) = load(context, case)?;
         let mut settings = Settings::adaptive();
         settings.mesh = settings.mesh.sized_for(&scene);
-        let refined = refine::refined_mesh(&scene, &settings, None)
+        let mut refined = refine::refined_mesh(&scene, &settings, None)
             .map_err(|e| Error::App(app::Error::Mesh(e)))?;
-        let mut solver = Solver::new(&scene, &refined.mesh, settings);
+        let going_on = refined.start.take();
+        let occluder = settings.accel.build(&scene.surfaces);
+        let mut solver = Solver::resume_or_new(
+            &scene,
+            &refined.mesh,
+            settings,
+            going_on,
+            Vec::new(),
+            occluder,
+        );
         solver.run(|_| Flow::Continue);
         let camera = camera_of(case, &scene);
         let chosen = pixels(&solver, &camera);

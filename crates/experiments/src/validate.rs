@@ -341,10 +341,14 @@ pub fn solve_then<T>(
         ..sized
     };
     let start = Instant::now();
-    let refined = refine::refined_mesh(&scene, &settings, None)
+    // As a render runs it: the coarse pass goes on on the refined mesh.
+    let base = Mesh::build(&scene, &settings.mesh).map_err(|e| Error::App(app::Error::Mesh(e)))?;
+    let mut refined = refine::refine_base(&scene, &settings, base, None, &receivers)
         .map_err(|e| Error::App(app::Error::Mesh(e)))?;
+    let going_on = refined.start.take();
     let (mesh, base_elements) = (refined.mesh, refined.base_elements);
-    let mut solver = Solver::with_sensors(&scene, &mesh, settings, receivers);
+    let occluder = settings.accel.build(&scene.surfaces);
+    let mut solver = Solver::resume_or_new(&scene, &mesh, settings, going_on, receivers, occluder);
     solver.run(|_| Flow::Continue);
     let solve_seconds = start.elapsed().as_secs_f64();
     let sensor_irradiance = solver.sensor_irradiance().to_vec();

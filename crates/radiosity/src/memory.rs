@@ -16,7 +16,7 @@
 //! | mesh | [`ELEMENT`] an element, [`VERTEX`] a vertex, [`PATCH`] a patch (the structures with their vectors' growth slack) |
 //! | accelerator | [`ACCEL`] a surface, BVH or BSP alike |
 //! | solver | the method's own ([`crate::solver::Method::memory`]): per vertex (receiver, radiosity, irradiance; patch shooting keeps more per receiver), per element (adaptive shooting's unshot radiosity and cluster hierarchy), per surface (the prepared surfaces of the segment test), and lumps such as the hemicube pre-test's item buffers: [`SolverCosts`] |
-//! | last stage | the largest of: a shot's buffers ([`SHOT_VERTEX`] a vertex), the picture (samples at [`SAMPLE`], pixels at [`PIXEL`], [`SCREEN_ELEMENT`] an element projected), the default view's BVH ([`VIEW_SURFACE`] a surface, when the scene brings no camera), the glTF bake ([`BAKE_VERTEX`], [`BAKE_ELEMENT`]), a lightmap bake ([`LIGHTMAP_TEXEL`] a texel) |
+//! | last stage | the largest of: a shot's buffers ([`SHOT_VERTEX`] a vertex), the picture (samples at [`SAMPLE`], pixels at [`PIXEL`], [`SCREEN_ELEMENT`] an element projected), the default view's BVH ([`VIEW_SURFACE`] a surface, when the scene brings no camera), the glTF bake ([`BAKE_VERTEX`], [`BAKE_ELEMENT`]), a lightmap bake ([`LIGHTMAP_TEXEL`] a texel), a refinement's coarse pass going on (its mesh and solve, and its lights' kept shots, [`GoingOn`]) |
 //!
 //! Everything but the last stage lives until the outputs are written, so
 //! the peak is their sum plus the largest last stage. On the shared scenes
@@ -111,7 +111,28 @@ pub struct Sizes {
     pub lightmap_texels: u64,
     /// The final pass the outputs take.
     pub final_gather: crate::final_gather::FinalGather,
+    /// The coarse pass of a refinement that goes on on this (refined)
+    /// mesh: its base mesh's counts and the lights whose shots it keeps;
+    /// `None` without one.
+    pub going_on: Option<GoingOn>,
 }
+
+/// The coarse pass a refined solve goes on from
+/// ([`crate::solver::Solver::go_on`]): it lives, with its kept shots,
+/// until the refined mesh's state is made from it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GoingOn {
+    /// Its mesh's elements.
+    pub elements: u64,
+    /// Its mesh's vertices.
+    pub vertices: u64,
+    /// Lights it shot, each kept with its irradiance at every vertex and
+    /// mean at every element ([`KEPT_LIGHT_ITEM`] each).
+    pub lights: u64,
+}
+
+/// A light's shot kept for its replay, per vertex and per element.
+pub const KEPT_LIGHT_ITEM: f64 = 24.0;
 
 /// One part of an estimate.
 #[derive(Clone, Debug, PartialEq)]
@@ -193,6 +214,7 @@ impl fmt::Display for Estimate {
 #[must_use]
 pub fn estimate(sizes: &Sizes, solver: SolverCosts) -> Estimate {
     let element_remedy = "raise --element-size";
+    let (solver_element, solver_vertex) = (solver.element, solver.vertex);
     let mut kept = vec![
         Part {
             name: "process",
@@ -272,6 +294,20 @@ pub fn estimate(sizes: &Sizes, solver: SolverCosts) -> Estimate {
                     0.0
                 },
             remedy: "--final-gather off",
+        });
+    }
+    if let Some(coarse) = sizes.going_on {
+        // The coarse solve, its kept shots and the state it hands over
+        // (the refined mesh's: what the final solve then keeps).
+        last.push(Part {
+            name: "coarse pass going on",
+            count: 1,
+            each: coarse.elements as f64 * (ELEMENT + solver_element)
+                + coarse.vertices as f64 * (VERTEX + solver_vertex)
+                + coarse.lights as f64
+                    * (coarse.elements + coarse.vertices) as f64
+                    * KEPT_LIGHT_ITEM,
+            remedy: element_remedy,
         });
     }
     if sizes.lightmap_texels > 0 {
@@ -538,6 +574,7 @@ mod tests {
             bake: false,
             lightmap_texels: 0,
             final_gather: crate::final_gather::FinalGather::Off,
+            going_on: None,
         };
         let e = estimate(&sizes, Settings::adaptive().method.method().memory());
         // The shot's buffers are the largest last stage.

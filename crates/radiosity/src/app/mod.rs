@@ -117,9 +117,21 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     if settings.mesh.refine.refine_levels > 0 {
         observer.refining();
     }
-    let refined = solver::refine::refine_base(&scene, &settings, base, observer.interrupt())
-        .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
+    let coarse = memory::GoingOn {
+        elements: base.elements.len() as u64,
+        vertices: base.vertices.len() as u64,
+        lights: scene.lights.len() as u64,
+    };
+    let mut refined = solver::refine::refine_base(
+        &scene,
+        &settings,
+        base,
+        observer.interrupt(),
+        &sensor_receivers,
+    )
+    .map_err(|e| mesh_error(e, job, &suggested, &settings))?;
     let refined_seconds = refined.seconds;
+    let going_on = refined.start.take();
     let mesh = refined.mesh;
     let mesh_time = mesh_start.elapsed();
     let mut counts = Counts {
@@ -130,7 +142,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         coarse_device_shots: refined.coarse_device.device_shots,
         ..Counts::of(&scene, &mesh)
     };
-    let memory_estimate = estimate(&mesh);
+    let memory_estimate = memory::estimate(
+        &memory::Sizes {
+            going_on: going_on.is_some().then_some(coarse),
+            ..memory_sizes(job, &scene, &mesh)
+        },
+        method_memory.clone(),
+    );
     memory::check(&memory_estimate, job.max_memory).map_err(Error::Memory)?;
     check_device(
         &mut settings,
@@ -144,7 +162,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let solve_start = Instant::now();
     let occluder = settings.accel.build(&scene.surfaces);
     let accel_build_time = solve_start.elapsed();
-    let mut solver = Solver::with_sensors_and_occluder(
+    let mut solver = Solver::resume_or_new(
         &scene,
         &mesh,
         Settings {
@@ -154,6 +172,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                 .map(|t| t.saturating_sub(Duration::from_secs_f64(refined_seconds))),
             ..settings.clone()
         },
+        going_on,
         sensor_receivers.clone(),
         occluder,
     );
@@ -494,6 +513,7 @@ fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
                 (2.0 * area * b.lightmap.density.powi(2)).min(cap as f64) as u64
             }),
         final_gather: job.settings.final_gather,
+        going_on: None,
     }
 }
 

@@ -146,6 +146,22 @@ impl Mesh {
         max_elements: usize,
         element_size: f64,
     ) -> Result<Mesh, MeshError> {
+        self.refine_with_parents(depth, max_elements, element_size)
+            .map(|(mesh, _)| mesh)
+    }
+
+    /// [`Mesh::refine`], and for each element of the refined mesh the
+    /// element of this one it was cut from (its parent, or itself unsplit).
+    ///
+    /// # Errors
+    ///
+    /// As [`Mesh::refine`].
+    pub fn refine_with_parents(
+        &self,
+        depth: &[u8],
+        max_elements: usize,
+        element_size: f64,
+    ) -> Result<(Mesh, Vec<u32>), MeshError> {
         let total = refined_count(self.elements.len(), depth);
         if total > max_elements as u128 {
             return Err(MeshError::TooManyElements {
@@ -161,6 +177,7 @@ impl Mesh {
             vertices: self.vertices.clone(),
         };
         let mut lookup = self.vertex_lookup();
+        let mut parents = Vec::with_capacity(total as usize);
         for (p, patch) in self.patches.iter().enumerate() {
             let start = out.elements.len();
             for e in patch.elements.clone() {
@@ -177,10 +194,11 @@ impl Mesh {
                     template,
                 };
                 splitter.split(element, depth.get(e).copied().unwrap_or(0));
+                parents.resize(out.elements.len(), e as u32);
             }
             out.patches[p].elements = start..out.elements.len();
         }
-        Ok(out)
+        Ok((out, parents))
     }
 }
 

@@ -336,6 +336,31 @@ pub fn element_means(
     device: Option<&dyn Segments>,
     stats: &mut Stats,
 ) -> Result<Option<Option<Vec<DVec3>>>, DeviceError> {
+    element_means_of(
+        light,
+        inputs,
+        &inputs.mesh.elements,
+        vertex_irradiance,
+        device,
+        stats,
+    )
+}
+
+/// [`element_means`] of `elements` alone (elements of `inputs.mesh`'s
+/// vertices, not necessarily its own: the pieces of split elements, when
+/// a solve refines its mesh and replays the lights' shots to them).
+///
+/// # Errors
+///
+/// When `device` fails.
+pub fn element_means_of(
+    light: &Light,
+    inputs: &ShotInputs<'_>,
+    elements: &[crate::mesh::Element],
+    vertex_irradiance: &[DVec3],
+    device: Option<&dyn Segments>,
+    stats: &mut Stats,
+) -> Result<Option<Option<Vec<DVec3>>>, DeviceError> {
     if matches!(light.kind, LightKind::Sky { .. }) {
         return Ok(Some(None));
     }
@@ -408,9 +433,9 @@ pub fn element_means(
         }
         Some((points, weights))
     };
-    let mut integrated: Vec<DVec3> = Vec::with_capacity(mesh.elements.len());
+    let mut integrated: Vec<DVec3> = Vec::with_capacity(elements.len());
     let mut rays = 0u64;
-    for chunk in mesh.elements.chunks(CHUNK) {
+    for chunk in elements.chunks(CHUNK) {
         if inputs.abort.fired() {
             return Ok(None);
         }

@@ -133,6 +133,47 @@ pub trait Shooter: Send {
     fn device(&self) -> super::device::DeviceReport {
         super::device::DeviceReport::default()
     }
+
+    /// Starts keeping its shots, so that they can be replayed to
+    /// receivers added later ([`Shooter::replay`]: the vertices of a mesh
+    /// refined during the solve); called before its first shot. False
+    /// for a method that cannot (the default): its solve then refines by
+    /// solving again from the start.
+    fn record_shots(&mut self) -> bool {
+        false
+    }
+
+    /// Its kept shot `shot` (its own shots counted from 0) sent again to
+    /// `inputs.receivers`, which have gathered `inputs.irradiance` from the
+    /// shots before it: what they would have gathered from it had they
+    /// been there then. `None` when abandoned or not kept.
+    fn replay(&mut self, _inputs: &ShotInputs<'_>, _shot: usize) -> Option<Vec<DVec3>> {
+        None
+    }
+
+    /// Its state, element by element, for a solve that goes on on a
+    /// refined mesh (the host's copy: a checkpoint reads a device's back);
+    /// `None` for a method that keeps none (the default).
+    fn element_state(&self) -> Option<ElementState> {
+        None
+    }
+
+    /// Takes `state` (one entry per element of its mesh) in place of the
+    /// fresh start's, before its first shot. Nothing by default.
+    fn resume(&mut self, _mesh: &Mesh, _state: ElementState) {}
+}
+
+/// A method's state per element ([`Shooter::element_state`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ElementState {
+    /// Unshot radiosity (W/m^2 per channel).
+    pub unshot: Vec<DVec3>,
+    /// Whether the element's emission is still to be shot.
+    pub emission_pending: Vec<bool>,
+    /// Luminance-weighted power brought into the scene so far (the
+    /// emitters', and each light's once shot), which tolerances scale
+    /// with.
+    pub power: f64,
 }
 
 /// A parameter a method takes, as a front end offers it.
@@ -342,6 +383,18 @@ pub struct Emission {
 }
 
 impl Emission {
+    /// Pending as `pending` says, unit by unit.
+    #[must_use]
+    pub fn from_pending(pending: Vec<bool>) -> Emission {
+        Emission { pending }
+    }
+
+    /// Whether each unit's emission is still pending.
+    #[must_use]
+    pub fn pending(&self) -> &[bool] {
+        &self.pending
+    }
+
     /// Every unit whose surface emits, pending; `surface(i)` is unit `i`'s
     /// surface.
     #[must_use]

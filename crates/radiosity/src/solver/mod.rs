@@ -39,6 +39,7 @@ pub mod patches;
 mod receiver;
 pub mod refine;
 pub mod registry;
+mod resume;
 mod settings;
 pub mod sky;
 
@@ -53,6 +54,7 @@ use self::method::{Checkpoint, Received, ShotInputs};
 pub use self::method::{Counter, Method, Shooter, Stats, Visibility};
 pub use self::receiver::{GATHER_NUDGE, Receiver, surface_receivers, vertex_receivers};
 pub use self::registry::{MethodSettings, Shooting};
+pub use self::resume::Start;
 pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, SettingsError};
 use crate::accel::Occluder;
 use crate::luminance;
@@ -180,10 +182,14 @@ pub struct Solver<'a> {
     /// The lights' shadow segments on the device (`None`: on the CPU);
     /// set up at the first light's shot.
     light_segments: Option<Box<dyn device::Segments>>,
-    /// Lights whose segments the device answered.
+    /// Shots the device made: lights whose segments it answered, and a
+    /// coarse pass's that this solve goes on from ([`resume`]).
     light_device_shots: u64,
     /// Why the lights' segments went back to the CPU, if they did.
     light_fault: Option<String>,
+    /// Its shots so far, kept when the solve may go on on a refined mesh
+    /// ([`Solver::record_shots`]).
+    record: Option<Vec<resume::Step>>,
 }
 
 /// How often the state of a solve on a device is read back: what the live
@@ -267,6 +273,7 @@ impl<'a> Solver<'a> {
             light_segments: None,
             light_device_shots: 0,
             light_fault: None,
+            record: None,
         };
         solver.energy.emitted = solver.unshot_power();
         solver.saved = (solver.energy, solver.stats.clone());
@@ -608,6 +615,8 @@ impl<'a> Solver<'a> {
     /// irradiance and radiosity are still the checkpoint's: a device's
     /// shots change them only when its state is read back).
     fn roll_back(&mut self) {
+        // The shots made again are not replayed twice: no going on.
+        self.record = None;
         let (energy, stats) = self.saved.clone();
         self.energy = energy;
         self.stats = stats;
@@ -685,6 +694,9 @@ impl<'a> Solver<'a> {
                     return false;
                 };
                 if let Some(received) = shot.booked {
+                    self.keep(resume::Step::Method {
+                        share: resume::emission_share(shot.emitted, shot.power),
+                    });
                     self.direct_partial |= shot.emitted != DVec3::ZERO;
                     let book_start = Instant::now();
                     self.book_ledger(received, shot.power);
@@ -692,7 +704,7 @@ impl<'a> Solver<'a> {
                         (Instant::now() - book_start) + shot.selection_time;
                     return true;
                 }
-                emitted = shot.emitted / shot.power;
+                emitted = resume::emission_share(shot.emitted, shot.power);
                 (shot.irradiance, None, Some(shot.power), shot.selection_time)
             }
         };
@@ -700,11 +712,7 @@ impl<'a> Solver<'a> {
         let received_before = self.energy.received;
         let sent = self.book(&irradiance, element_means.as_deref(), power);
         // A light's shot is direct; of a method's, the emission's share.
-        let share = if light.is_some() {
-            DVec3::ONE
-        } else {
-            DVec3::select(emitted.is_finite_mask(), emitted, DVec3::ZERO)
-        };
+        let share = if light.is_some() { DVec3::ONE } else { emitted };
         if share != DVec3::ZERO {
             for (d, e) in self.direct.iter_mut().zip(&irradiance) {
                 *d += *e * share;
@@ -716,6 +724,16 @@ impl<'a> Solver<'a> {
             for (d, e) in self.sky.iter_mut().zip(&irradiance) {
                 *d += *e;
             }
+        }
+        if self.record.is_some() {
+            self.keep(match light {
+                Some(index) => resume::Step::Light {
+                    index,
+                    vertex: irradiance[..self.mesh.vertices.len()].to_vec(),
+                    means: element_means,
+                },
+                None => resume::Step::Method { share },
+            });
         }
         if let Some(index) = light {
             self.lights_pending.remove(0);

@@ -11,9 +11,13 @@
 //! four times as long found no better mesh and cost the conference room
 //! 287 s), or fewer if its unshot power falls below [`COARSE_CONVERGE`] of
 //! the emitted power first; under a `--time-limit` it takes at most
-//! [`COARSE_TIME_SHARE`] of it. The final solve then starts afresh on the
-//! refined mesh, so every vertex, old or new, gathers from every shot and
-//! the energy ledger is the final solve's alone.
+//! [`COARSE_TIME_SHARE`] of it. Its shots are kept, and the final solve
+//! goes on from it on the refined mesh ([`super::Solver::go_on`]): the new
+//! vertices get the shots so far replayed to them, split elements' pieces
+//! take their share of the unshot light and the ledger the difference, so
+//! no shot is made twice. A method that cannot replay its shots (the
+//! paper's patches) starts afresh on the refined mesh instead, every
+//! vertex gathering from every shot.
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -57,6 +61,10 @@ pub struct Refined {
     pub seconds: f64,
     /// Where the coarse pass's shots ran.
     pub coarse_device: super::device::DeviceReport,
+    /// The coarse pass's state on the refined mesh, to go on from
+    /// ([`Solver::resume_or_new`]); `None` when there was no coarse pass, or its
+    /// method cannot replay its shots (the final solve then starts afresh).
+    pub start: Option<super::Start>,
 }
 
 /// The receivers at the centres of `mesh`'s elements, placed as vertices
@@ -88,6 +96,7 @@ pub fn refined_mesh(
         settings,
         Mesh::build(scene, &settings.mesh)?,
         interrupt,
+        &[],
     )
 }
 
@@ -95,7 +104,9 @@ pub fn refined_mesh(
 /// `settings.mesh`), so a caller can check it before the coarse pass. The
 /// splits stop short of `settings.mesh.max_elements`: when the depths the
 /// estimate asks for would exceed it, the deepest are lowered a level at a
-/// time until the mesh fits (the base mesh at worst).
+/// time until the mesh fits (the base mesh at worst). The coarse pass's
+/// shots are kept and replayed to the refined mesh's new vertices and to
+/// `sensors`, so the final solve can go on from it ([`Refined::start`]).
 ///
 /// # Errors
 ///
@@ -105,6 +116,7 @@ pub fn refine_base(
     settings: &Settings,
     base: Mesh,
     interrupt: Option<Arc<AtomicBool>>,
+    sensors: &[Receiver],
 ) -> Result<Refined, MeshError> {
     let start = Instant::now();
     let levels = settings.mesh.refine.refine_levels;
@@ -125,6 +137,7 @@ pub fn refine_base(
             coarse_stop,
             seconds: start.elapsed().as_secs_f64(),
             coarse_device: coarse_device.clone(),
+            start: None,
         })
     };
     if levels == 0 || base.elements.is_empty() {
@@ -151,6 +164,7 @@ pub fn refine_base(
     if let Some(flag) = &interrupt {
         solver.interrupt_on(flag.clone());
     }
+    solver.record_shots();
     let stop = solver.run(|_| Flow::Continue);
     let coarse_shots = solver.stats().shots;
     let coarse_device = solver.device_report();
@@ -170,7 +184,6 @@ pub fn refine_base(
         settings.mesh.refine.refine_tolerance,
         levels,
     );
-    drop(solver);
     let limit = settings.mesh.max_elements as u128;
     while mesh::refined_count(base.elements.len(), &depths) > limit {
         let deepest = depths.iter().copied().max().unwrap_or(0);
@@ -179,7 +192,7 @@ pub fn refine_base(
         }
     }
     let split_elements = depths.iter().filter(|&&d| d > 0).count();
-    let mut mesh = base.refine(
+    let (mut mesh, parents) = base.refine_with_parents(
         &depths,
         settings.mesh.max_elements,
         settings.mesh.element_size,
@@ -187,6 +200,8 @@ pub fn refine_base(
     if settings.mesh.conform {
         mesh.share_coplanar_edge_vertices();
     }
+    let resume = solver.go_on(&mesh, &parents, sensors.to_vec());
+    drop(solver);
     Ok(Refined {
         mesh,
         base_elements,
@@ -195,5 +210,6 @@ pub fn refine_base(
         coarse_stop: Some(stop),
         seconds: start.elapsed().as_secs_f64(),
         coarse_device,
+        start: resume,
     })
 }

@@ -45,6 +45,7 @@
 
 mod gather;
 mod overshoot;
+mod replay;
 mod resident;
 
 use std::time::Instant;
@@ -58,8 +59,8 @@ pub use super::hierarchy::transfer::FAR_RATIO;
 use super::hierarchy::transfer::Transfer;
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
-    self, Checkpoint, Counter, Emission, Kind, Method, MethodError, Parameter, Received, SetError,
-    Shooter, Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
+    self, Checkpoint, Counter, ElementState, Emission, Kind, Method, MethodError, Parameter,
+    Received, SetError, Shooter, Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
 };
 use super::{Receiver, Settings};
 use crate::luminance;
@@ -267,6 +268,9 @@ struct AdaptiveShooting {
     resident: Option<resident::Resident>,
     /// Set when the device failed in a shot, until the loop asks.
     rolled_back: bool,
+    /// Its shots so far, kept when the solve may refine its mesh and
+    /// replay them to the new vertices ([`replay`]).
+    record: Option<Vec<replay::Recorded>>,
     /// The shooters' powers are to be recomputed (after a device's
     /// failure restored the unshot radiosity).
     stale_powers: bool,
@@ -324,6 +328,7 @@ impl AdaptiveShooting {
             report: DeviceReport::default(),
             resident: None,
             rolled_back: false,
+            record: None,
             stale_powers: false,
         };
         if let Some(backend) = settings.device.get() {
@@ -389,19 +394,37 @@ impl AdaptiveShooting {
     /// the scene's mean radiosity, if more). A receiver that has gathered
     /// much takes a dim source's small errors in its stride.
     fn receiver_negligible(&self, irradiance: &[DVec3]) -> Vec<f64> {
-        let nodes = &self.receiver_tree.nodes;
-        let mut out = vec![0.0; nodes.len()];
-        for n in (0..nodes.len()).rev() {
-            let node = &nodes[n];
-            out[n] = if node.is_leaf() {
-                let r = self.receiver_tree.items[node.first as usize] as usize;
-                self.negligible * (luminance(irradiance[r]) / self.mean_radiosity).max(1.0)
-            } else {
-                out[n + 1].min(out[node.second as usize])
-            };
-        }
-        out
+        receiver_negligible(
+            &self.receiver_tree,
+            self.negligible,
+            self.mean_radiosity,
+            irradiance,
+        )
     }
+}
+
+/// The negligible irradiance of each node of `tree` (over receivers
+/// that have gathered `irradiance`), for a scene whose negligible
+/// irradiance is `negligible` at its mean radiosity `mean_radiosity`
+/// ([`AdaptiveShooting::receiver_negligible`]).
+fn receiver_negligible(
+    tree: &Tree,
+    negligible: f64,
+    mean_radiosity: f64,
+    irradiance: &[DVec3],
+) -> Vec<f64> {
+    let nodes = &tree.nodes;
+    let mut out = vec![0.0; nodes.len()];
+    for n in (0..nodes.len()).rev() {
+        let node = &nodes[n];
+        out[n] = if node.is_leaf() {
+            let r = tree.items[node.first as usize] as usize;
+            negligible * (luminance(irradiance[r]) / mean_radiosity).max(1.0)
+        } else {
+            out[n + 1].min(out[node.second as usize])
+        };
+    }
+    out
 }
 
 impl AdaptiveShooting {
@@ -414,6 +437,21 @@ impl AdaptiveShooting {
         unshot: &[DVec3],
     ) -> Option<(Vec<DVec3>, Counters)> {
         let negligible = self.receiver_negligible(inputs.irradiance);
+        self.gather_to(inputs, root, unshot, &self.receiver_tree, &negligible)
+    }
+
+    /// The transfers from `root` (its elements sending `unshot`, its
+    /// sources prepared) to `inputs.receivers`, over their tree `tree`
+    /// whose nodes' negligible irradiance is `negligible`; `None` when
+    /// abandoned.
+    fn gather_to(
+        &self,
+        inputs: &ShotInputs<'_>,
+        root: u32,
+        unshot: &[DVec3],
+        tree: &Tree,
+        negligible: &[f64],
+    ) -> Option<(Vec<DVec3>, Counters)> {
         let gatherer = Gatherer {
             transfer: Transfer {
                 scene: inputs.scene,
@@ -426,9 +464,9 @@ impl AdaptiveShooting {
                 occluder: inputs.occluder,
                 form_factor: inputs.settings.form_factor,
             },
-            receiver_tree: &self.receiver_tree,
+            receiver_tree: tree,
             receivers: inputs.receivers,
-            negligible: &negligible,
+            negligible,
             abort: inputs.abort,
         };
         // Irradiance in the receiver tree's order, then put back in order.
@@ -442,7 +480,7 @@ impl AdaptiveShooting {
             return None;
         }
         let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
-        for (&r, e) in self.receiver_tree.items.iter().zip(gathered) {
+        for (&r, e) in tree.items.iter().zip(gathered) {
             irradiance[r as usize] = e;
         }
         Some((irradiance, counters))
@@ -500,6 +538,7 @@ impl Shooter for AdaptiveShooting {
         let elements = self.hierarchy.tree.items_of(root).len() as u64;
         let gather_start = Instant::now();
         let (irradiance, counters) = self.send(inputs, root, &plan)?;
+        self.keep_record(root, &plan);
         let gather_end = Instant::now();
         let emitted = self.take_emission(scene, mesh, root);
         let power = plan.power;
@@ -557,6 +596,33 @@ impl Shooter for AdaptiveShooting {
 
     fn rolled_back(&mut self) -> bool {
         std::mem::take(&mut self.rolled_back)
+    }
+
+    fn record_shots(&mut self) -> bool {
+        self.record = Some(Vec::new());
+        true
+    }
+
+    fn replay(&mut self, inputs: &ShotInputs<'_>, shot: usize) -> Option<Vec<DVec3>> {
+        self.replay_shot(inputs, shot)
+    }
+
+    fn element_state(&self) -> Option<ElementState> {
+        Some(ElementState {
+            unshot: self.unshot.clone(),
+            emission_pending: self.emission.pending().to_vec(),
+            power: self.power,
+        })
+    }
+
+    fn resume(&mut self, mesh: &Mesh, state: ElementState) {
+        self.unshot = state.unshot;
+        self.emission = Emission::from_pending(state.emission_pending);
+        self.power = state.power;
+        let mean_radiosity = self.power * self.per_watt;
+        self.negligible = self.tolerance * mean_radiosity;
+        self.mean_radiosity = mean_radiosity.max(f64::MIN_POSITIVE);
+        self.total_shooter_power(mesh);
     }
 
     /// A light's power counts towards the mean radiosity the tolerance

@@ -42,6 +42,7 @@ use crate::scene::Scene;
 use crate::solver::method::ShotInputs;
 
 /// What one shot's elements send.
+#[derive(Clone)]
 pub(super) struct Plan {
     /// Per element of the shooter, in its items' order: what it sends,
     /// its unshot radiosity and its overshoot.
@@ -120,6 +121,12 @@ impl Plan {
 }
 
 impl Plan {
+    /// Whether some element sends light of the pass's sign (`0`: positive,
+    /// `1`: negative), which the CPU's shot sends in a pass of its own.
+    pub(super) fn sends_sign(&self, pass: usize) -> bool {
+        self.signs[pass]
+    }
+
     /// Which passes the shot takes: `[positive, negative]` (the positive
     /// one alone when nothing is sent, a shot gathering nothing).
     pub(super) fn passes(&self) -> [bool; 2] {

@@ -148,6 +148,7 @@ impl AdaptiveShooting {
             return Ok(None);
         };
         let gather_end = Instant::now();
+        self.keep_record(root, &plan);
         plan.leave(self, root);
         if booked.shooter_power.len() != self.shooter_power.len() {
             return Err(DeviceError(format!(

@@ -1,0 +1,402 @@
+//! Receiver refinement inside one solve, beyond the paper: the two-pass
+//! scheme of Cohen, Greenberg, Immel & Brock (1986) splits the elements
+//! where a first solution's radiosity varies and solves again from the
+//! start. Here the first solve goes on, on the refined mesh, from where it
+//! stood:
+//!
+//! * **Old vertices** keep what they gathered (a split keeps every vertex
+//!   at its index, [`crate::mesh::Mesh::refine`]).
+//! * **New vertices** (and the final solve's sensors) get each shot made
+//!   so far replayed to them, in order: a light's shot is gathered at them
+//!   ([`lights::gather`]); a method's kept shot is sent again as it was
+//!   ([`super::Shooter::replay`]), each receiver refining the source
+//!   against the threshold it would have had then. So no shot is made
+//!   twice, and a new vertex holds what it would have had if it had been
+//!   there from the start.
+//! * **A split element's pieces** take its unshot radiosity plus the
+//!   reflected difference between what they received and what it did:
+//!   `dB_c = dB_p + rho (E_c - E_p)`, `E` an element's mean irradiance over
+//!   every shot (its corners' mean, or a light's integral across a
+//!   shadow's edge, [`lights::element_means_of`]). The pieces send what
+//!   their parent sent, so what they have left is what they reflected less
+//!   that.
+//! * **The ledger** books the same differences: the power the pieces
+//!   received less what the parent did is received (from a sun or sky,
+//!   whose power is what arrives, also emitted; from anything else, no
+//!   longer escaped), `1 - rho` of it absorbed. It balances to round-off.
+//!
+//! Everything is computed receiver by receiver in a fixed order, so the
+//! result does not depend on the number of threads.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::method::{ElementState, ShotInputs};
+use super::{Abort, Energy, Receiver, Settings, Solver, Stats, lights, vertex_receivers};
+use crate::accel::Occluder;
+use crate::mesh::{Element, Mesh};
+use crate::scene::Scene;
+
+/// A shot a solve has made, as kept for its replay.
+pub(super) enum Step {
+    /// A light's shot.
+    Light {
+        /// The light.
+        index: usize,
+        /// Its irradiance at each vertex.
+        vertex: Vec<DVec3>,
+        /// Each element's mean irradiance from it, where the shot knew it
+        /// better than the corners ([`lights::element_means`]).
+        means: Option<Vec<DVec3>>,
+    },
+    /// One of the method's shots.
+    Method {
+        /// The share of its power that was emission, per channel.
+        share: DVec3,
+    },
+}
+
+/// A solve's state carried onto a refined mesh ([`Solver::go_on`]), from
+/// which [`Solver::resume`] goes on.
+pub struct Start {
+    sensors: Vec<Receiver>,
+    irradiance: Vec<DVec3>,
+    direct: Vec<DVec3>,
+    sky: Vec<DVec3>,
+    direct_partial: bool,
+    method: ElementState,
+    energy: Energy,
+    stats: Stats,
+    lights_pending: Vec<usize>,
+    light_power: Vec<DVec3>,
+    device_shots: u64,
+    /// Receivers the shots so far were replayed to: the new vertices and
+    /// the sensors.
+    pub replayed_receivers: usize,
+    /// Shots replayed to them.
+    pub replayed_shots: usize,
+    /// Seconds the replay took.
+    pub replay_seconds: f64,
+}
+
+impl Start {
+    /// The ledger the solve goes on with.
+    #[must_use]
+    pub fn energy(&self) -> &Energy {
+        &self.energy
+    }
+}
+
+/// The share of a shot's power that was emission, per channel (zero where
+/// it sent none).
+pub(super) fn emission_share(emitted: DVec3, power: DVec3) -> DVec3 {
+    let share = emitted / power;
+    DVec3::select(share.is_finite_mask(), share, DVec3::ZERO)
+}
+
+/// The mean of `values` over `element`'s corners.
+fn corner_mean(values: &[DVec3], element: &Element) -> DVec3 {
+    let corners = element.vertices();
+    corners.iter().map(|&c| values[c as usize]).sum::<DVec3>() / corners.len() as f64
+}
+
+impl<'a> Solver<'a> {
+    /// Keeps `step` when shots are recorded.
+    pub(super) fn keep(&mut self, step: Step) {
+        if let Some(record) = self.record.as_mut() {
+            record.push(step);
+        }
+    }
+
+    /// Keeps every shot from now on, so the solve can go on on a refined
+    /// mesh ([`Solver::go_on`]); call it before the first shot. False
+    /// when the method cannot replay its shots (the paper's patches): such
+    /// a solve is refined by solving again.
+    pub fn record_shots(&mut self) -> bool {
+        if self.stats.shots > 0 || !self.shooter.record_shots() {
+            return false;
+        }
+        self.record = Some(Vec::new());
+        true
+    }
+
+    /// The state this solve (which kept its shots, [`Solver::record_shots`])
+    /// goes on from on `refined`, this mesh refined ([`Mesh::refine`]:
+    /// `parents[c]` is the element of this mesh that element `c` was cut
+    /// from), gathering also at `sensors`. `None` when the shots were not
+    /// kept (or a device's failure made some again), when the method keeps
+    /// no state per element, or when the replay is interrupted.
+    #[must_use]
+    pub fn go_on(
+        &mut self,
+        refined: &Mesh,
+        parents: &[u32],
+        sensors: Vec<Receiver>,
+    ) -> Option<Start> {
+        let start = Instant::now();
+        let record = self.record.take()?;
+        let state = self.shooter.element_state()?;
+        let (scene, base) = (self.scene, self.mesh);
+        let old = base.vertices.len();
+        if parents.len() != refined.elements.len() || refined.vertices.len() < old {
+            return None;
+        }
+        let abort = Abort {
+            deadline: None,
+            flag: self.interrupt.clone(),
+        };
+        let mut receivers = vertex_receivers(scene, refined).split_off(old);
+        let new = receivers.len();
+        receivers.extend(sensors.iter().copied());
+
+        // The shots so far, replayed to the new receivers in order.
+        let mut stats = self.stats.clone();
+        let mut gathered = vec![DVec3::ZERO; receivers.len()];
+        let mut direct = vec![DVec3::ZERO; receivers.len()];
+        let mut sky = vec![DVec3::ZERO; receivers.len()];
+        let mut method_part = vec![DVec3::ZERO; new];
+        // Each light's irradiance at every vertex of the refined mesh.
+        let mut light_vertex: Vec<Vec<DVec3>> = Vec::new();
+        let mut method_shots = 0;
+        for step in &record {
+            let inputs = |mesh| ShotInputs {
+                scene,
+                mesh,
+                settings: &self.settings,
+                occluder: self.occluder.as_ref(),
+                receivers: &receivers,
+                irradiance: &gathered,
+                abort: &abort,
+            };
+            match step {
+                Step::Light { index, vertex, .. } => {
+                    let light = &scene.lights[*index];
+                    let e = lights::gather(light, &inputs(refined), None, &mut stats).ok()??;
+                    let is_sky = matches!(light.kind, crate::scene::LightKind::Sky { .. });
+                    for (i, e) in e.iter().enumerate() {
+                        gathered[i] += *e;
+                        direct[i] += *e;
+                        if is_sky {
+                            sky[i] += *e;
+                        }
+                    }
+                    let mut all = vertex.clone();
+                    all.extend_from_slice(&e[..new]);
+                    light_vertex.push(all);
+                }
+                Step::Method { share } => {
+                    let e = self.shooter.replay(&inputs(base), method_shots)?;
+                    method_shots += 1;
+                    for (i, e) in e.iter().enumerate() {
+                        gathered[i] += *e;
+                        direct[i] += *e * *share;
+                        if i < new {
+                            method_part[i] += *e;
+                        }
+                    }
+                }
+            }
+        }
+
+        // What each vertex gathered from the method's shots.
+        let mut method_vertex: Vec<DVec3> = self.irradiance[..old].to_vec();
+        for lv in &light_vertex {
+            for (m, e) in method_vertex.iter_mut().zip(lv) {
+                *m -= *e;
+            }
+        }
+        method_vertex.extend(method_part);
+
+        // The split elements' pieces, and their parents.
+        let mut split = vec![false; base.elements.len()];
+        for (c, &p) in parents.iter().enumerate() {
+            let (e, b) = (&refined.elements[c], &base.elements[p as usize]);
+            if e.vertices() != b.vertices() {
+                split[p as usize] = true;
+            }
+        }
+        let pieces: Vec<usize> = (0..parents.len())
+            .filter(|&c| split[parents[c] as usize])
+            .collect();
+        let piece_elements: Vec<Element> = pieces.iter().map(|&c| refined.elements[c]).collect();
+        // Mean irradiance from the lights, per piece and per split parent,
+        // and each light's difference in power received.
+        let mut piece_light = vec![DVec3::ZERO; pieces.len()];
+        let mut parent_light = vec![DVec3::ZERO; base.elements.len()];
+        let mut light_delta = Vec::new();
+        let lights_kept = record.iter().filter_map(|s| match s {
+            Step::Light {
+                index,
+                vertex,
+                means,
+                ..
+            } => Some((*index, vertex, means)),
+            Step::Method { .. } => None,
+        });
+        for ((index, vertex, means), all) in lights_kept.zip(&light_vertex) {
+            let light = &scene.lights[index];
+            let inputs = ShotInputs {
+                scene,
+                mesh: refined,
+                settings: &self.settings,
+                occluder: self.occluder.as_ref(),
+                receivers: &receivers,
+                irradiance: &gathered,
+                abort: &abort,
+            };
+            let piece_means =
+                lights::element_means_of(light, &inputs, &piece_elements, all, None, &mut stats)
+                    .ok()??;
+            let mut delta = DVec3::ZERO;
+            for (k, e) in piece_elements.iter().enumerate() {
+                let m = piece_means
+                    .as_ref()
+                    .map_or_else(|| corner_mean(all, e), |m| m[k]);
+                piece_light[k] += m;
+                delta += m * e.area;
+            }
+            for (p, e) in base.elements.iter().enumerate() {
+                if split[p] {
+                    let m = means
+                        .as_ref()
+                        .map_or_else(|| corner_mean(vertex, e), |m| m[p]);
+                    parent_light[p] += m;
+                    delta -= m * e.area;
+                }
+            }
+            light_delta.push((index, delta));
+        }
+
+        // The pieces' unshot radiosity and the ledger's differences.
+        let mut unshot: Vec<DVec3> = parents.iter().map(|&p| state.unshot[p as usize]).collect();
+        let emission_pending: Vec<bool> = parents
+            .iter()
+            .map(|&p| state.emission_pending[p as usize])
+            .collect();
+        let parent_mean = |p: usize| {
+            let e = &base.elements[p];
+            corner_mean(&method_vertex, e) + parent_light[p]
+        };
+        let (mut method_delta, mut absorbed_delta) = (DVec3::ZERO, DVec3::ZERO);
+        for (k, (&c, e)) in pieces.iter().zip(&piece_elements).enumerate() {
+            let p = parents[c] as usize;
+            let rho = scene.surfaces[e.surface as usize].rho;
+            let method_mean = corner_mean(&method_vertex, e);
+            let mean = method_mean + piece_light[k];
+            unshot[c] += rho * (mean - parent_mean(p));
+            method_delta += method_mean * e.area;
+            absorbed_delta += (DVec3::ONE - rho) * mean * e.area;
+        }
+        for (p, e) in base.elements.iter().enumerate() {
+            if split[p] {
+                let rho = scene.surfaces[e.surface as usize].rho;
+                method_delta -= corner_mean(&method_vertex, e) * e.area;
+                absorbed_delta -= (DVec3::ONE - rho) * parent_mean(p) * e.area;
+            }
+        }
+        let mut energy = self.energy;
+        let mut light_power = self.light_power.clone();
+        let mut power = state.power;
+        energy.received += method_delta;
+        energy.escaped -= method_delta;
+        energy.absorbed += absorbed_delta;
+        for (index, delta) in light_delta {
+            energy.received += delta;
+            power += crate::luminance(delta);
+            if scene.lights[index].position().is_none() {
+                // A sun's or sky's power is what arrives.
+                energy.emitted += delta;
+                light_power[index] += delta;
+            } else {
+                energy.escaped -= delta;
+            }
+        }
+
+        let mut irradiance = self.irradiance[..old].to_vec();
+        irradiance.extend_from_slice(&gathered);
+        let mut all_direct = self.direct[..old].to_vec();
+        all_direct.extend_from_slice(&direct);
+        let mut all_sky = self.sky[..old].to_vec();
+        all_sky.extend_from_slice(&sky);
+        Some(Start {
+            sensors,
+            irradiance,
+            direct: all_direct,
+            sky: all_sky,
+            direct_partial: self.direct_partial,
+            method: ElementState {
+                unshot,
+                emission_pending,
+                power,
+            },
+            energy,
+            stats,
+            lights_pending: self.lights_pending.clone(),
+            light_power,
+            device_shots: self.device_report().device_shots,
+            replayed_receivers: receivers.len(),
+            replayed_shots: record.len(),
+            replay_seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The final solve on a refined mesh ([`super::refine::Refined`]):
+    /// the coarse pass going on from `start` ([`Solver::resume`], with the
+    /// sensors it was made with) when there is one, else a fresh solve
+    /// gathering at `sensors`; visibility answered by `occluder`.
+    #[must_use]
+    pub fn resume_or_new(
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: Settings,
+        start: Option<Start>,
+        sensors: Vec<Receiver>,
+        occluder: Box<dyn Occluder + 'a>,
+    ) -> Solver<'a> {
+        match start {
+            Some(start) => Solver::resume(scene, mesh, settings, start, occluder),
+            None => Solver::with_sensors_and_occluder(scene, mesh, settings, sensors, occluder),
+        }
+    }
+
+    /// A solve of `scene` on `mesh` that goes on from `start` (made by
+    /// [`Solver::go_on`] for this mesh), gathering at the sensors `start`
+    /// was made with, its visibility answered by `occluder`.
+    ///
+    /// # Panics
+    ///
+    /// When `start` was made for another mesh.
+    #[must_use]
+    pub fn resume(
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        settings: Settings,
+        start: Start,
+        occluder: Box<dyn Occluder + 'a>,
+    ) -> Solver<'a> {
+        let mut solver =
+            Solver::with_sensors_and_occluder(scene, mesh, settings, start.sensors, occluder);
+        assert_eq!(
+            (solver.irradiance.len(), start.method.unshot.len()),
+            (start.irradiance.len(), mesh.elements.len()),
+            "a start made for another mesh"
+        );
+        solver.shooter.resume(mesh, start.method);
+        for (i, v) in mesh.vertices.iter().enumerate() {
+            let s = &scene.surfaces[v.surface as usize];
+            solver.radiosity[i] = s.emission + s.rho * start.irradiance[i];
+        }
+        solver.irradiance = start.irradiance;
+        solver.direct = start.direct;
+        solver.sky = start.sky;
+        solver.direct_partial = start.direct_partial;
+        solver.energy = start.energy;
+        solver.stats = start.stats;
+        solver.lights_pending = start.lights_pending;
+        solver.light_power = start.light_power;
+        solver.light_device_shots = start.device_shots;
+        solver.saved = (solver.energy, solver.stats.clone());
+        solver
+    }
+}
