@@ -414,6 +414,8 @@ fn cornell_writes_picture_vertices_and_stats() {
             "rays_cast",
             "receiver_walks",
             "refined_elements",
+            "replayed_receivers",
+            "replayed_shots",
             "scene",
             "settings",
             "shots",

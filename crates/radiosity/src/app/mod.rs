@@ -140,6 +140,8 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         coarse_shots: refined.coarse_shots,
         coarse_stop_reason: refined.coarse_stop,
         coarse_device_shots: refined.coarse_device.device_shots,
+        replayed_receivers: going_on.as_ref().map_or(0, |s| s.replayed_receivers),
+        replayed_shots: going_on.as_ref().map_or(0, |s| s.replayed_shots),
         ..Counts::of(&scene, &mesh)
     };
     let memory_estimate = memory::estimate(

@@ -126,6 +126,12 @@ pub struct Counts {
     pub coarse_stop_reason: Option<StopReason>,
     /// Shots of the coarse pass whose transfers ran on the device (`--device`).
     pub coarse_device_shots: u64,
+    /// Receivers the coarse pass's shots were replayed to when the solve
+    /// went on on the refined mesh: its new vertices and the sensors (0
+    /// when it did not go on).
+    pub replayed_receivers: usize,
+    /// Shots replayed to them.
+    pub replayed_shots: usize,
 }
 
 /// A stop reason as its description, `null` for none.
@@ -157,6 +163,8 @@ impl Counts {
             coarse_shots: 0,
             coarse_stop_reason: None,
             coarse_device_shots: 0,
+            replayed_receivers: 0,
+            replayed_shots: 0,
         }
     }
 }
