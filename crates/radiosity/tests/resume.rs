@@ -17,7 +17,13 @@ use glam::DVec3;
 use radiosity::mesh::Mesh;
 use radiosity::scene::{self, Scene};
 use radiosity::solver::refine::refine_base;
-use radiosity::solver::{Flow, MethodSettings, Settings, Solver, vertex_receivers};
+use radiosity::solver::{Flow, MethodSettings, Settings, Solver, Start, vertex_receivers};
+
+/// The solve of `scene` on `mesh` going on from `start`.
+fn resumed<'a>(scene: &'a Scene, mesh: &'a Mesh, settings: &Settings, start: Start) -> Solver<'a> {
+    let occluder = settings.accel.build(&scene.surfaces);
+    Solver::resume(scene, mesh, settings.clone(), start, occluder)
+}
 
 /// The default settings at `scale` times the scene's element size.
 fn settings_for(scene: &Scene, scale: f64) -> Settings {
@@ -49,13 +55,7 @@ fn replay_reads_what_was_gathered(scene: &Scene, settings: &Settings, shots: u64
     let start = coarse
         .go_on(&refined, &parents, sensors)
         .expect("adaptive shooting replays its shots");
-    let resumed = Solver::resume(
-        scene,
-        &refined,
-        settings.clone(),
-        start,
-        settings.accel.build(&scene.surfaces),
-    );
+    let resumed = resumed(scene, &refined, settings, start);
     let gathered = coarse.irradiance();
     let largest = gathered.iter().map(|e| e.max_element()).fold(0.0, f64::max);
     assert!(largest > 0.0);
@@ -103,13 +103,7 @@ fn goes_on_balanced_and_alike(scene: &Scene, settings: &Settings) {
                 assert!(refined.split_elements > 0);
                 let start = refined.start.take().expect("the coarse pass goes on");
                 assert!(start.replayed_receivers > 0 && start.replayed_shots > 0);
-                let mut solver = Solver::resume(
-                    scene,
-                    &refined.mesh,
-                    settings.clone(),
-                    start,
-                    settings.accel.build(&scene.surfaces),
-                );
+                let mut solver = resumed(scene, &refined.mesh, settings, start);
                 common::assert_ledger_balances(&solver);
                 solver.run(|s| {
                     common::assert_ledger_balances(s);
@@ -159,13 +153,7 @@ fn agrees_with_solving_again(scene: &Scene, settings: &Settings, exact: bool) {
     let mut refined = refine_base(scene, settings, base, None, &[]).unwrap();
     assert!(refined.split_elements > 0);
     let start = refined.start.take().unwrap();
-    let mut resumed = Solver::resume(
-        scene,
-        &refined.mesh,
-        settings.clone(),
-        start,
-        settings.accel.build(&scene.surfaces),
-    );
+    let mut resumed = resumed(scene, &refined.mesh, settings, start);
     resumed.run(|_| Flow::Continue);
     let mut again = Solver::new(scene, &refined.mesh, settings.clone());
     again.run(|_| Flow::Continue);
@@ -221,13 +209,7 @@ fn sensors_given_to_the_refinement_are_replayed_too() {
     let sensors = vertex_receivers(&scene, &base);
     let mut refined = refine_base(&scene, &settings, base, None, &sensors).unwrap();
     let start = refined.start.take().unwrap();
-    let mut solver = Solver::resume(
-        &scene,
-        &refined.mesh,
-        settings.clone(),
-        start,
-        settings.accel.build(&scene.surfaces),
-    );
+    let mut solver = resumed(&scene, &refined.mesh, &settings, start);
     solver.run(|_| Flow::Continue);
     let at_vertices = &solver.irradiance()[..points.len()];
     for (v, (s, e)) in solver
