@@ -180,8 +180,18 @@ pub fn print_summary(o: &Outcome) {
     );
     if c.refined_elements > 0 {
         println!(
-            "refined: {} of {} elements split after a coarse pass of {} shots",
-            c.refined_elements, c.base_elements, c.coarse_shots
+            "refined: {} of {} elements split after a coarse pass of {} shots{}",
+            c.refined_elements,
+            c.base_elements,
+            c.coarse_shots,
+            if c.replayed_receivers > 0 {
+                format!(
+                    "; the solve went on from it, its shots replayed to {} new receivers",
+                    c.replayed_receivers
+                )
+            } else {
+                String::new()
+            }
         );
     }
     match c.coarse_stop_reason {
