@@ -21,7 +21,7 @@
 //! The solve runs on the caller's thread through [`radiosity::app::run`] with
 //! the [`Server::observer`], at full speed whether or not a page is open:
 //! after a shot it copies the vertex radiosities into shared state at most
-//! every [`SNAPSHOT_INTERVAL`] (250 ms) of solve time, and whenever it
+//! every [`state::SNAPSHOT_INTERVAL`] (250 ms) of solve time, and whenever it
 //! pauses, and never waits on the network; it blocks only while paused.
 //! The server (axum on a one-thread tokio runtime) feeds every client from
 //! the latest snapshot; a client that
@@ -56,7 +56,7 @@
 //! name, counts, bounds, `camera` {`eye`, `target`, `up`, `fov`
 //! (vertical, degrees)}, the initial `ambient` switch and `exposure` in
 //! stops); one binary mesh message; then, whenever the solution or the
-//! status changed and at most every [`SNAPSHOT_INTERVAL`], a text status
+//! status changed and at most every [`state::SNAPSHOT_INTERVAL`], a text status
 //! message (JSON: `type: "status"`, `phase` (loading, solving, paused,
 //! writing, finished), `seq`, `shots`, `subsources`, `rays`,
 //! `rays_per_second`, `unshot_fraction`, `elapsed_seconds` (pauses

@@ -3,7 +3,7 @@
 //! times: a shooter's node samples and elements to vertices, each receiver
 //! walking the source for itself, so the segments a BVH answers in a real
 //! default solve. A solve of the default settings (visibility by a
-//! recording BVH, the base mesh) records the segments of [`SHOTS`]; a
+//! recording BVH, the base mesh) records the segments of `shots`; a
 //! sample is checked against brute force and timed on the BVH and, when
 //! given, Embree, interleaved, as the paper preset's are.
 

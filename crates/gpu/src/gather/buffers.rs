@@ -16,9 +16,9 @@ pub struct GpuTreeNode {
     pub radius: f32,
     /// Centre's round-off.
     pub centre_lo: [f32; 3],
-    /// Second child, or [`NONE`].
+    /// Second child, or [`NONE`](radiosity::solver::hierarchy::NONE).
     pub second: u32,
-    /// Surface id, or [`NONE`].
+    /// Surface id, or [`NONE`](radiosity::solver::hierarchy::NONE).
     pub group: u32,
     /// Surface of its first element.
     pub surface: u32,

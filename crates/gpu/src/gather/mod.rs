@@ -11,7 +11,7 @@
 //! area, reflectance), the surfaces' planes and the receivers in the
 //! receiver tree's order (neighbours in one workgroup walk alike); so does
 //! the state, each receiver's irradiance and each element's unshot
-//! radiosity, which stays there ([`transfers`]). Each shot uploads its
+//! radiosity, which stays there (`transfers`). Each shot uploads its
 //! subtree's sources (power in bins by normal, with their centres and
 //! covariances worked out in `f64` on the host, so the kernel never
 //! subtracts large sums), runs the walk and the book-keeping

@@ -166,7 +166,7 @@ fn segment(from: DVec3, point: DVec3, skip: [u32; 2], distant: bool) -> Segment 
 /// The irradiance `light` sends to each receiver, or `Ok(None)` if the
 /// shot's abort fired first. A chunk of receivers at a time: what each
 /// would receive unblocked and its shadow segments, then every segment of
-/// the chunk answered at once ([`answer`]), then each receiver's sum in its
+/// the chunk answered at once (`answer`), then each receiver's sum in its
 /// own order.
 ///
 /// # Errors
@@ -324,7 +324,7 @@ const SIDE: usize = 8;
 /// which over a whole patch edge does not cancel (a window's sun patch
 /// lost 6% of its power at the default mesh). `Ok(Some(None))` for a sky,
 /// whose shadows are soft; `Ok(None)` if the shot's abort fired. The
-/// segments of a chunk of elements are answered at once ([`answer`]).
+/// segments of a chunk of elements are answered at once (`answer`).
 ///
 /// # Errors
 ///

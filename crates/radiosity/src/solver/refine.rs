@@ -68,7 +68,7 @@ pub struct Refined {
 }
 
 /// The receivers at the centres of `mesh`'s elements, placed as vertices
-/// are ([`GATHER_NUDGE`]).
+/// are ([`super::GATHER_NUDGE`]).
 #[must_use]
 pub fn centre_receivers(scene: &Scene, mesh: &Mesh) -> Vec<Receiver> {
     super::surface_receivers(

@@ -8,7 +8,7 @@
 //! charts generated at `--lightmap-density` texels per metre, capped at
 //! `--lightmap-max-size` texels a side); [`texels`] finds each texel's
 //! surface point and its value in the solved element mesh, and pads the
-//! charts; [`document`] rewrites the input glTF around them. The values are
+//! charts; `document` rewrites the input glTF around them. The values are
 //! the vertex bake's ([`crate::app::bake_values`]): lit radiance at the
 //! picture's exposure (lit mode, shown by `KHR_materials_unlit`), or
 //! irradiance over pi times a recorded scale (irradiance mode, materials
@@ -449,7 +449,7 @@ const UNREWRITABLE: [&str; 4] = [
 ];
 
 /// Checks, before a solve, that a lightmap bake can rewrite `appearance`'s
-/// document: no extension in [`UNREWRITABLE`], float positions
+/// document: no extension in `UNREWRITABLE`, float positions
 /// (quantised ones would need integer bounds). Returns what stands in the
 /// way.
 ///

@@ -10,7 +10,7 @@
 //! shoots its unshot radiosity at once (a Jacobi step of the radiosity
 //! equation; Gortler, Cohen & Slusallek 1993 call it the full sweep), and
 //! every receiver gathers it through its own cut of the element tree
-//! ([`cut`]): elements nearby at their exact factor, larger nodes far off as
+//! (`cut`): elements nearby at their exact factor, larger nodes far off as
 //! corrected point sources, each refined until its possible error is below
 //! the tolerance times what the receiver gathers in the pass. A receiver
 //! keeps its cut, with the factors and visibilities it found, from pass to
