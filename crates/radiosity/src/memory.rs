@@ -595,6 +595,55 @@ mod tests {
         assert!(check(&e, Some(1 << 40)).is_ok());
     }
 
+    /// A refinement's coarse pass going on is a last stage of its own:
+    /// its mesh, its solve and its lights' kept shots, counted when it is
+    /// the largest.
+    #[test]
+    fn the_coarse_pass_going_on_is_counted() {
+        let sizes = Sizes {
+            surfaces: 10,
+            patches: 10,
+            elements: 1_000,
+            vertices: 1_000,
+            samples: 0,
+            pixels: 0,
+            view: false,
+            bake: false,
+            lightmap_texels: 0,
+            final_gather: crate::final_gather::FinalGather::Off,
+            going_on: None,
+        };
+        let costs = Settings::adaptive().method.method().memory();
+        let without = estimate(&sizes, costs.clone());
+        let coarse = GoingOn {
+            elements: 800,
+            vertices: 900,
+            lights: 3,
+        };
+        let with = estimate(
+            &Sizes {
+                going_on: Some(coarse),
+                ..sizes
+            },
+            costs.clone(),
+        );
+        let part = with
+            .last
+            .iter()
+            .find(|p| p.name == "coarse pass going on")
+            .expect("the part is listed");
+        let expected = 800.0 * (ELEMENT + costs.element)
+            + 900.0 * (VERTEX + costs.vertex)
+            + 3.0 * 1_700.0 * KEPT_LIGHT_ITEM;
+        assert!((part.bytes() - expected).abs() < 1e-6);
+        // Larger than a shot's buffers here, so it is the last stage.
+        assert!(expected > 1_000.0 * SHOT_VERTEX);
+        let shot_buffers = 1_000.0 * SHOT_VERTEX;
+        // Each total is rounded up to a byte.
+        let grown = (with.total() - without.total()) as f64;
+        assert!((grown - (expected - shot_buffers)).abs() <= 1.0, "{grown}");
+    }
+
     #[test]
     fn this_process_has_a_peak() {
         // The resident size first: other tests run in threads of this
