@@ -561,13 +561,13 @@ mod tests {
         );
     }
 
-    #[test]
-    fn the_estimate_names_its_largest_parts() {
-        let sizes = Sizes {
-            surfaces: 1_000,
-            patches: 1_000,
-            elements: 120_000_000,
-            vertices: 100_000_000,
+    /// A run of `elements` and `vertices` that writes nothing drawn.
+    fn solve_only(elements: u64, vertices: u64) -> Sizes {
+        Sizes {
+            surfaces: 0,
+            patches: 0,
+            elements,
+            vertices,
             samples: 0,
             pixels: 0,
             view: false,
@@ -575,6 +575,15 @@ mod tests {
             lightmap_texels: 0,
             final_gather: crate::final_gather::FinalGather::Off,
             going_on: None,
+        }
+    }
+
+    #[test]
+    fn the_estimate_names_its_largest_parts() {
+        let sizes = Sizes {
+            surfaces: 1_000,
+            patches: 1_000,
+            ..solve_only(120_000_000, 100_000_000)
         };
         let e = estimate(&sizes, Settings::adaptive().method.method().memory());
         // The shot's buffers are the largest last stage.
@@ -603,15 +612,7 @@ mod tests {
         let sizes = Sizes {
             surfaces: 10,
             patches: 10,
-            elements: 1_000,
-            vertices: 1_000,
-            samples: 0,
-            pixels: 0,
-            view: false,
-            bake: false,
-            lightmap_texels: 0,
-            final_gather: crate::final_gather::FinalGather::Off,
-            going_on: None,
+            ..solve_only(1_000, 1_000)
         };
         let costs = Settings::adaptive().method.method().memory();
         let without = estimate(&sizes, costs.clone());

@@ -182,9 +182,10 @@ pub struct Solver<'a> {
     /// The lights' shadow segments on the device (`None`: on the CPU);
     /// set up at the first light's shot.
     light_segments: Option<Box<dyn device::Segments>>,
-    /// Shots the device made: lights whose segments it answered, and a
-    /// coarse pass's that this solve goes on from ([`resume`]).
-    light_device_shots: u64,
+    /// Shots the device made that the method's report leaves out: the
+    /// lights' whose segments it answered, and a coarse pass's that this
+    /// solve goes on from ([`resume`]).
+    other_device_shots: u64,
     /// Why the lights' segments went back to the CPU, if they did.
     light_fault: Option<String>,
     /// Its shots so far, kept when the solve may go on on a refined mesh
@@ -271,7 +272,7 @@ impl<'a> Solver<'a> {
             saved: (Energy::default(), Stats::default()),
             synced: Instant::now(),
             light_segments: None,
-            light_device_shots: 0,
+            other_device_shots: 0,
             light_fault: None,
             record: None,
         };
@@ -408,7 +409,7 @@ impl<'a> Solver<'a> {
         if report.name.is_none() {
             report.name = self.settings.device.get().map(|b| b.name());
         }
-        report.device_shots += self.light_device_shots;
+        report.device_shots += self.other_device_shots;
         if report.fault.is_none() {
             report.fault.clone_from(&self.light_fault);
         }
@@ -662,7 +663,7 @@ impl<'a> Solver<'a> {
                 let on_device = self.light_segments.as_deref();
                 let shot = match lights::shoot(light, &context, on_device, &mut self.stats) {
                     Ok(shot) => {
-                        self.light_device_shots += u64::from(on_device.is_some() && shot.is_some());
+                        self.other_device_shots += u64::from(on_device.is_some() && shot.is_some());
                         shot
                     }
                     // The device failed: this light and the rest on the CPU.

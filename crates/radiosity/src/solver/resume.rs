@@ -28,8 +28,6 @@
 //! Everything is computed receiver by receiver in a fixed order, so the
 //! result does not depend on the number of threads.
 
-use std::time::Instant;
-
 use glam::DVec3;
 
 use super::method::{ElementState, ShotInputs};
@@ -76,16 +74,64 @@ pub struct Start {
     pub replayed_receivers: usize,
     /// Shots replayed to them.
     pub replayed_shots: usize,
-    /// Seconds the replay took.
-    pub replay_seconds: f64,
 }
 
-impl Start {
-    /// The ledger the solve goes on with.
-    #[must_use]
-    pub fn energy(&self) -> &Energy {
-        &self.energy
+/// What the kept shots gave the receivers they were replayed to
+/// ([`Solver::replay`]).
+struct Replayed {
+    /// Irradiance at each receiver: the new vertices, then the sensors.
+    gathered: Vec<DVec3>,
+    /// Its part straight from a source.
+    direct: Vec<DVec3>,
+    /// Its part from skies.
+    sky: Vec<DVec3>,
+    /// The part of each refined-mesh vertex's irradiance that the method's
+    /// shots gave.
+    method_vertex: Vec<DVec3>,
+    /// Each kept light's irradiance at every refined-mesh vertex.
+    light_vertex: Vec<Vec<DVec3>>,
+}
+
+/// The split elements of a refinement.
+struct Split {
+    /// The base element each refined element was cut from.
+    of: Vec<u32>,
+    /// Base elements that were split.
+    parents: Vec<usize>,
+    /// Refined elements that are pieces of a split element, and the pieces.
+    pieces: Vec<usize>,
+    elements: Vec<Element>,
+}
+
+impl Split {
+    /// The split elements of `base` refined as `refined`, element `c`
+    /// cut from `parents[c]`: those whose pieces differ from themselves.
+    fn new(base: &Mesh, refined: &Mesh, parents: &[u32]) -> Split {
+        let mut split = vec![false; base.elements.len()];
+        for (e, &p) in refined.elements.iter().zip(parents) {
+            split[p as usize] |= e.vertices() != base.elements[p as usize].vertices();
+        }
+        let pieces: Vec<usize> = (0..parents.len())
+            .filter(|&c| split[parents[c] as usize])
+            .collect();
+        Split {
+            of: parents.to_vec(),
+            parents: (0..split.len()).filter(|&p| split[p]).collect(),
+            elements: pieces.iter().map(|&c| refined.elements[c]).collect(),
+            pieces,
+        }
     }
+}
+
+/// The kept lights' mean irradiance over a refinement's pieces and split
+/// parents ([`Solver::light_means`]).
+struct LightMeans {
+    /// Per piece, summed over the lights.
+    piece: Vec<DVec3>,
+    /// Per base element (zero unless split), summed over the lights.
+    parent: Vec<DVec3>,
+    /// Each light's power received by the pieces less their parents'.
+    delta: Vec<(usize, DVec3)>,
 }
 
 /// The share of a shot's power that was emission, per channel (zero where
@@ -134,166 +180,210 @@ impl<'a> Solver<'a> {
         parents: &[u32],
         sensors: Vec<Receiver>,
     ) -> Option<Start> {
-        let start = Instant::now();
         let record = self.record.take()?;
         let state = self.shooter.element_state()?;
-        let (scene, base) = (self.scene, self.mesh);
-        let old = base.vertices.len();
+        let old = self.mesh.vertices.len();
         if parents.len() != refined.elements.len() || refined.vertices.len() < old {
             return None;
         }
+        let mut receivers = vertex_receivers(self.scene, refined).split_off(old);
+        receivers.extend(sensors.iter().copied());
+        let mut stats = self.stats.clone();
+        let replayed = self.replay(&record, refined, &receivers, &mut stats)?;
+        let split = Split::new(self.mesh, refined, parents);
+        let lights = self.light_means(&record, &replayed, refined, &split, &mut stats)?;
+        let (method, energy, light_power) =
+            self.pieces(state, &replayed.method_vertex, &lights, &split);
+        let join = |here: &[DVec3], there: &[DVec3]| [&here[..old], there].concat();
+        Some(Start {
+            irradiance: join(&self.irradiance, &replayed.gathered),
+            direct: join(&self.direct, &replayed.direct),
+            sky: join(&self.sky, &replayed.sky),
+            sensors,
+            direct_partial: self.direct_partial,
+            method,
+            energy,
+            stats,
+            lights_pending: self.lights_pending.clone(),
+            light_power,
+            device_shots: self.device_report().device_shots,
+            replayed_receivers: receivers.len(),
+            replayed_shots: record.len(),
+        })
+    }
+
+    /// The kept shots `record` replayed, in order, to `receivers` (the
+    /// vertices `refined` adds, then sensors); `None` when interrupted.
+    fn replay(
+        &mut self,
+        record: &[Step],
+        refined: &Mesh,
+        receivers: &[Receiver],
+        stats: &mut Stats,
+    ) -> Option<Replayed> {
+        let (scene, base) = (self.scene, self.mesh);
+        let (old, new) = (
+            base.vertices.len(),
+            refined.vertices.len() - base.vertices.len(),
+        );
         let abort = Abort {
             deadline: None,
             flag: self.interrupt.clone(),
         };
-        let mut receivers = vertex_receivers(scene, refined).split_off(old);
-        let new = receivers.len();
-        receivers.extend(sensors.iter().copied());
-
-        // The shots so far, replayed to the new receivers in order.
-        let mut stats = self.stats.clone();
         let mut gathered = vec![DVec3::ZERO; receivers.len()];
         let mut direct = vec![DVec3::ZERO; receivers.len()];
         let mut sky = vec![DVec3::ZERO; receivers.len()];
-        let mut method_part = vec![DVec3::ZERO; new];
-        // Each light's irradiance at every vertex of the refined mesh.
-        let mut light_vertex: Vec<Vec<DVec3>> = Vec::new();
+        // The old vertices' part from the method's shots: all they
+        // gathered less the lights' (which all shot before it).
+        let mut method_vertex = self.irradiance[..old].to_vec();
+        method_vertex.resize(old + new, DVec3::ZERO);
+        let mut light_vertex = Vec::new();
         let mut method_shots = 0;
-        for step in &record {
+        for step in record {
             let inputs = |mesh| ShotInputs {
                 scene,
                 mesh,
                 settings: &self.settings,
                 occluder: self.occluder.as_ref(),
-                receivers: &receivers,
+                receivers,
                 irradiance: &gathered,
                 abort: &abort,
             };
-            match step {
+            let (e, share) = match step {
                 Step::Light { index, vertex, .. } => {
                     let light = &scene.lights[*index];
-                    let e = lights::gather(light, &inputs(refined), None, &mut stats).ok()??;
-                    let is_sky = matches!(light.kind, crate::scene::LightKind::Sky { .. });
-                    for (i, e) in e.iter().enumerate() {
-                        gathered[i] += *e;
-                        direct[i] += *e;
-                        if is_sky {
-                            sky[i] += *e;
+                    let e = lights::gather(light, &inputs(refined), None, stats).ok()??;
+                    for (m, l) in method_vertex.iter_mut().zip(vertex) {
+                        *m -= *l;
+                    }
+                    if matches!(light.kind, crate::scene::LightKind::Sky { .. }) {
+                        for (s, e) in sky.iter_mut().zip(&e) {
+                            *s += *e;
                         }
                     }
-                    let mut all = vertex.clone();
-                    all.extend_from_slice(&e[..new]);
-                    light_vertex.push(all);
+                    light_vertex.push([vertex, &e[..new]].concat());
+                    (e, DVec3::ONE)
                 }
                 Step::Method { share } => {
                     let e = self.shooter.replay(&inputs(base), method_shots)?;
                     method_shots += 1;
-                    for (i, e) in e.iter().enumerate() {
-                        gathered[i] += *e;
-                        direct[i] += *e * *share;
-                        if i < new {
-                            method_part[i] += *e;
-                        }
+                    for (m, e) in method_vertex[old..].iter_mut().zip(&e) {
+                        *m += *e;
                     }
+                    (e, *share)
                 }
+            };
+            for ((g, d), e) in gathered.iter_mut().zip(&mut direct).zip(&e) {
+                *g += *e;
+                *d += *e * share;
             }
         }
+        Some(Replayed {
+            gathered,
+            direct,
+            sky,
+            method_vertex,
+            light_vertex,
+        })
+    }
 
-        // What each vertex gathered from the method's shots.
-        let mut method_vertex: Vec<DVec3> = self.irradiance[..old].to_vec();
-        for lv in &light_vertex {
-            for (m, e) in method_vertex.iter_mut().zip(lv) {
-                *m -= *e;
-            }
-        }
-        method_vertex.extend(method_part);
-
-        // The split elements' pieces, and their parents.
-        let mut split = vec![false; base.elements.len()];
-        for (c, &p) in parents.iter().enumerate() {
-            let (e, b) = (&refined.elements[c], &base.elements[p as usize]);
-            if e.vertices() != b.vertices() {
-                split[p as usize] = true;
-            }
-        }
-        let pieces: Vec<usize> = (0..parents.len())
-            .filter(|&c| split[parents[c] as usize])
-            .collect();
-        let piece_elements: Vec<Element> = pieces.iter().map(|&c| refined.elements[c]).collect();
-        // Mean irradiance from the lights, per piece and per split parent,
-        // and each light's difference in power received.
-        let mut piece_light = vec![DVec3::ZERO; pieces.len()];
-        let mut parent_light = vec![DVec3::ZERO; base.elements.len()];
-        let mut light_delta = Vec::new();
-        let lights_kept = record.iter().filter_map(|s| match s {
+    /// Each kept light's mean irradiance over the pieces and over their
+    /// split parents (its element means where it had them, else the
+    /// corners'), summed over the lights, and each light's difference in
+    /// power received; `None` when interrupted.
+    fn light_means(
+        &self,
+        record: &[Step],
+        replayed: &Replayed,
+        refined: &Mesh,
+        split: &Split,
+        stats: &mut Stats,
+    ) -> Option<LightMeans> {
+        let abort = Abort {
+            deadline: None,
+            flag: self.interrupt.clone(),
+        };
+        let inputs = ShotInputs {
+            scene: self.scene,
+            mesh: refined,
+            settings: &self.settings,
+            occluder: self.occluder.as_ref(),
+            receivers: &[],
+            irradiance: &[],
+            abort: &abort,
+        };
+        let mut out = LightMeans {
+            piece: vec![DVec3::ZERO; split.pieces.len()],
+            parent: vec![DVec3::ZERO; self.mesh.elements.len()],
+            delta: Vec::new(),
+        };
+        let kept = record.iter().filter_map(|s| match s {
             Step::Light {
                 index,
                 vertex,
                 means,
-                ..
             } => Some((*index, vertex, means)),
             Step::Method { .. } => None,
         });
-        for ((index, vertex, means), all) in lights_kept.zip(&light_vertex) {
-            let light = &scene.lights[index];
-            let inputs = ShotInputs {
-                scene,
-                mesh: refined,
-                settings: &self.settings,
-                occluder: self.occluder.as_ref(),
-                receivers: &receivers,
-                irradiance: &gathered,
-                abort: &abort,
-            };
+        for ((index, vertex, means), all) in kept.zip(&replayed.light_vertex) {
+            let light = &self.scene.lights[index];
             let piece_means =
-                lights::element_means_of(light, &inputs, &piece_elements, all, None, &mut stats)
+                lights::element_means_of(light, &inputs, &split.elements, all, None, stats)
                     .ok()??;
             let mut delta = DVec3::ZERO;
-            for (k, e) in piece_elements.iter().enumerate() {
+            for (k, e) in split.elements.iter().enumerate() {
                 let m = piece_means
                     .as_ref()
                     .map_or_else(|| corner_mean(all, e), |m| m[k]);
-                piece_light[k] += m;
+                out.piece[k] += m;
                 delta += m * e.area;
             }
-            for (p, e) in base.elements.iter().enumerate() {
-                if split[p] {
-                    let m = means
-                        .as_ref()
-                        .map_or_else(|| corner_mean(vertex, e), |m| m[p]);
-                    parent_light[p] += m;
-                    delta -= m * e.area;
-                }
+            for &p in &split.parents {
+                let e = &self.mesh.elements[p];
+                let m = means
+                    .as_ref()
+                    .map_or_else(|| corner_mean(vertex, e), |m| m[p]);
+                out.parent[p] += m;
+                delta -= m * e.area;
             }
-            light_delta.push((index, delta));
+            out.delta.push((index, delta));
         }
+        Some(out)
+    }
 
-        // The pieces' unshot radiosity and the ledger's differences.
-        let mut unshot: Vec<DVec3> = parents.iter().map(|&p| state.unshot[p as usize]).collect();
-        let emission_pending: Vec<bool> = parents
+    /// The method's state on the refined mesh and the ledger: a piece
+    /// takes its parent's unshot radiosity plus `rho (E_c - E_p)`, the
+    /// ledger books the pieces' difference from their parents.
+    fn pieces(
+        &self,
+        state: ElementState,
+        method_vertex: &[DVec3],
+        lights: &LightMeans,
+        split: &Split,
+    ) -> (ElementState, Energy, Vec<DVec3>) {
+        let (scene, base) = (self.scene, self.mesh);
+        let mut unshot: Vec<DVec3> = split.of.iter().map(|&p| state.unshot[p as usize]).collect();
+        let emission_pending = split
+            .of
             .iter()
             .map(|&p| state.emission_pending[p as usize])
             .collect();
-        let parent_mean = |p: usize| {
-            let e = &base.elements[p];
-            corner_mean(&method_vertex, e) + parent_light[p]
-        };
+        let parent_mean =
+            |p: usize| corner_mean(method_vertex, &base.elements[p]) + lights.parent[p];
         let (mut method_delta, mut absorbed_delta) = (DVec3::ZERO, DVec3::ZERO);
-        for (k, (&c, e)) in pieces.iter().zip(&piece_elements).enumerate() {
-            let p = parents[c] as usize;
+        for (k, (&c, e)) in split.pieces.iter().zip(&split.elements).enumerate() {
             let rho = scene.surfaces[e.surface as usize].rho;
-            let method_mean = corner_mean(&method_vertex, e);
-            let mean = method_mean + piece_light[k];
-            unshot[c] += rho * (mean - parent_mean(p));
+            let method_mean = corner_mean(method_vertex, e);
+            let mean = method_mean + lights.piece[k];
+            unshot[c] += rho * (mean - parent_mean(split.of[c] as usize));
             method_delta += method_mean * e.area;
             absorbed_delta += (DVec3::ONE - rho) * mean * e.area;
         }
-        for (p, e) in base.elements.iter().enumerate() {
-            if split[p] {
-                let rho = scene.surfaces[e.surface as usize].rho;
-                method_delta -= corner_mean(&method_vertex, e) * e.area;
-                absorbed_delta -= (DVec3::ONE - rho) * parent_mean(p) * e.area;
-            }
+        for &p in &split.parents {
+            let e = &base.elements[p];
+            let rho = scene.surfaces[e.surface as usize].rho;
+            method_delta -= corner_mean(method_vertex, e) * e.area;
+            absorbed_delta -= (DVec3::ONE - rho) * parent_mean(p) * e.area;
         }
         let mut energy = self.energy;
         let mut light_power = self.light_power.clone();
@@ -301,7 +391,7 @@ impl<'a> Solver<'a> {
         energy.received += method_delta;
         energy.escaped -= method_delta;
         energy.absorbed += absorbed_delta;
-        for (index, delta) in light_delta {
+        for &(index, delta) in &lights.delta {
             energy.received += delta;
             power += crate::luminance(delta);
             if scene.lights[index].position().is_none() {
@@ -312,33 +402,12 @@ impl<'a> Solver<'a> {
                 energy.escaped -= delta;
             }
         }
-
-        let mut irradiance = self.irradiance[..old].to_vec();
-        irradiance.extend_from_slice(&gathered);
-        let mut all_direct = self.direct[..old].to_vec();
-        all_direct.extend_from_slice(&direct);
-        let mut all_sky = self.sky[..old].to_vec();
-        all_sky.extend_from_slice(&sky);
-        Some(Start {
-            sensors,
-            irradiance,
-            direct: all_direct,
-            sky: all_sky,
-            direct_partial: self.direct_partial,
-            method: ElementState {
-                unshot,
-                emission_pending,
-                power,
-            },
-            energy,
-            stats,
-            lights_pending: self.lights_pending.clone(),
-            light_power,
-            device_shots: self.device_report().device_shots,
-            replayed_receivers: receivers.len(),
-            replayed_shots: record.len(),
-            replay_seconds: start.elapsed().as_secs_f64(),
-        })
+        let state = ElementState {
+            unshot,
+            emission_pending,
+            power,
+        };
+        (state, energy, light_power)
     }
 
     /// The final solve on a refined mesh ([`super::refine::Refined`]):
@@ -395,7 +464,7 @@ impl<'a> Solver<'a> {
         solver.stats = start.stats;
         solver.lights_pending = start.lights_pending;
         solver.light_power = start.light_power;
-        solver.light_device_shots = start.device_shots;
+        solver.other_device_shots = start.device_shots;
         solver.saved = (solver.energy, solver.stats.clone());
         solver
     }
