@@ -31,9 +31,7 @@ impl RenderArgs {
                     return Ok(Device::cpu());
                 }
                 match radiosity_gpu::Gpu::open(choice) {
-                    Ok(Some(gpu)) => Ok(Device::preferred(Arc::new(
-                        GpuBackend::new(gpu).with_max_memory(self.max_gpu_memory),
-                    ))),
+                    Ok(Some(gpu)) => Ok(Device::preferred(Arc::new(self.backend(gpu)?))),
                     Ok(None) => Ok(Device::cpu()),
                     Err(e) => {
                         warnings.push(format!("--device auto: {e}; the solve runs on the CPU"));
@@ -59,11 +57,31 @@ impl RenderArgs {
                     .ok_or_else(|| {
                         anyhow!("--device gpu: {}", radiosity_gpu::GpuError::NoAdapter)
                     })?;
-                Ok(Device::backend(Arc::new(
-                    GpuBackend::new(gpu).with_max_memory(self.max_gpu_memory),
-                )))
+                Ok(Device::backend(Arc::new(self.backend(gpu)?)))
             }
         }
+    }
+
+    /// The GPU back end on `gpu` with `--max-gpu-memory`, and the two
+    /// knobs for measuring its kernels (DEVELOPERS.md): the environment's
+    /// `RADIOSITY_GPU_FRONTIER` and `RADIOSITY_GPU_DISPATCH_RECEIVERS`.
+    fn backend(&self, gpu: radiosity_gpu::Gpu) -> Result<GpuBackend> {
+        let mut backend = GpuBackend::new(gpu).with_max_memory(self.max_gpu_memory);
+        let knob = |name: &str| -> Result<Option<u32>> {
+            match std::env::var(name) {
+                Ok(value) => value.trim().parse::<u32>().map(Some).map_err(|_| {
+                    anyhow!("{name}={value}: a whole number of at least 1 was expected")
+                }),
+                Err(_) => Ok(None),
+            }
+        };
+        if let Some(nodes) = knob("RADIOSITY_GPU_FRONTIER")? {
+            backend = backend.with_frontier(nodes);
+        }
+        if let Some(receivers) = knob("RADIOSITY_GPU_DISPATCH_RECEIVERS")? {
+            backend = backend.with_dispatch_receivers(receivers as usize);
+        }
+        Ok(backend)
     }
 
     /// The validated job (second stage after clap's raw values), with

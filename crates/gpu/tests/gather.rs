@@ -135,7 +135,7 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "Shot",
             GpuShot,
             [
-                root, first, count, negligible, origin, mean, origin_lo, pad0
+                root, first, count, negligible, origin, mean, origin_lo, frontier
             ]
         ),
         layout!("ElementBook", GpuElementBook, [corners, rho, area]),

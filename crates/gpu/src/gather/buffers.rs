@@ -177,8 +177,8 @@ pub struct GpuShot {
     pub mean: f32,
     /// The centre's round-off.
     pub origin_lo: [f32; 3],
-    /// Padding.
-    pub pad0: u32,
+    /// Nodes a receiver's walk leaves to other threads at most (1: none).
+    pub frontier: u32,
 }
 
 /// An element's book-keeping data (WGSL `ElementBook`).

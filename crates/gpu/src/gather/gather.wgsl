@@ -115,7 +115,9 @@ struct Shot {
     origin: vec3<f32>,
     mean: f32,
     origin_lo: vec3<f32>,
-    pad0: u32,
+    // A receiver's walk is split into at most this many items once its
+    // frontier holds this many nodes (`gather_items`); 1: never split.
+    frontier: u32,
 }
 
 // What the shot's walks counted, summed (integers: the same in any order).
@@ -124,6 +126,8 @@ const RAYS: u32 = 1u;
 const WALKS: u32 = 2u;
 const VISITS: u32 = 3u;
 const ELEMENTS: u32 = 4u;
+// The items the chunk's split walks hold so far (reset by `join_items`).
+const ITEMS: u32 = 5u;
 
 @group(0) @binding(5) var<storage, read> tree: array<TreeNode>;
 @group(0) @binding(6) var<storage, read> surfaces: array<Surface>;
@@ -139,6 +143,13 @@ const ELEMENTS: u32 = 4u;
 @group(0) @binding(14) var<storage, read_write> counters: array<atomic<u32>, 8>;
 // Glass: the panes' triangles (one of no area when there is none).
 @group(0) @binding(23) var<storage, read> panes: array<Pane>;
+// The split walks of one chunk of receivers: first a header a receiver of
+// the chunk (x: its first item, y: how many), then the items (before
+// `gather_items`: x the subtree's node, y the receiver; after it, xyz the
+// bits of what the subtree sends the receiver).
+@group(0) @binding(24) var<storage, read_write> split: array<vec4<u32>>;
+// The workgroups `gather_items` is dispatched with (indirect).
+@group(0) @binding(25) var<storage, read_write> item_dispatch: array<u32, 3>;
 
 const NONE: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
@@ -648,65 +659,88 @@ fn uniform_visibility(n: u32, r: Receiver) -> vec4<f32> {
     return vec4<f32>(0.0, 0.0, 0.0, f32(answer));
 }
 
-// The irradiance the shooting node sends one receiver (the CPU's
-// Gatherer::gather).
-fn gather_one(r: Receiver, small: f32) -> vec3<f32> {
+// One node of a receiver's walk (the CPU's Gatherer::gather): xyz what it
+// sends when accepted whole, w 1 when the walk goes on to its children.
+fn step(n: u32, r: Receiver, offset: vec3<f32>, small: f32) -> vec4<f32> {
+    let node = tree[n];
+    let source = sources[n - shot.root];
+    visits += 1u;
+    if (source.weight <= 0.0 || !faces(node, r)) {
+        return vec4<f32>(0.0);
+    }
+    if (node.second == NONE) {
+        element_sources += 1u;
+        let f = visible_element_factor(node.element, r);
+        return vec4<f32>(source.unshot * f.w * f.xyz, 0.0);
+    }
+    let distance = length(node_offset(node, r));
+    if (distance < FAR_RATIO * node.radius || straddles(node, r)) {
+        // Near: accepted whole only if even all its power at the nearest
+        // point of its bounding sphere would be negligible.
+        let clearance = distance - node.radius;
+        if (clearance > 0.0 && source.weight <= small * PI * clearance * clearance) {
+            return vec4<f32>(dim_irradiance(n, r), 0.0);
+        }
+    } else {
+        // Far: the corrected point sources are accurate; what is left to
+        // judge is occlusion.
+        var estimate = 0.0;
+        for (var k = 0u; k < source.bins; k += 1u) {
+            let b = bins[source.first_bin + k];
+            estimate += b.weight * point_factor(b, offset, r.normal);
+        }
+        if (estimate <= FAR_FACTOR * small) {
+            return vec4<f32>(dim_irradiance(n, r), 0.0);
+        }
+        let seen = uniform_visibility(n, r);
+        if (seen.w != 2.0) {
+            if (seen.w == 1.0) {
+                return vec4<f32>(geometry_sum(node_geometry(n, r), source.bins) * seen.xyz, 0.0);
+            }
+            return vec4<f32>(0.0);
+        }
+    }
+    return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+}
+
+// What the subtree of node `start` sends one receiver, walked depth first
+// in the CPU's order.
+fn walk_from(start: u32, r: Receiver, small: f32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     var stack: array<u32, WALK_STACK>;
     var depth = 1u;
-    stack[0] = shot.root;
+    stack[0] = start;
     let offset = from_origin(r);
     while (depth > 0u) {
         depth -= 1u;
         let n = stack[depth];
-        let node = tree[n];
-        let source = sources[n - shot.root];
-        visits += 1u;
-        if (source.weight <= 0.0 || !faces(node, r)) {
+        let s = step(n, r, offset, small);
+        if (s.w == 0.0) {
+            sum += s.xyz;
             continue;
         }
-        if (node.second == NONE) {
-            element_sources += 1u;
-            let f = visible_element_factor(node.element, r);
-            sum += source.unshot * f.w * f.xyz;
-            continue;
-        }
-        let distance = length(node_offset(node, r));
-        if (distance < FAR_RATIO * node.radius || straddles(node, r)) {
-            // Near: accepted whole only if even all its power at the
-            // nearest point of its bounding sphere would be negligible.
-            let clearance = distance - node.radius;
-            if (clearance > 0.0 && source.weight <= small * PI * clearance * clearance) {
-                sum += dim_irradiance(n, r);
-                continue;
-            }
-        } else {
-            // Far: the corrected point sources are accurate; what is left
-            // to judge is occlusion.
-            var estimate = 0.0;
-            for (var k = 0u; k < source.bins; k += 1u) {
-                let b = bins[source.first_bin + k];
-                estimate += b.weight * point_factor(b, offset, r.normal);
-            }
-            if (estimate <= FAR_FACTOR * small) {
-                sum += dim_irradiance(n, r);
-                continue;
-            }
-            let seen = uniform_visibility(n, r);
-            if (seen.w != 2.0) {
-                if (seen.w == 1.0) {
-                    sum += geometry_sum(node_geometry(n, r), source.bins) * seen.xyz;
-                }
-                continue;
-            }
-        }
-        stack[depth] = node.second;
+        stack[depth] = tree[n].second;
         stack[depth + 1u] = n + 1u;
         depth += 2u;
     }
     return sum;
 }
 
+// A receiver's negligible irradiance in this shot.
+fn negligible_for(i: u32) -> f32 {
+    return shot.negligible * max(luminance(total[i].xyz) / shot.mean, 1.0);
+}
+
+// The ring of nodes a receiver's walk takes breadth first before it is
+// split: it holds at most `shot.frontier` (<= RING) at a time.
+const RING: u32 = 64u;
+
+// A receiver's walk, breadth first, until it is done or its frontier
+// holds `shot.frontier` nodes; those are left as items, one subtree each,
+// for `gather_items` (many threads for the receivers near the shooter,
+// whose walks are long), their sums joined by `join_items` in the
+// frontier's order, so the answer never depends on which thread got which
+// item.
 @compute @workgroup_size(64)
 fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= shot.count) {
@@ -720,17 +754,94 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     element_sources = 0u;
     var irradiance = vec3<f32>(0.0);
     var walked = 0u;
+    var first = 0u;
+    var count = 0u;
     // A source of one surface id never lights that id's receivers.
     let root = tree[shot.root];
     if (sources[0].weight > 0.0 && (root.group == NONE || root.group != r.group)) {
         walked = 1u;
-        let small = shot.negligible * max(luminance(total[i].xyz) / shot.mean, 1.0);
-        irradiance = gather_one(r, small);
+        let small = negligible_for(i);
+        let offset = from_origin(r);
+        var ring: array<u32, RING>;
+        var head = 0u;
+        var tail = 1u;
+        ring[0] = shot.root;
+        while (head < tail && tail - head < shot.frontier) {
+            let n = ring[head % RING];
+            head += 1u;
+            let s = step(n, r, offset, small);
+            if (s.w == 0.0) {
+                irradiance += s.xyz;
+                continue;
+            }
+            ring[tail % RING] = n + 1u;
+            ring[(tail + 1u) % RING] = tree[n].second;
+            tail += 2u;
+        }
+        count = tail - head;
+        if (count > 0u) {
+            first = shot.count + atomicAdd(&counters[ITEMS], count);
+            for (var k = 0u; k < count; k += 1u) {
+                split[first + k] = vec4<u32>(ring[(head + k) % RING], i, 0u, 0u);
+            }
+        }
     }
     shot_irradiance[i] = vec4<f32>(irradiance, 0.0);
+    split[id.x] = vec4<u32>(first, count, 0u, 0u);
     atomicAdd(&counters[PAIRS], pairs);
     atomicAdd(&counters[RAYS], rays);
     atomicAdd(&counters[WALKS], walked);
     atomicAdd(&counters[VISITS], visits);
     atomicAdd(&counters[ELEMENTS], element_sources);
+}
+
+// The workgroups of `gather_items`: as many as the chunk's items need.
+@compute @workgroup_size(1)
+fn size_items() {
+    item_dispatch[0] = (atomicLoad(&counters[ITEMS]) + 63u) / 64u;
+    item_dispatch[1] = 1u;
+    item_dispatch[2] = 1u;
+}
+
+// One item of a split walk: its subtree, depth first.
+@compute @workgroup_size(64)
+fn gather_items(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= atomicLoad(&counters[ITEMS])) {
+        return;
+    }
+    let k = shot.count + id.x;
+    let item = split[k];
+    let i = item.y;
+    pairs = 0u;
+    rays = 0u;
+    visits = 0u;
+    element_sources = 0u;
+    let sum = walk_from(item.x, receivers[i], negligible_for(i));
+    split[k] = vec4<u32>(bitcast<vec3<u32>>(sum), 0u);
+    atomicAdd(&counters[PAIRS], pairs);
+    atomicAdd(&counters[RAYS], rays);
+    atomicAdd(&counters[VISITS], visits);
+    atomicAdd(&counters[ELEMENTS], element_sources);
+}
+
+// Each receiver's split walk joined, its items' sums in its frontier's
+// order; the chunk's items are then free for the next chunk.
+@compute @workgroup_size(64)
+fn join_items(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x == 0u) {
+        atomicStore(&counters[ITEMS], 0u);
+    }
+    if (id.x >= shot.count) {
+        return;
+    }
+    let i = shot.first + id.x;
+    let header = split[id.x];
+    if (header.y == 0u) {
+        return;
+    }
+    var sum = shot_irradiance[i].xyz;
+    for (var k = 0u; k < header.y; k += 1u) {
+        sum += bitcast<vec3<f32>>(split[header.x + k].xyz);
+    }
+    shot_irradiance[i] = vec4<f32>(sum, 0.0);
 }

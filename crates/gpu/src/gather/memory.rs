@@ -72,6 +72,10 @@ impl DeviceMemory {
             ),
             ("irradiance", bytes(receivers, 16)),
             ("shot irradiance", bytes(receivers, 16)),
+            (
+                "split walks",
+                super::transfers::split_bytes(receivers, super::DISPATCH_RECEIVERS, super::FRONTIER),
+            ),
             ("unshot radiosity", bytes(elements, 16)),
             ("element book", bytes(elements, size_of::<GpuElementBook>())),
             (

@@ -48,6 +48,17 @@ use crate::Gpu;
 /// large shooter, and the shot can be abandoned between them.
 pub const DISPATCH_RECEIVERS: usize = 1 << 15;
 
+/// Nodes a receiver's walk may leave to other threads: once the nodes it
+/// has still to visit, breadth first, are this many, each is an item of
+/// its own (`gather_items` in `gather.wgsl`). The receivers near a
+/// shooter walk most of its subtree, one thread each, and a shot lasts as
+/// long as its longest walk; split, their work spreads over the device.
+/// At most [`MAX_FRONTIER`].
+pub const FRONTIER: u32 = 32;
+
+/// The largest frontier (`RING` in `gather.wgsl`).
+pub const MAX_FRONTIER: u32 = 64;
+
 /// Threads of a workgroup (`@workgroup_size` in `gather.wgsl`).
 const WORKGROUP: u32 = 64;
 
@@ -56,7 +67,7 @@ const WORKGROUP: u32 = 64;
 const MAX_TREE_DEPTH: usize = 62;
 
 /// Storage buffers the transfer kernel binds at once.
-const STORAGE_BUFFERS: u32 = 12;
+const STORAGE_BUFFERS: u32 = 13;
 
 /// The GPU as a device for the solver's transfers.
 #[derive(Clone)]
@@ -66,6 +77,8 @@ pub struct GpuBackend {
     max_memory: Option<u64>,
     /// Receivers a dispatch of the walk takes at most.
     dispatch_receivers: usize,
+    /// Nodes a receiver's walk may leave to other threads.
+    frontier: u32,
 }
 
 impl GpuBackend {
@@ -76,6 +89,7 @@ impl GpuBackend {
             gpu: Arc::new(gpu),
             max_memory: None,
             dispatch_receivers: DISPATCH_RECEIVERS,
+            frontier: FRONTIER,
         }
     }
 
@@ -85,6 +99,15 @@ impl GpuBackend {
     #[must_use]
     pub fn with_dispatch_receivers(mut self, receivers: usize) -> GpuBackend {
         self.dispatch_receivers = receivers.max(1);
+        self
+    }
+
+    /// The same, a receiver's walk split once `nodes` are left to visit
+    /// (1 to [`MAX_FRONTIER`]; 1 never splits; [`FRONTIER`] by default):
+    /// the answer is the same but for the order of its sums.
+    #[must_use]
+    pub fn with_frontier(mut self, nodes: u32) -> GpuBackend {
+        self.frontier = nodes.clamp(1, MAX_FRONTIER);
         self
     }
 
@@ -161,6 +184,7 @@ impl Backend for GpuBackend {
             self.gpu.clone(),
             solve,
             self.dispatch_receivers,
+            self.frontier,
         )?))
     }
 }

@@ -72,6 +72,9 @@ impl Growing {
 /// The kernels, one pipeline an entry point of one module.
 struct Pipelines {
     gather: wgpu::ComputePipeline,
+    size_items: wgpu::ComputePipeline,
+    gather_items: wgpu::ComputePipeline,
+    join_items: wgpu::ComputePipeline,
     collect: wgpu::ComputePipeline,
     leave_shooter: wgpu::ComputePipeline,
     receive: wgpu::ComputePipeline,
@@ -94,6 +97,8 @@ pub(super) struct GpuTransfers {
     shooters: u32,
     /// Receivers a dispatch of the walk takes at most.
     dispatch_receivers: usize,
+    /// Nodes a receiver's walk may leave to other threads (`Shot::frontier`).
+    frontier: u32,
     pipelines: Pipelines,
     nodes: wgpu::Buffer,
     triangles: wgpu::Buffer,
@@ -111,6 +116,10 @@ pub(super) struct GpuTransfers {
     /// Each element's unshot radiosity (state).
     unshot: wgpu::Buffer,
     shot_irradiance: wgpu::Buffer,
+    /// A chunk's split walks: a header a receiver, then the items.
+    split: wgpu::Buffer,
+    /// `gather_items`' workgroups, an indirect dispatch's arguments.
+    item_dispatch: wgpu::Buffer,
     counters: wgpu::Buffer,
     partials: wgpu::Buffer,
     powers: wgpu::Buffer,
@@ -119,6 +128,13 @@ pub(super) struct GpuTransfers {
     bins: Growing,
     readback: wgpu::Buffer,
     uncaptured: Arc<Mutex<Option<String>>>,
+}
+
+/// Bytes of the split walks of one chunk of `dispatch_receivers` (of
+/// `receivers`): a header a receiver and at most `frontier` items each.
+pub(super) fn split_bytes(receivers: usize, dispatch_receivers: usize, frontier: u32) -> u64 {
+    let chunk = receivers.min(dispatch_receivers).max(1) as u64;
+    16 * chunk * (1 + u64::from(frontier))
 }
 
 /// A buffer the kernels read and write, and copies go in and out of.
@@ -159,6 +175,7 @@ impl GpuTransfers {
         gpu: Arc<Gpu>,
         solve: &AdaptiveSolve<'_>,
         dispatch_receivers: usize,
+        frontier: u32,
     ) -> Result<GpuTransfers, DeviceError> {
         let limits = gpu.device.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
@@ -226,6 +243,9 @@ impl GpuTransfers {
         };
         let pipelines = Pipelines {
             gather: pipeline("gather"),
+            size_items: pipeline("size_items"),
+            gather_items: pipeline("gather_items"),
+            join_items: pipeline("join_items"),
             collect: pipeline("collect"),
             leave_shooter: pipeline("leave_shooter"),
             receive: pipeline("receive"),
@@ -251,6 +271,7 @@ impl GpuTransfers {
             elements: e as u32,
             shooters: s as u32,
             dispatch_receivers,
+            frontier,
             pipelines,
             nodes: storage(&gpu, "nodes", &nonempty(bvh_nodes)),
             triangles: storage(&gpu, "triangles", &nonempty(triangles)),
@@ -265,6 +286,17 @@ impl GpuTransfers {
             total: state_buffer(&gpu, "irradiance", r * vec4_bytes),
             unshot: state_buffer(&gpu, "unshot", e * vec4_bytes),
             shot_irradiance: state_buffer(&gpu, "shot irradiance", r * vec4_bytes),
+            split: state_buffer(
+                &gpu,
+                "split walks",
+                split_bytes(r as usize, dispatch_receivers, frontier),
+            ),
+            item_dispatch: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("item dispatch"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+                mapped_at_creation: false,
+            }),
             counters: state_buffer(&gpu, "counters", 4 * COUNTERS as u64),
             partials: state_buffer(
                 &gpu,
@@ -447,6 +479,11 @@ impl GpuTransfers {
         let mut encoder = self.encoder("shot");
         encoder.clear_buffer(&self.counters, 0, None);
         let mut groups = Vec::new();
+        let mut item_groups = Vec::new();
+        let size = self.bind(
+            &self.pipelines.size_items,
+            &[entry(14, &self.counters), entry(25, &self.item_dispatch)],
+        );
         for start in (0..count).step_by(self.dispatch_receivers) {
             let n = self.dispatch_receivers.min(count - start);
             let uniform = uniform(
@@ -460,7 +497,7 @@ impl GpuTransfers {
                     origin,
                     mean: shot.mean_radiosity as f32,
                     origin_lo,
-                    pad0: 0,
+                    frontier: self.frontier,
                 },
             );
             let group = self.bind(
@@ -479,9 +516,38 @@ impl GpuTransfers {
                     entry(13, &uniform),
                     entry(14, &self.counters),
                     entry(23, &self.panes),
+                    entry(24, &self.split),
                 ],
             );
-            groups.push((group, (n as u32).div_ceil(WORKGROUP)));
+            let items = self.bind(
+                &self.pipelines.gather_items,
+                &[
+                    entry(0, &self.nodes),
+                    entry(1, &self.triangles),
+                    entry(5, &self.tree),
+                    entry(6, &self.surfaces),
+                    entry(7, &self.element_buffer),
+                    entry(8, &self.receivers),
+                    entry(9, &self.total),
+                    entry(10, &self.sources.buffer),
+                    entry(11, &self.bins.buffer),
+                    entry(13, &uniform),
+                    entry(14, &self.counters),
+                    entry(23, &self.panes),
+                    entry(24, &self.split),
+                ],
+            );
+            let join = self.bind(
+                &self.pipelines.join_items,
+                &[
+                    entry(12, &self.shot_irradiance),
+                    entry(13, &uniform),
+                    entry(14, &self.counters),
+                    entry(24, &self.split),
+                ],
+            );
+            groups.push([(group, (n as u32).div_ceil(WORKGROUP)), (join, (n as u32).div_ceil(WORKGROUP))]);
+            item_groups.push(items);
         }
         let leave = self.bind(
             &self.pipelines.leave_shooter,
@@ -527,19 +593,45 @@ impl GpuTransfers {
         // enough to trip a driver's watchdog, and the shot can be
         // abandoned between them, before anything is booked.
         let mut encoder = Some(encoder);
-        for (k, (group, workgroups)) in groups.iter().enumerate() {
+        for (k, chunk_groups) in groups.iter().enumerate() {
             if k > 0 && shot.abort.fired() {
                 return Ok(None);
             }
             let mut chunk = encoder.take().unwrap_or_else(|| self.encoder("walk"));
+            // A pass each: the walks, the items' workgroups, the items
+            // the walks left, the joins.
+            let [(walk, walk_groups), (join, join_groups)] = chunk_groups;
+            let pass = |chunk: &mut wgpu::CommandEncoder, label: &str| {
+                chunk
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(label),
+                        timestamp_writes: None,
+                    })
+                    .forget_lifetime()
+            };
             {
-                let mut pass = chunk.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("walk"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&self.pipelines.gather);
-                pass.set_bind_group(0, group, &[]);
-                pass.dispatch_workgroups(*workgroups, 1, 1);
+                let mut p = pass(&mut chunk, "walk");
+                p.set_pipeline(&self.pipelines.gather);
+                p.set_bind_group(0, walk, &[]);
+                p.dispatch_workgroups(*walk_groups, 1, 1);
+            }
+            {
+                let mut p = pass(&mut chunk, "size items");
+                p.set_pipeline(&self.pipelines.size_items);
+                p.set_bind_group(0, &size, &[]);
+                p.dispatch_workgroups(1, 1, 1);
+            }
+            {
+                let mut p = pass(&mut chunk, "items");
+                p.set_pipeline(&self.pipelines.gather_items);
+                p.set_bind_group(0, &item_groups[k], &[]);
+                p.dispatch_workgroups_indirect(&self.item_dispatch, 0);
+            }
+            {
+                let mut p = pass(&mut chunk, "join");
+                p.set_pipeline(&self.pipelines.join_items);
+                p.set_bind_group(0, join, &[]);
+                p.dispatch_workgroups(*join_groups, 1, 1);
             }
             gpu.queue.submit([chunk.finish()]);
         }
