@@ -316,3 +316,48 @@ fn overshooting_on_the_gpu_agrees_with_the_cpu() {
         "a rerun on the same adapter differs"
     );
 }
+
+/// A receiver's walk split across threads (its frontier's subtrees walked
+/// as items of their own, `gather_items`) sends what one thread walking
+/// all of it sends, but for the order of the sums: the Cornell box's
+/// first 40 shots with the walk never split, split once two nodes are
+/// left, and split at the widest frontier, each within 1e-5 (L1) of the
+/// default's; the default the same to the last bit when each dispatch
+/// takes 100 receivers (how many items a chunk holds, and in which order
+/// threads took them, never changes the answer).
+#[test]
+fn a_split_walk_sends_what_one_thread_sends() {
+    let Some(gpu) = gpu() else { return };
+    let (scene, settings, mesh) = built_in("cornell");
+    let solve = |backend: GpuBackend| {
+        let settings = Settings {
+            device: Device::backend(Arc::new(backend)),
+            ..settings.clone()
+        };
+        settings.validate().unwrap();
+        let mut solver = Solver::new(&scene, &mesh, settings);
+        solver.run(|s| {
+            if s.stats().shots >= 40 {
+                Flow::Stop
+            } else {
+                Flow::Continue
+            }
+        });
+        assert_eq!(solver.device_report().fault, None);
+        assert_eq!(solver.stats().shots, 40);
+        solver.radiosity().to_vec()
+    };
+    let open = || Gpu::open(DeviceChoice::Gpu).unwrap().unwrap();
+    let default = solve(GpuBackend::new(gpu));
+    for frontier in [1, 2, radiosity_gpu::gather::MAX_FRONTIER] {
+        let other = solve(GpuBackend::new(open()).with_frontier(frontier));
+        let l1 = relative_l1(&other, &default);
+        eprintln!("frontier {frontier}: L1 {l1:.2e} from the default's");
+        assert!(l1 < 1e-5, "frontier {frontier}: L1 {l1} from the default's");
+    }
+    let chunked = solve(GpuBackend::new(open()).with_dispatch_receivers(100));
+    assert!(
+        chunked.iter().zip(&default).all(|(a, b)| a == b),
+        "the split walk in dispatches of 100 receivers differs"
+    );
+}

@@ -74,7 +74,11 @@ impl DeviceMemory {
             ("shot irradiance", bytes(receivers, 16)),
             (
                 "split walks",
-                super::transfers::split_bytes(receivers, super::DISPATCH_RECEIVERS, super::FRONTIER),
+                super::transfers::split_bytes(
+                    receivers,
+                    super::DISPATCH_RECEIVERS,
+                    super::FRONTIER,
+                ),
             ),
             ("unshot radiosity", bytes(elements, 16)),
             ("element book", bytes(elements, size_of::<GpuElementBook>())),

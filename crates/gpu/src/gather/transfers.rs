@@ -546,7 +546,10 @@ impl GpuTransfers {
                     entry(24, &self.split),
                 ],
             );
-            groups.push([(group, (n as u32).div_ceil(WORKGROUP)), (join, (n as u32).div_ceil(WORKGROUP))]);
+            groups.push([
+                (group, (n as u32).div_ceil(WORKGROUP)),
+                (join, (n as u32).div_ceil(WORKGROUP)),
+            ]);
             item_groups.push(items);
         }
         let leave = self.bind(
