@@ -148,7 +148,7 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "Book",
             GpuBook,
             [
-                first, last, elements, receivers, shooters, sign, leave, pad2
+                first, last, elements, receivers, shooters, sign, leave, pad2, direct, pad3
             ]
         ),
     ];
@@ -203,7 +203,8 @@ fn built_in(name: &str) -> (scene::Scene, Settings, Mesh) {
 }
 
 /// Every built-in scene solved to the default's convergence on both
-/// devices: radiosity within 0.5% L1 of the CPU's, every shot of a surface
+/// devices: radiosity, and its direct part, within 0.5% L1 of the CPU's,
+/// every shot of a surface
 /// on the GPU, and (the Cornell box) a rerun on the GPU, and one with the
 /// walk cut into dispatches of 1,000 receivers, the same to the last bit.
 #[test]
@@ -222,15 +223,24 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
             let stop = solver.run(|_| Flow::Continue);
             assert_eq!(stop, StopReason::Converged, "{name}");
             let lights = scene.lights.len() as u64;
+            assert!(solver.direct_complete(), "{name}: the direct part booked");
             (
                 solver.radiosity().to_vec(),
                 solver.stats().shots - lights,
                 solver.device_report(),
+                solver.direct_irradiance()[..mesh.vertices.len()].to_vec(),
             )
         };
-        let (cpu, cpu_shots, cpu_report) = solve(Device::cpu());
+        let (cpu, cpu_shots, cpu_report, cpu_direct) = solve(Device::cpu());
         assert_eq!(cpu_report.device_shots, 0);
-        let (on_gpu, gpu_shots, report) = solve(device.clone());
+        let (on_gpu, gpu_shots, report, gpu_direct) = solve(device.clone());
+        // The device books the direct part (the emitting surfaces' first
+        // shots) beside the total, as the CPU does.
+        let direct_l1 = relative_l1(&gpu_direct, &cpu_direct);
+        assert!(
+            direct_l1 < 5e-3,
+            "{name}: the GPU's direct part differs from the CPU's by {direct_l1} (L1)"
+        );
         assert_eq!(report.fault, None, "{name}");
         assert_eq!(
             report.device_shots, gpu_shots,
@@ -246,7 +256,7 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
         if name != "cornell" {
             continue;
         }
-        let (again, _, _) = solve(device.clone());
+        let (again, _, _, _) = solve(device.clone());
         assert!(
             again.iter().zip(&on_gpu).all(|(a, b)| a == b),
             "{name}: a rerun on the same adapter differs"
@@ -257,7 +267,7 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
             GpuBackend::new(Gpu::open(DeviceChoice::Gpu).unwrap().unwrap())
                 .with_dispatch_receivers(1000),
         ));
-        let (cut, _, _) = solve(chunked);
+        let (cut, _, _, _) = solve(chunked);
         assert!(
             cut.iter().zip(&on_gpu).all(|(a, b)| a == b),
             "{name}: the walk in dispatches of 1,000 receivers differs"

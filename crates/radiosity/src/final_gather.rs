@@ -21,10 +21,11 @@
 //! ([`Solver::direct_irradiance`]: the lights' shots and the emitting
 //! surfaces' first shots, on every method); the mesh's indirect part is
 //! the vertex's total less it, interpolated between vertices, while the
-//! direct part is evaluated afresh at every point shown. Where the
-//! emitting surfaces' first shots were booked on a device, which keeps
-//! their irradiance, their part at each vertex is evaluated here by the
-//! same estimator as at any other point ([`FinalPass::direct`]).
+//! direct part is evaluated afresh at every point shown. A device books
+//! the direct part beside the total; where a device's failure left it
+//! incomplete ([`Solver::direct_complete`]), the emitting surfaces' part
+//! at each vertex is evaluated here by the same estimator as at any other
+//! point ([`FinalPass::direct`]).
 //!
 //! **Direct light at a point.** The scene's lights as their shots do
 //! ([`lights::gather`]), but skies: a sky's light changes slowly across a
@@ -211,8 +212,8 @@ impl<'a> FinalPass<'a> {
                 .map(|(total, direct)| *total - *direct)
                 .collect()
         } else {
-            // The emitting surfaces' first shots were booked on a device:
-            // their part at each vertex is evaluated here instead.
+            // A device's failure left the emitting surfaces' part
+            // incomplete: their part at each vertex is evaluated here.
             let receivers = &solver.receivers()[..vertices];
             let from_emitters = pass.emitted(receivers, None);
             solver
@@ -270,6 +271,7 @@ impl<'a> FinalPass<'a> {
                 occluder: self.occluder,
                 receivers: &receivers,
                 irradiance: &[],
+                direct: &[],
                 abort: &Abort::default(),
             };
             let mut stats = Stats::default();

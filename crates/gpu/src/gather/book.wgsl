@@ -38,6 +38,10 @@ struct Book {
     // 1: set the shooter's elements to the staging buffer's values first.
     leave: u32,
     pad2: u32,
+    // The share of the gathered irradiance that is direct, per channel
+    // (the shooter's own emission's share of its power).
+    direct: vec3<f32>,
+    pad3: u32,
 }
 
 @group(0) @binding(15) var<storage, read_write> unshot: array<vec4<f32>>;
@@ -48,6 +52,9 @@ struct Book {
 @group(0) @binding(20) var<storage, read_write> powers: array<f32>;
 @group(0) @binding(21) var<storage, read_write> staging: array<vec4<f32>>;
 @group(0) @binding(22) var<uniform> book: Book;
+// Each receiver's direct irradiance: the lights' and the emitting
+// surfaces' first shots (Solver::direct_irradiance).
+@group(0) @binding(26) var<storage, read_write> direct_total: array<vec4<f32>>;
 
 const BOOK_WORKGROUP: u32 = 256u;
 
@@ -128,13 +135,18 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
     }
 }
 
-// Each receiver's irradiance: what it had, plus the shot's.
+// Each receiver's irradiance: what it had, plus the shot's; its direct
+// part, plus the shot's direct share.
 @compute @workgroup_size(256)
 fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.receivers) {
         return;
     }
-    total[id.x] += book.sign * shot_irradiance[id.x];
+    let gathered = book.sign * shot_irradiance[id.x];
+    total[id.x] += gathered;
+    if (any(book.direct != vec3<f32>(0.0))) {
+        direct_total[id.x] += vec4<f32>(book.direct, 0.0) * gathered;
+    }
 }
 
 // Each shooter's unshot power (luminance, element by element in

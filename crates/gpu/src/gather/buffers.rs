@@ -230,4 +230,8 @@ pub struct GpuBook {
     pub leave: u32,
     /// Padding.
     pub pad2: u32,
+    /// The share of the gathered irradiance that is direct, per channel.
+    pub direct: [f32; 3],
+    /// Padding.
+    pub pad3: u32,
 }

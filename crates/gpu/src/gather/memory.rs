@@ -72,6 +72,7 @@ impl DeviceMemory {
             ),
             ("irradiance", bytes(receivers, 16)),
             ("shot irradiance", bytes(receivers, 16)),
+            ("direct irradiance", bytes(receivers, 16)),
             (
                 "split walks",
                 super::transfers::split_bytes(
@@ -88,7 +89,7 @@ impl DeviceMemory {
             ),
             ("shooter powers", bytes(elements, 4)),
             ("staging", bytes(elements, 16)),
-            ("readback", bytes(receivers + elements, 16)),
+            ("readback", bytes(2 * receivers + elements, 16)),
             ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
             ("bins", bytes(2 * elements, size_of::<GpuBin>())),
         ];

@@ -113,6 +113,8 @@ pub(super) struct GpuTransfers {
     items: wgpu::Buffer,
     /// Each receiver's irradiance (state).
     total: wgpu::Buffer,
+    /// Its direct part (state).
+    direct: wgpu::Buffer,
     /// Each element's unshot radiosity (state).
     unshot: wgpu::Buffer,
     shot_irradiance: wgpu::Buffer,
@@ -260,7 +262,7 @@ impl GpuTransfers {
         let shot_readback =
             4 * s + partial_count * size_of::<GpuPartial>() as u64 + 4 * COUNTERS as u64;
         let readback_bytes = shot_readback
-            .max((r + e) * vec4_bytes)
+            .max((2 * r + e) * vec4_bytes)
             .max(largest_shooter * vec4_bytes)
             .max(16);
         let transfers = GpuTransfers {
@@ -284,6 +286,7 @@ impl GpuTransfers {
             shooter_items: storage(&gpu, "shooter items", &nonempty(shooter_items)),
             items: storage(&gpu, "items", &nonempty(tree.items.clone())),
             total: state_buffer(&gpu, "irradiance", r * vec4_bytes),
+            direct: state_buffer(&gpu, "direct irradiance", r * vec4_bytes),
             unshot: state_buffer(&gpu, "unshot", e * vec4_bytes),
             shot_irradiance: state_buffer(&gpu, "shot irradiance", r * vec4_bytes),
             split: state_buffer(
@@ -346,7 +349,7 @@ impl GpuTransfers {
     /// The book-keeping's uniform for the shooter `items[first..last]`,
     /// booking the gathered light times `sign`, its elements first set to
     /// the staging buffer's values when `leave`.
-    fn book(&self, first: u32, last: u32, sign: f64, leave: bool) -> wgpu::Buffer {
+    fn book(&self, first: u32, last: u32, sign: f64, leave: bool, direct: DVec3) -> wgpu::Buffer {
         uniform(
             &self.gpu,
             "book",
@@ -358,6 +361,7 @@ impl GpuTransfers {
                 shooters: self.shooters,
                 sign: sign as f32,
                 leave: u32::from(leave),
+                direct: direct.as_vec3().to_array(),
                 ..GpuBook::default()
             },
         )
@@ -475,7 +479,7 @@ impl GpuTransfers {
             gpu.queue
                 .write_buffer(&self.staging, 0, bytemuck::cast_slice(&nonempty(leave)));
         }
-        let book = self.book(first, last, shot.sign, shot.leave.is_some());
+        let book = self.book(first, last, shot.sign, shot.leave.is_some(), shot.direct);
         let mut encoder = self.encoder("shot");
         encoder.clear_buffer(&self.counters, 0, None);
         let mut groups = Vec::new();
@@ -578,6 +582,7 @@ impl GpuTransfers {
                 entry(9, &self.total),
                 entry(12, &self.shot_irradiance),
                 entry(22, &book),
+                entry(26, &self.direct),
             ],
         );
         let powers = self.bind(
@@ -730,17 +735,30 @@ impl GpuTransfers {
 }
 
 impl AdaptiveTransfers for GpuTransfers {
-    fn begin(&mut self, irradiance: &[DVec3], unshot: &[DVec3]) -> Result<(), DeviceError> {
+    fn begin(
+        &mut self,
+        irradiance: &[DVec3],
+        direct: &[DVec3],
+        unshot: &[DVec3],
+    ) -> Result<(), DeviceError> {
         let total: Vec<[f32; 4]> = self
             .order
             .iter()
             .map(|&r| vec4(irradiance[r as usize]))
+            .collect();
+        let direct: Vec<[f32; 4]> = self
+            .order
+            .iter()
+            .map(|&r| vec4(direct.get(r as usize).copied().unwrap_or(DVec3::ZERO)))
             .collect();
         let unshot: Vec<[f32; 4]> = unshot.iter().map(|&u| vec4(u)).collect();
         self.scoped(|| {
             self.gpu
                 .queue
                 .write_buffer(&self.total, 0, bytemuck::cast_slice(&total));
+            self.gpu
+                .queue
+                .write_buffer(&self.direct, 0, bytemuck::cast_slice(&direct));
             self.gpu
                 .queue
                 .write_buffer(&self.unshot, 0, bytemuck::cast_slice(&unshot));
@@ -753,7 +771,7 @@ impl AdaptiveTransfers for GpuTransfers {
             return Ok(Vec::new());
         }
         self.scoped(|| {
-            let book = self.book(first, last, 1.0, false);
+            let book = self.book(first, last, 1.0, false, DVec3::ZERO);
             let group = self.bind(
                 &self.pipelines.collect,
                 &[
@@ -805,27 +823,40 @@ impl AdaptiveTransfers for GpuTransfers {
         result
     }
 
-    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError> {
+    fn state(
+        &mut self,
+        irradiance: &mut [DVec3],
+        direct: &mut [DVec3],
+        unshot: &mut [DVec3],
+    ) -> Result<(), DeviceError> {
         let r = 16 * self.order.len() as u64;
         let e = 16 * u64::from(self.elements);
         let data = self.scoped(|| {
             let mut encoder = self.encoder("state");
             if r > 0 {
                 encoder.copy_buffer_to_buffer(&self.total, 0, &self.readback, 0, r);
+                encoder.copy_buffer_to_buffer(&self.direct, 0, &self.readback, r, r);
             }
             if e > 0 {
-                encoder.copy_buffer_to_buffer(&self.unshot, 0, &self.readback, r, e);
+                encoder.copy_buffer_to_buffer(&self.unshot, 0, &self.readback, 2 * r, e);
             }
-            self.finish(encoder, r + e)
+            self.finish(encoder, 2 * r + e)
         })?;
         let words: &[f32] = bytemuck::cast_slice(&data);
-        for (&k, v) in self.order.iter().zip(words.chunks_exact(4)) {
-            irradiance[k as usize] = dvec3(v);
-        }
-        for (u, v) in unshot
-            .iter_mut()
-            .zip(words[(r / 4) as usize..].chunks_exact(4))
+        let (total_words, rest) = words.split_at((r / 4) as usize);
+        let (direct_words, unshot_words) = rest.split_at((r / 4) as usize);
+        for ((&k, v), d) in self
+            .order
+            .iter()
+            .zip(total_words.chunks_exact(4))
+            .zip(direct_words.chunks_exact(4))
         {
+            irradiance[k as usize] = dvec3(v);
+            if let Some(slot) = direct.get_mut(k as usize) {
+                *slot = dvec3(d);
+            }
+        }
+        for (u, v) in unshot.iter_mut().zip(unshot_words.chunks_exact(4)) {
             *u = dvec3(v);
         }
         Ok(())

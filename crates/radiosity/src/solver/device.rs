@@ -112,12 +112,18 @@ pub struct AdaptiveSolve<'a> {
 /// reports the ledger's sums; the state comes back only at checkpoints.
 pub trait AdaptiveTransfers: Send {
     /// Takes over the solve's state: each receiver's irradiance so far (in
-    /// the solver's order) and each element's unshot radiosity.
+    /// the solver's order), its direct part (zero where `direct` is
+    /// shorter) and each element's unshot radiosity.
     ///
     /// # Errors
     ///
     /// When the device fails.
-    fn begin(&mut self, irradiance: &[DVec3], unshot: &[DVec3]) -> Result<(), DeviceError>;
+    fn begin(
+        &mut self,
+        irradiance: &[DVec3],
+        direct: &[DVec3],
+        unshot: &[DVec3],
+    ) -> Result<(), DeviceError>;
 
     /// The unshot radiosity the device holds for the elements
     /// `tree.items[first..last]` of the element tree (a shooter's), in
@@ -131,7 +137,8 @@ pub trait AdaptiveTransfers: Send {
     /// One shot (or one pass of an overshooting shot): every receiver
     /// gathers from the shooting node; the device sets the shooter's
     /// unshot radiosity to [`AdaptiveShot::leave`], adds the irradiance
-    /// gathered (times [`AdaptiveShot::sign`]) to the receivers' and each
+    /// gathered (times [`AdaptiveShot::sign`]) to the receivers', its
+    /// [`AdaptiveShot::direct`] share to their direct part, and each
     /// element's reflected share to its own.
     /// `None` when the shot was abandoned ([`AdaptiveShot::abort`]), with
     /// nothing changed.
@@ -143,12 +150,17 @@ pub trait AdaptiveTransfers: Send {
     fn shoot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError>;
 
     /// The state, read back: each receiver's irradiance (the solver's
-    /// order) and each element's unshot radiosity.
+    /// order), its direct part, and each element's unshot radiosity.
     ///
     /// # Errors
     ///
     /// When the device fails.
-    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError>;
+    fn state(
+        &mut self,
+        irradiance: &mut [DVec3],
+        direct: &mut [DVec3],
+        unshot: &mut [DVec3],
+    ) -> Result<(), DeviceError>;
 }
 
 /// What one adaptive shot sends.
@@ -167,6 +179,10 @@ pub struct AdaptiveShot<'a> {
     /// negated (its sources need power of one sign): the irradiance
     /// gathered is booked times this.
     pub sign: f64,
+    /// The share of the irradiance gathered that is direct light, per
+    /// channel: the share of the shot's power that was the shooter's own
+    /// emission sent for the first time (zero for reflected light).
+    pub direct: DVec3,
     /// What the shooter's elements (`items` of its node, in the tree's
     /// order) are left with, set before the shot's light is booked: zero,
     /// or minus their overshoot. `None` for a shot's second pass, which

@@ -117,8 +117,9 @@ pub trait Shooter: Send {
 
     /// For a method whose state lives on a device: reads it back, its own
     /// into its host copy and each receiver's irradiance into
-    /// `irradiance`, a checkpoint the solve can go back to.
-    fn checkpoint(&mut self, _irradiance: &mut [DVec3]) -> Checkpoint {
+    /// `irradiance` (its direct part into `direct`), a checkpoint the
+    /// solve can go back to.
+    fn checkpoint(&mut self, _irradiance: &mut [DVec3], _direct: &mut [DVec3]) -> Checkpoint {
         Checkpoint::Host
     }
 
@@ -349,6 +350,9 @@ pub struct ShotInputs<'s> {
     pub receivers: &'s [Receiver],
     /// Irradiance each receiver has gathered so far.
     pub irradiance: &'s [DVec3],
+    /// Of it, the direct part ([`crate::solver::Solver::direct_irradiance`];
+    /// empty where the shot needs none).
+    pub direct: &'s [DVec3],
     /// When to abandon the shot.
     pub abort: &'s Abort,
 }

@@ -155,14 +155,14 @@ pub struct Solver<'a> {
     irradiance: Vec<DVec3>,
     /// The part of `irradiance` that came straight from a source: the
     /// scene's lights' shots (point, spot, IES, sun, sky) and the emitting
-    /// surfaces' first shots, booked apart.
+    /// surfaces' first shots, booked apart (by a device that keeps the
+    /// state, current at each checkpoint).
     direct: Vec<DVec3>,
     /// The part of `direct` from skies, which the final pass leaves to the
     /// mesh ([`Solver::sky_irradiance`]).
     sky: Vec<DVec3>,
-    /// Set when a shot that sent emission was booked on a device (its
-    /// irradiance stays there) or a device's failure made shots again:
-    /// `direct` then holds the lights' part only.
+    /// Set when a device's failure made shots again on the CPU: `direct`
+    /// then holds the lights' part only.
     direct_partial: bool,
     energy: Energy,
     stats: Stats,
@@ -350,9 +350,9 @@ impl<'a> Solver<'a> {
     }
 
     /// Whether [`Solver::direct_irradiance`] holds the emitting surfaces'
-    /// part too: false once a shot that sent emission was booked on a
-    /// device (the irradiance of such a shot stays on it) or a device's
-    /// failure made shots again on the CPU.
+    /// part too: false once a device's failure made shots again on the
+    /// CPU (a device books the direct part beside the total, and it comes
+    /// back with the state at each checkpoint).
     #[must_use]
     pub fn direct_complete(&self) -> bool {
         !self.direct_partial
@@ -599,7 +599,10 @@ impl<'a> Solver<'a> {
     /// checkpoint, on the CPU.
     fn checkpoint(&mut self) {
         self.synced = Instant::now();
-        match self.shooter.checkpoint(&mut self.irradiance) {
+        match self
+            .shooter
+            .checkpoint(&mut self.irradiance, &mut self.direct)
+        {
             Checkpoint::Host => {}
             Checkpoint::Taken => {
                 for (i, v) in self.mesh.vertices.iter().enumerate() {
@@ -642,6 +645,7 @@ impl<'a> Solver<'a> {
             occluder: self.occluder.as_ref(),
             receivers: &self.receivers,
             irradiance: &self.irradiance,
+            direct: &self.direct,
             abort,
         };
         let light = self.lights_pending.first().copied();
@@ -698,7 +702,6 @@ impl<'a> Solver<'a> {
                     self.keep(resume::Step::Method {
                         share: resume::emission_share(shot.emitted, shot.power),
                     });
-                    self.direct_partial |= shot.emitted != DVec3::ZERO;
                     let book_start = Instant::now();
                     self.book_ledger(received, shot.power);
                     self.stats.bookkeeping_time +=

@@ -136,7 +136,7 @@ struct LightMeans {
 
 /// The share of a shot's power that was emission, per channel (zero where
 /// it sent none).
-pub(super) fn emission_share(emitted: DVec3, power: DVec3) -> DVec3 {
+pub(crate) fn emission_share(emitted: DVec3, power: DVec3) -> DVec3 {
     let share = emitted / power;
     DVec3::select(share.is_finite_mask(), share, DVec3::ZERO)
 }
@@ -247,6 +247,7 @@ impl<'a> Solver<'a> {
                 occluder: self.occluder.as_ref(),
                 receivers,
                 irradiance: &gathered,
+                direct: &[],
                 abort: &abort,
             };
             let (e, share) = match step {
@@ -310,6 +311,7 @@ impl<'a> Solver<'a> {
             occluder: self.occluder.as_ref(),
             receivers: &[],
             irradiance: &[],
+            direct: &[],
             abort: &abort,
         };
         let mut out = LightMeans {

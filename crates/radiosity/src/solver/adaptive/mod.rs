@@ -590,8 +590,8 @@ impl Shooter for AdaptiveShooting {
         self.report.clone()
     }
 
-    fn checkpoint(&mut self, irradiance: &mut [DVec3]) -> Checkpoint {
-        self.checkpoint_device(irradiance)
+    fn checkpoint(&mut self, irradiance: &mut [DVec3], direct: &mut [DVec3]) -> Checkpoint {
+        self.checkpoint_device(irradiance, direct)
     }
 
     fn rolled_back(&mut self) -> bool {

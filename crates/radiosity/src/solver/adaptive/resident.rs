@@ -64,7 +64,7 @@ impl AdaptiveShooting {
         if self.resident.is_none() {
             // The lights have shot on the host: the device takes over the
             // state as it stands.
-            device.begin(inputs.irradiance, &self.unshot)?;
+            device.begin(inputs.irradiance, inputs.direct, &self.unshot)?;
             self.resident = Some(Resident {
                 unshot_power: mesh
                     .elements
@@ -109,6 +109,7 @@ impl AdaptiveShooting {
             }),
         );
         let elements = items.len() as u64;
+        let direct = crate::solver::resume::emission_share(emitted, power);
         let gather_start = Instant::now();
         let left = plan.left();
         let mut booked: Option<Booked> = None;
@@ -125,6 +126,7 @@ impl AdaptiveShooting {
                 sources: &self.sources,
                 unshot: &sending,
                 sign,
+                direct,
                 leave: booked.is_none().then_some(left.as_slice()),
                 negligible: self.negligible,
                 mean_radiosity: self.mean_radiosity,
@@ -192,11 +194,15 @@ impl AdaptiveShooting {
     }
 
     /// Reads the device's state back ([`crate::solver::Shooter::checkpoint`]).
-    pub(super) fn checkpoint_device(&mut self, irradiance: &mut [DVec3]) -> Checkpoint {
+    pub(super) fn checkpoint_device(
+        &mut self,
+        irradiance: &mut [DVec3],
+        direct: &mut [DVec3],
+    ) -> Checkpoint {
         let (Some(device), Some(_)) = (self.device.as_mut(), self.resident.as_ref()) else {
             return Checkpoint::Host;
         };
-        match device.state(irradiance, &mut self.unshot) {
+        match device.state(irradiance, direct, &mut self.unshot) {
             Ok(()) => {
                 if let Some(resident) = self.resident.as_mut() {
                     resident.saved.clone_from(&self.unshot);

@@ -37,6 +37,7 @@ struct StandTransfers {
     shots: u64,
     fail_at: Option<u64>,
     irradiance: Vec<DVec3>,
+    direct: Vec<DVec3>,
     unshot: Vec<DVec3>,
 }
 
@@ -68,14 +69,22 @@ impl Backend for Stand {
             shots: 0,
             fail_at: self.fail_at,
             irradiance: Vec::new(),
+            direct: Vec::new(),
             unshot: Vec::new(),
         }))
     }
 }
 
 impl AdaptiveTransfers for StandTransfers {
-    fn begin(&mut self, irradiance: &[DVec3], unshot: &[DVec3]) -> Result<(), DeviceError> {
+    fn begin(
+        &mut self,
+        irradiance: &[DVec3],
+        direct: &[DVec3],
+        unshot: &[DVec3],
+    ) -> Result<(), DeviceError> {
         self.irradiance = irradiance.to_vec();
+        self.direct = direct.to_vec();
+        self.direct.resize(irradiance.len(), DVec3::ZERO);
         self.unshot = unshot.to_vec();
         Ok(())
     }
@@ -134,8 +143,14 @@ impl AdaptiveTransfers for StandTransfers {
         for e in &mut gathered {
             *e *= shot.sign;
         }
-        for (total, e) in self.irradiance.iter_mut().zip(&gathered) {
+        for ((total, direct), e) in self
+            .irradiance
+            .iter_mut()
+            .zip(&mut self.direct)
+            .zip(&gathered)
+        {
             *total += *e;
+            *direct += *e * shot.direct;
         }
         if let Some(leave) = shot.leave {
             for (&e, l) in self.hierarchy.tree.items_of(shot.root).iter().zip(leave) {
@@ -187,8 +202,14 @@ impl AdaptiveTransfers for StandTransfers {
         }))
     }
 
-    fn state(&mut self, irradiance: &mut [DVec3], unshot: &mut [DVec3]) -> Result<(), DeviceError> {
+    fn state(
+        &mut self,
+        irradiance: &mut [DVec3],
+        direct: &mut [DVec3],
+        unshot: &mut [DVec3],
+    ) -> Result<(), DeviceError> {
         irradiance.copy_from_slice(&self.irradiance);
+        direct.copy_from_slice(&self.direct);
         unshot.copy_from_slice(&self.unshot);
         Ok(())
     }
@@ -242,15 +263,32 @@ fn failing_devices(scene: &Scene, settings: &Settings, overshoot: f64) {
             *solver.energy(),
             solver.stats().shots,
             solver.device_report(),
+            solver
+                .direct_complete()
+                .then(|| solver.direct_irradiance().to_vec()),
         )
     };
-    let (cpu, cpu_irradiance, cpu_energy, _, report) = solve(Device::cpu());
+    let (cpu, cpu_irradiance, cpu_energy, _, report, cpu_direct) = solve(Device::cpu());
+    let cpu_direct = cpu_direct.expect("the CPU books the direct part");
     assert_eq!(report.name, None);
     let close = |a: DVec3, b: DVec3, scale: f64| (a - b).abs().max_element() <= 1e-9 * scale;
     for (fail_at, most) in [(Some(0), 0), (Some(1), 0), (Some(17), 16), (None, SHOTS)] {
         let case = format!("overshoot {overshoot}, failing at {fail_at:?}");
-        let (radiosity, irradiance, energy, shots, report) =
+        let (radiosity, irradiance, energy, shots, report, direct) =
             solve(Device::backend(Arc::new(Stand { fail_at })));
+        // The device books the direct part too: complete unless a failure
+        // made shots again on the CPU, and the CPU's.
+        assert!(direct.is_some() || fail_at.is_some(), "{case}");
+        let peak = cpu_direct
+            .iter()
+            .fold(0.0_f64, |m, e| m.max(e.max_element()));
+        assert!(peak > 0.0);
+        for (a, b) in direct.iter().flatten().zip(&cpu_direct) {
+            assert!(
+                close(*a, *b, peak),
+                "{case}: direct {a} against the CPU's {b}"
+            );
+        }
         assert_eq!(shots, SHOTS, "{case}");
         assert_eq!(report.name.as_deref(), Some("stand-in"));
         assert!(report.device_shots <= most, "{case}: {report:?}");
