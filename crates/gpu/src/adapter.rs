@@ -8,6 +8,7 @@
 //! slower than the CPU path, only when asked for by `gpu`.
 
 use std::fmt;
+use std::sync::{Arc, Mutex};
 
 /// Which device a run uses (`--device`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -57,6 +58,11 @@ pub struct Gpu {
     /// Its queue.
     pub queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
+    /// The last scene uploaded, shared by the solves on this device
+    /// ([`crate::trace::DeviceScene`]).
+    pub(crate) scene: Arc<Mutex<Option<Arc<crate::trace::DeviceScene>>>>,
+    /// The transfer kernels, compiled once for the solves on this device.
+    pub(crate) pipelines: Arc<Mutex<Option<Arc<crate::gather::Pipelines>>>>,
 }
 
 impl fmt::Debug for Gpu {
@@ -132,7 +138,22 @@ impl Gpu {
             device,
             queue,
             info,
+            scene: Arc::default(),
+            pipelines: Arc::default(),
         }))
+    }
+
+    /// Drops the scene and kernels kept for the next solve: after a
+    /// failure while making them, the next solve makes its own.
+    pub(crate) fn forget(&self) {
+        *self
+            .scene
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = None;
+        *self
+            .pipelines
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = None;
     }
 
     /// The adapter's name and backend, as runs report it:

@@ -136,12 +136,65 @@ pub struct SceneTracer {
     gpu: Gpu,
     origin: DVec3,
     pipeline: wgpu::ComputePipeline,
-    nodes: wgpu::Buffer,
-    triangles: wgpu::Buffer,
+    scene: Arc<DeviceScene>,
     triangle_count: usize,
     /// Errors wgpu reports outside a scope (a lost device), kept instead of
     /// panicking.
     uncaptured: Arc<Mutex<Option<String>>>,
+}
+
+/// A scene's triangles and their BVH on the device, in the kernels'
+/// layouts: built and uploaded once a scene, and shared by the kernels of
+/// every solve on the same [`Gpu`] (the coarse pass of receiver
+/// refinement, the solve that goes on from it, the lights' segments).
+pub(crate) struct DeviceScene {
+    /// The scene's centre, the origin of the device's coordinates.
+    pub(crate) origin: DVec3,
+    /// The BVH's nodes.
+    pub(crate) nodes: wgpu::Buffer,
+    /// The triangles, in its leaves' order.
+    pub(crate) triangles: wgpu::Buffer,
+    /// How many triangles.
+    pub(crate) count: usize,
+    /// A hash of the triangles the scene was made of, and the origin.
+    key: u64,
+}
+
+impl DeviceScene {
+    /// `surfaces`' triangles and BVH on `gpu`: the scene `gpu` last held
+    /// if it is the same, else built, uploaded and kept for the next solve.
+    pub(crate) fn of(gpu: &Gpu, surfaces: &[Surface]) -> Arc<DeviceScene> {
+        use std::hash::{Hash, Hasher};
+        let (origin, scale) = centre_and_scale(surfaces);
+        let triangles = triangles(surfaces, origin);
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        bytemuck::cast_slice::<GpuTriangle, u8>(&triangles).hash(&mut hasher);
+        origin.to_array().map(f64::to_bits).hash(&mut hasher);
+        let key = hasher.finish();
+        let mut cache = gpu
+            .scene
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(scene) = cache.as_ref()
+            && scene.key == key
+            && scene.count == triangles.len()
+        {
+            return scene.clone();
+        }
+        // A few f32 round-offs of the scene's size: the slab test's error.
+        let pad = 8.0 * f64::from(f32::EPSILON) * scale;
+        let (nodes, ordered) = tree(&triangles, pad);
+        // An empty buffer cannot be bound: one unused element instead.
+        let scene = Arc::new(DeviceScene {
+            origin,
+            nodes: storage(gpu, "nodes", &nonempty(nodes)),
+            triangles: storage(gpu, "triangles", &nonempty(ordered)),
+            count: triangles.len(),
+            key,
+        });
+        *cache = Some(scene.clone());
+        scene
+    }
 }
 
 /// `p - origin` as two `f32`s: the nearest, and what rounding it lost.
@@ -235,11 +288,6 @@ impl SceneTracer {
     ///
     /// When the device refuses the buffers or the kernel.
     pub fn new(gpu: &Gpu, surfaces: &[Surface]) -> Result<SceneTracer, GpuError> {
-        let (origin, scale) = centre_and_scale(surfaces);
-        let triangles = triangles(surfaces, origin);
-        // A few f32 round-offs of the scene's size: the slab test's error.
-        let pad = 8.0 * f64::from(f32::EPSILON) * scale;
-        let (nodes, ordered) = tree(&triangles, pad);
         let uncaptured = Arc::new(Mutex::new(None));
         let sink = uncaptured.clone();
         gpu.device
@@ -266,21 +314,19 @@ impl SceneTracer {
                 compilation_options: wgpu::PipelineCompilationOptions::default(),
                 cache: None,
             });
-        // An empty buffer cannot be bound: one unused element instead.
-        let nodes = storage(gpu, "nodes", &nonempty(nodes));
-        let triangle_buffer = storage(gpu, "triangles", &nonempty(ordered));
+        let scene = DeviceScene::of(gpu, surfaces);
         let out_of_memory = pollster::block_on(memory.pop());
         let invalid = pollster::block_on(scope.pop());
         if let Some(e) = out_of_memory.or(invalid) {
+            gpu.forget();
             return Err(gpu.failed(e));
         }
         Ok(SceneTracer {
             gpu: gpu.clone(),
-            origin,
+            origin: scene.origin,
             pipeline,
-            nodes,
-            triangles: triangle_buffer,
-            triangle_count: triangles.len(),
+            triangle_count: scene.count,
+            scene,
             uncaptured,
         })
     }
@@ -373,8 +419,8 @@ impl SceneTracer {
                 label: Some("occluded"),
                 layout: &layout,
                 entries: &[
-                    entry(0, &self.nodes),
-                    entry(1, &self.triangles),
+                    entry(0, &self.scene.nodes),
+                    entry(1, &self.scene.triangles),
                     entry(2, &segment_buffer),
                     entry(3, &results),
                     entry(4, &uniform),
@@ -495,5 +541,48 @@ pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry
     wgpu::BindGroupEntry {
         binding,
         resource: buffer.as_entire_binding(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{DeviceChoice, REQUIRE_ADAPTER};
+
+    /// A scene is built and uploaded once a device: the same surfaces
+    /// give the very scene kept, other surfaces a new one (kept in its
+    /// place), and a failure forgets it.
+    #[test]
+    fn a_scene_is_uploaded_once_a_device() {
+        let gpu = match Gpu::open(DeviceChoice::Gpu) {
+            Ok(Some(gpu)) => gpu,
+            other => {
+                let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
+                assert!(!required, "{REQUIRE_ADAPTER} is set: {other:?}");
+                eprintln!("GPU test did not run: no adapter");
+                return;
+            }
+        };
+        let room = radiosity::scene::load("room").unwrap();
+        let cornell = radiosity::scene::load("cornell").unwrap();
+        let first = DeviceScene::of(&gpu, &room.surfaces);
+        assert!(Arc::ptr_eq(&first, &DeviceScene::of(&gpu, &room.surfaces)));
+        // A clone of the device shares what it keeps.
+        assert!(Arc::ptr_eq(
+            &first,
+            &DeviceScene::of(&gpu.clone(), &room.surfaces)
+        ));
+        let other = DeviceScene::of(&gpu, &cornell.surfaces);
+        assert!(!Arc::ptr_eq(&first, &other));
+        assert!(Arc::ptr_eq(
+            &other,
+            &DeviceScene::of(&gpu, &cornell.surfaces)
+        ));
+        let kept = DeviceScene::of(&gpu, &room.surfaces);
+        assert!(!Arc::ptr_eq(&first, &kept));
+        gpu.forget();
+        let again = DeviceScene::of(&gpu, &room.surfaces);
+        assert!(!Arc::ptr_eq(&kept, &again));
+        assert_eq!(again.count, first.count);
     }
 }

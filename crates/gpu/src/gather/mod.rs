@@ -41,6 +41,7 @@ pub use self::buffers::{
 };
 pub use self::memory::DeviceMemory;
 use self::transfers::GpuTransfers;
+pub(crate) use self::transfers::Pipelines;
 use crate::Gpu;
 
 /// Receivers one dispatch (and one submission) gathers for: small enough

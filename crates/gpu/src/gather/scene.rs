@@ -11,16 +11,11 @@ use radiosity::solver::device::AdaptiveSolve;
 use radiosity::solver::hierarchy::NONE;
 
 use super::buffers::{GpuElement, GpuElementBook, GpuPane, GpuReceiver, GpuSurface, GpuTreeNode};
-use crate::trace::{self, GpuNode, GpuTriangle, split};
+use crate::trace::split;
 
-/// A solve's data for the device.
+/// A solve's data for the device (the scene's triangles and BVH apart:
+/// [`crate::trace::DeviceScene`]).
 pub(super) struct SceneData {
-    /// The scene's centre, the origin of the device's coordinates.
-    pub(super) origin: DVec3,
-    /// The triangles' BVH.
-    pub(super) bvh_nodes: Vec<GpuNode>,
-    /// The triangles, in its leaves' order.
-    pub(super) triangles: Vec<GpuTriangle>,
     /// The element tree.
     pub(super) tree: Vec<GpuTreeNode>,
     /// Each tree node's element if a leaf, else `NONE`.
@@ -40,14 +35,11 @@ pub(super) struct SceneData {
 }
 
 impl SceneData {
-    /// `solve`'s data.
-    pub(super) fn of(solve: &AdaptiveSolve<'_>) -> SceneData {
+    /// `solve`'s data, its points relative to `origin`.
+    pub(super) fn of(solve: &AdaptiveSolve<'_>, origin: DVec3) -> SceneData {
         let tree = &solve.hierarchy.tree;
         let scene = solve.scene;
         let mesh = solve.mesh;
-        let (origin, scale) = trace::centre_and_scale(&scene.surfaces);
-        let triangles = trace::triangles(&scene.surfaces, origin);
-        let (bvh_nodes, ordered) = trace::tree(&triangles, 8.0 * f64::from(f32::EPSILON) * scale);
 
         let gpu_tree: Vec<GpuTreeNode> = tree
             .nodes
@@ -148,9 +140,6 @@ impl SceneData {
             })
             .collect();
         SceneData {
-            origin,
-            bvh_nodes,
-            triangles: ordered,
             tree: gpu_tree,
             leaf_element,
             surfaces,

@@ -24,7 +24,7 @@ use super::buffers::{GpuBin, GpuBook, GpuNodeSource, GpuPartial, GpuShot};
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
-use crate::trace::{entry, nonempty, read_back, split, storage};
+use crate::trace::{DeviceScene, entry, nonempty, read_back, split, storage};
 
 /// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
 /// `book.wgsl`; the shooters' powers take 64).
@@ -70,7 +70,7 @@ impl Growing {
 }
 
 /// The kernels, one pipeline an entry point of one module.
-struct Pipelines {
+pub(crate) struct Pipelines {
     gather: wgpu::ComputePipeline,
     size_items: wgpu::ComputePipeline,
     gather_items: wgpu::ComputePipeline,
@@ -80,6 +80,56 @@ struct Pipelines {
     receive: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     shooter_powers: wgpu::ComputePipeline,
+}
+
+impl Pipelines {
+    /// The kernels on `gpu`: compiled for its first solve, and kept for
+    /// the next (the solve that goes on from a coarse pass).
+    fn on(gpu: &Gpu) -> Arc<Pipelines> {
+        let mut kept = gpu
+            .pipelines
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        kept.get_or_insert_with(|| Arc::new(Pipelines::new(gpu)))
+            .clone()
+    }
+
+    fn new(gpu: &Gpu) -> Pipelines {
+        let source = [
+            include_str!("../trace.wgsl"),
+            include_str!("gather.wgsl"),
+            include_str!("book.wgsl"),
+        ]
+        .concat();
+        let module = gpu
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("gather.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        let pipeline = |entry: &str| {
+            gpu.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    cache: None,
+                })
+        };
+        Pipelines {
+            gather: pipeline("gather"),
+            size_items: pipeline("size_items"),
+            gather_items: pipeline("gather_items"),
+            join_items: pipeline("join_items"),
+            collect: pipeline("collect"),
+            leave_shooter: pipeline("leave_shooter"),
+            receive: pipeline("receive"),
+            accumulate: pipeline("accumulate"),
+            shooter_powers: pipeline("shooter_powers"),
+        }
+    }
 }
 
 /// A solve on the GPU.
@@ -99,9 +149,9 @@ pub(super) struct GpuTransfers {
     dispatch_receivers: usize,
     /// Nodes a receiver's walk may leave to other threads (`Shot::frontier`).
     frontier: u32,
-    pipelines: Pipelines,
-    nodes: wgpu::Buffer,
-    triangles: wgpu::Buffer,
+    pipelines: Arc<Pipelines>,
+    /// The scene's triangles and BVH (shared with other solves).
+    scene: Arc<DeviceScene>,
     tree: wgpu::Buffer,
     surfaces: wgpu::Buffer,
     /// The glass panes' triangles.
@@ -195,21 +245,6 @@ impl GpuTransfers {
                 "the element tree is {tree_depth} deep; the GPU's walk holds {MAX_TREE_DEPTH}"
             )));
         }
-        let SceneData {
-            origin,
-            bvh_nodes,
-            triangles,
-            tree: gpu_tree,
-            leaf_element,
-            surfaces,
-            elements,
-            receivers,
-            element_book,
-            shooter_items,
-            panes,
-        } = SceneData::of(solve);
-        let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
-
         let uncaptured = Arc::new(Mutex::new(None));
         let sink = uncaptured.clone();
         gpu.device
@@ -220,40 +255,21 @@ impl GpuTransfers {
             }));
         let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let source = [
-            include_str!("../trace.wgsl"),
-            include_str!("gather.wgsl"),
-            include_str!("book.wgsl"),
-        ]
-        .concat();
-        let module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("gather.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-        let pipeline = |entry: &str| {
-            gpu.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    cache: None,
-                })
-        };
-        let pipelines = Pipelines {
-            gather: pipeline("gather"),
-            size_items: pipeline("size_items"),
-            gather_items: pipeline("gather_items"),
-            join_items: pipeline("join_items"),
-            collect: pipeline("collect"),
-            leave_shooter: pipeline("leave_shooter"),
-            receive: pipeline("receive"),
-            accumulate: pipeline("accumulate"),
-            shooter_powers: pipeline("shooter_powers"),
-        };
+        let device_scene = DeviceScene::of(&gpu, &solve.scene.surfaces);
+        let origin = device_scene.origin;
+        let SceneData {
+            tree: gpu_tree,
+            leaf_element,
+            surfaces,
+            elements,
+            receivers,
+            element_book,
+            shooter_items,
+            panes,
+        } = SceneData::of(solve, origin);
+        let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
+
+        let pipelines = Pipelines::on(&gpu);
         let r = receivers.len() as u64;
         let e = elements.len() as u64;
         let s = shooter_items.len() as u64;
@@ -275,8 +291,7 @@ impl GpuTransfers {
             dispatch_receivers,
             frontier,
             pipelines,
-            nodes: storage(&gpu, "nodes", &nonempty(bvh_nodes)),
-            triangles: storage(&gpu, "triangles", &nonempty(triangles)),
+            scene: device_scene,
             tree: storage(&gpu, "element tree", &nonempty(gpu_tree)),
             surfaces: storage(&gpu, "surfaces", &nonempty(surfaces)),
             panes: storage(&gpu, "panes", &nonempty(panes)),
@@ -322,6 +337,7 @@ impl GpuTransfers {
         let out_of_memory = pollster::block_on(memory.pop());
         let invalid = pollster::block_on(scope.pop());
         if let Some(e) = out_of_memory.or(invalid) {
+            transfers.gpu.forget();
             return Err(transfers.failed(e));
         }
         Ok(transfers)
@@ -507,8 +523,8 @@ impl GpuTransfers {
             let group = self.bind(
                 &self.pipelines.gather,
                 &[
-                    entry(0, &self.nodes),
-                    entry(1, &self.triangles),
+                    entry(0, &self.scene.nodes),
+                    entry(1, &self.scene.triangles),
                     entry(5, &self.tree),
                     entry(6, &self.surfaces),
                     entry(7, &self.element_buffer),
@@ -526,8 +542,8 @@ impl GpuTransfers {
             let items = self.bind(
                 &self.pipelines.gather_items,
                 &[
-                    entry(0, &self.nodes),
-                    entry(1, &self.triangles),
+                    entry(0, &self.scene.nodes),
+                    entry(1, &self.scene.triangles),
                     entry(5, &self.tree),
                     entry(6, &self.surfaces),
                     entry(7, &self.element_buffer),
