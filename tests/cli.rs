@@ -392,6 +392,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "device_kernel_seconds",
             "device_readback_seconds",
             "device_shots",
+            "device_stage_seconds",
             "device_upload_seconds",
             "element_sources",
             "elements",

@@ -149,6 +149,19 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
     assert_eq!(gpu["device_shots"], gpu["shots"]);
     assert_eq!(gpu["coarse_device_shots"], gpu["coarse_shots"]);
     assert_eq!(gpu["stop_reason"], "converged");
+    // Where a shot's time went, by the device's clock: none on the CPU;
+    // on an adapter with timestamps, each stage's seconds.
+    assert!(cpu["device_stage_seconds"].is_null());
+    if let Some(stages) = gpu["device_stage_seconds"].as_object() {
+        let names: Vec<&str> = stages.keys().map(String::as_str).collect();
+        assert_eq!(names, ["book", "items", "join", "walk"]);
+        assert!(
+            stages
+                .values()
+                .all(|t| t.as_f64().is_some_and(|t| t >= 0.0))
+        );
+        assert!(stages["walk"].as_f64().unwrap() > 0.0, "{stages:?}");
+    }
     let (c, g) = (
         sensor_values(&dir.path().join("cpu.csv")),
         sensor_values(&dir.path().join("gpu.csv")),

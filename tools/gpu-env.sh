@@ -75,7 +75,7 @@ keys = ["total_seconds", "load_seconds", "mesh_seconds", "solve_seconds", "accel
         "write_seconds", "final_gather_seconds", "device_upload_seconds",
         "device_kernel_seconds", "device_readback_seconds"]
 print("run | device | stop | unshot | shots: coarse+all (coarse stop) | dev shots | " + " | ".join(k.replace("_seconds", "") for k in keys)
-      + " | kernel ms/shot | rest of solve ms/shot | peak host MiB | peak GPU MiB (over idle)")
+      + " | kernel ms/shot | rest of solve ms/shot | device walk/items/join/book s | peak host MiB | peak GPU MiB (over idle)")
 for path in sorted(glob.glob(os.path.join(out, "*.json"))):
     name = os.path.basename(path)[:-5]
     try:
@@ -87,13 +87,15 @@ for path in sorted(glob.glob(os.path.join(out, "*.json"))):
     peak_gpu = (max(mem) - idle) if mem else float("nan")
     host = (s.get("peak_memory_bytes") or 0) / 2**20
     shots = max(s.get("shots") or 0, 1)
+    st = s.get("device_stage_seconds") or {}
+    stages = "/".join(f"{st[k]:.2f}" for k in ("walk", "items", "join", "book") if k in st) or "-"
     kernel = 1000 * s.get("device_kernel_seconds", 0) / max(s.get("device_shots") or 0, 1)
     rest = 1000 * (s.get("solve_seconds", 0) - s.get("device_kernel_seconds", 0)
                    - s.get("device_upload_seconds", 0) - s.get("device_readback_seconds", 0)) / shots
     print(f"{name} | {s.get('device')} | {s.get('stop_reason')} | {s.get('unshot_fraction'):.4f} | "
           f"{s.get('coarse_shots')}+{s.get('shots')} ({s.get('coarse_stop_reason')}) | {s.get('device_shots')} | "
           + " | ".join(f"{s.get(k, float('nan')):.2f}" for k in keys)
-          + f" | {kernel:.2f} | {rest:.2f} | {host:.0f} | {peak_gpu:.0f}")
+          + f" | {kernel:.2f} | {rest:.2f} | {stages} | {host:.0f} | {peak_gpu:.0f}")
 PY
 
 }

@@ -254,6 +254,14 @@ pub fn print_summary(o: &Outcome) {
             o.device.kernel_time.as_secs_f64(),
             o.device.readback_time.as_secs_f64()
         );
+        if let Some(stages) = o.device.stages {
+            let parts: Vec<String> = stages
+                .named()
+                .iter()
+                .map(|(name, time)| format!("{name} {:.2} s", time.as_secs_f64()))
+                .collect();
+            println!("device time by stage: {}", parts.join(", "));
+        }
     }
     if let Some(peak) = o.peak_memory_bytes {
         println!(

@@ -125,6 +125,9 @@ impl Gpu {
             label: Some("radiosity"),
             // As much as the adapter allows: big scenes need big buffers.
             required_limits: adapter.limits(),
+            // Timestamps, where the adapter has them: where a shot's time
+            // goes (`--stats`' device_stage_seconds).
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             ..wgpu::DeviceDescriptor::default()
         };
         let (device, queue) =

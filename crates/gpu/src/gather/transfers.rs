@@ -10,11 +10,11 @@
 //! counts; the state comes back only when asked ([`AdaptiveTransfers::state`]).
 
 use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use radiosity::solver::device::{
-    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError,
+    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, StageTimes,
 };
 use radiosity::solver::hierarchy::NONE;
 use radiosity::solver::method::Received;
@@ -132,6 +132,71 @@ impl Pipelines {
     }
 }
 
+/// The device's timestamps around each pass of a shot.
+struct Timer {
+    set: wgpu::QuerySet,
+    /// Where they are resolved, to be copied into the readback.
+    resolve: wgpu::Buffer,
+    /// Nanoseconds a tick.
+    period: f64,
+}
+
+impl Timer {
+    /// Timestamps around the passes of a shot whose walk takes `chunks`
+    /// dispatches, on `gpu`: `None` where the device has none, or a shot
+    /// would take more than a query set holds.
+    fn on(gpu: &Gpu, chunks: u32) -> Option<Timer> {
+        let count = 2 * (4 * chunks + 4);
+        if !gpu
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            || count > wgpu::QUERY_SET_MAX_QUERIES
+        {
+            return None;
+        }
+        Some(Timer {
+            set: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("shot timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolve: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("shot timestamps"),
+                size: 8 * u64::from(count),
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            period: f64::from(gpu.queue.get_timestamp_period()),
+        })
+    }
+
+    /// The stages' time from the timestamps read back (`bytes`), a begin
+    /// and an end a pass: `chunks` chunks' walk, items' size, items and
+    /// join, then the book-keeping's four.
+    fn stages(&self, bytes: &[u8], chunks: u32) -> StageTimes {
+        let tick = |k: usize| {
+            bytes
+                .get(8 * k..8 * k + 8)
+                .map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
+        };
+        let mut stages = StageTimes::default();
+        for pass in 0..4 * chunks + 4 {
+            let k = 2 * pass as usize;
+            let ticks = tick(k + 1).saturating_sub(tick(k));
+            let time = Duration::from_nanos((ticks as f64 * self.period) as u64);
+            let slot = match (pass < 4 * chunks, pass % 4) {
+                (false, _) => &mut stages.book,
+                (true, 0) => &mut stages.walk,
+                (true, 3) => &mut stages.join,
+                (true, _) => &mut stages.items,
+            };
+            *slot += time;
+        }
+        stages
+    }
+}
+
 /// A solve on the GPU.
 pub(super) struct GpuTransfers {
     gpu: Arc<Gpu>,
@@ -170,6 +235,8 @@ pub(super) struct GpuTransfers {
     shot_irradiance: wgpu::Buffer,
     /// A chunk's split walks: a header a receiver, then the items.
     split: wgpu::Buffer,
+    /// Timestamps around a shot's passes, where the device has them.
+    timer: Option<Timer>,
     /// `gather_items`' workgroups, an indirect dispatch's arguments.
     item_dispatch: wgpu::Buffer,
     counters: wgpu::Buffer,
@@ -275,8 +342,12 @@ impl GpuTransfers {
         let s = shooter_items.len() as u64;
         let vec4_bytes = 16u64;
         let partial_count = e.div_ceil(u64::from(BOOK_WORKGROUP)).max(1);
-        let shot_readback =
-            4 * s + partial_count * size_of::<GpuPartial>() as u64 + 4 * COUNTERS as u64;
+        let chunks = (r as usize).div_ceil(dispatch_receivers).max(1) as u32;
+        let timer = Timer::on(&gpu, chunks);
+        let shot_readback = 4 * s
+            + partial_count * size_of::<GpuPartial>() as u64
+            + 4 * COUNTERS as u64
+            + 16 * u64::from(4 * chunks + 4);
         let readback_bytes = shot_readback
             .max((2 * r + e) * vec4_bytes)
             .max(largest_shooter * vec4_bytes)
@@ -290,6 +361,7 @@ impl GpuTransfers {
             shooters: s as u32,
             dispatch_receivers,
             frontier,
+            timer,
             pipelines,
             scene: device_scene,
             tree: storage(&gpu, "element tree", &nonempty(gpu_tree)),
@@ -477,6 +549,19 @@ impl GpuTransfers {
         (nodes, bins)
     }
 
+    /// The timestamps around the shot's pass `index` (its chunks' four
+    /// passes each, then the book-keeping's four), where the device has
+    /// them.
+    fn timestamps(&self, index: u32) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        self.timer
+            .as_ref()
+            .map(|timer| wgpu::ComputePassTimestampWrites {
+                query_set: &timer.set,
+                beginning_of_pass_write_index: Some(2 * index),
+                end_of_pass_write_index: Some(2 * index + 1),
+            })
+    }
+
     /// One shot's commands and readback (inside an error scope); `None`
     /// when abandoned between two chunks of the walk, nothing booked.
     fn shot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError> {
@@ -625,34 +710,35 @@ impl GpuTransfers {
             // A pass each: the walks, the items' workgroups, the items
             // the walks left, the joins.
             let [(walk, walk_groups), (join, join_groups)] = chunk_groups;
-            let pass = |chunk: &mut wgpu::CommandEncoder, label: &str| {
+            let base = 4 * k as u32;
+            let pass = |chunk: &mut wgpu::CommandEncoder, label: &str, index: u32| {
                 chunk
                     .begin_compute_pass(&wgpu::ComputePassDescriptor {
                         label: Some(label),
-                        timestamp_writes: None,
+                        timestamp_writes: self.timestamps(index),
                     })
                     .forget_lifetime()
             };
             {
-                let mut p = pass(&mut chunk, "walk");
+                let mut p = pass(&mut chunk, "walk", base);
                 p.set_pipeline(&self.pipelines.gather);
                 p.set_bind_group(0, walk, &[]);
                 p.dispatch_workgroups(*walk_groups, 1, 1);
             }
             {
-                let mut p = pass(&mut chunk, "size items");
+                let mut p = pass(&mut chunk, "size items", base + 1);
                 p.set_pipeline(&self.pipelines.size_items);
                 p.set_bind_group(0, &size, &[]);
                 p.dispatch_workgroups(1, 1, 1);
             }
             {
-                let mut p = pass(&mut chunk, "items");
+                let mut p = pass(&mut chunk, "items", base + 2);
                 p.set_pipeline(&self.pipelines.gather_items);
                 p.set_bind_group(0, &item_groups[k], &[]);
                 p.dispatch_workgroups_indirect(&self.item_dispatch, 0);
             }
             {
-                let mut p = pass(&mut chunk, "join");
+                let mut p = pass(&mut chunk, "join", base + 3);
                 p.set_pipeline(&self.pipelines.join_items);
                 p.set_bind_group(0, join, &[]);
                 p.dispatch_workgroups(*join_groups, 1, 1);
@@ -683,10 +769,11 @@ impl GpuTransfers {
             ),
         ];
         // A pass a stage: each reads what the one before wrote.
-        for (pipeline, group, workgroups) in stages {
+        let book_base = 4 * groups.len() as u32;
+        for (j, (pipeline, group, workgroups)) in stages.into_iter().enumerate() {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("book"),
-                timestamp_writes: None,
+                timestamp_writes: self.timestamps(book_base + j as u32),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, group, &[]);
@@ -713,7 +800,20 @@ impl GpuTransfers {
             powers_bytes + partial_bytes,
             counter_bytes,
         );
-        let bytes = self.finish(encoder, powers_bytes + partial_bytes + counter_bytes)?;
+        let passes = book_base + 4;
+        let timestamps_at = powers_bytes + partial_bytes + counter_bytes;
+        let mut read = timestamps_at;
+        if let Some(timer) = &self.timer {
+            encoder.resolve_query_set(&timer.set, 0..2 * passes, &timer.resolve, 0);
+            let bytes = 16 * u64::from(passes);
+            encoder.copy_buffer_to_buffer(&timer.resolve, 0, &self.readback, read, bytes);
+            read += bytes;
+        }
+        let bytes = self.finish(encoder, read)?;
+        let stages = self
+            .timer
+            .as_ref()
+            .map(|timer| timer.stages(&bytes[timestamps_at as usize..], groups.len() as u32));
         let readback_start = Instant::now();
         let words: &[f32] = bytemuck::cast_slice(&bytes);
         let shooter_power = words[..self.shooters as usize]
@@ -746,6 +846,7 @@ impl GpuTransfers {
             upload_time: kernel_start - upload_start,
             kernel_time: readback_start - kernel_start,
             readback_time: readback_start.elapsed(),
+            stages,
         }))
     }
 }

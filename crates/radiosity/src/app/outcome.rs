@@ -241,6 +241,10 @@ pub struct StatsFile {
     pub device_kernel_seconds: f64,
     /// The device's shots' time reading results back, seconds.
     pub device_readback_seconds: f64,
+    /// The device's shots' time by stage (`walk`, `items`, `join`,
+    /// `book`), seconds by the device's own clock (`null` on the CPU, or
+    /// where the device does not say).
+    pub device_stage_seconds: Option<std::collections::BTreeMap<&'static str, f64>>,
 }
 
 /// A run's method counters with every other method's at zero, as a map.
@@ -298,6 +302,12 @@ impl StatsFile {
             device_upload_seconds: outcome.device.upload_time.as_secs_f64(),
             device_kernel_seconds: outcome.device.kernel_time.as_secs_f64(),
             device_readback_seconds: outcome.device.readback_time.as_secs_f64(),
+            device_stage_seconds: outcome.device.stages.map(|s| {
+                s.named()
+                    .into_iter()
+                    .map(|(name, time)| (name, time.as_secs_f64()))
+                    .collect()
+            }),
         }
     }
 

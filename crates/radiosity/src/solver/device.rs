@@ -224,6 +224,60 @@ pub struct Booked {
     pub kernel_time: Duration,
     /// Time reading the results back (host clock).
     pub readback_time: Duration,
+    /// The device's own time for each stage of the shot, where it can
+    /// measure it (timestamps).
+    pub stages: Option<StageTimes>,
+}
+
+/// A device's time for the stages of its shots, read from the device's
+/// own timestamps: where a shot's kernel time goes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StageTimes {
+    /// The receivers' walks of the shooting node (each up to its
+    /// frontier, where a walk is split across threads).
+    pub walk: Duration,
+    /// The split walks' items (sizing their dispatch, and walking them).
+    pub items: Duration,
+    /// Joining each receiver's items.
+    pub join: Duration,
+    /// The book-keeping: the shooter left, the elements' and receivers'
+    /// sums, the shooters' powers.
+    pub book: Duration,
+}
+
+impl std::ops::Add for StageTimes {
+    type Output = StageTimes;
+
+    fn add(self, other: StageTimes) -> StageTimes {
+        StageTimes {
+            walk: self.walk + other.walk,
+            items: self.items + other.items,
+            join: self.join + other.join,
+            book: self.book + other.book,
+        }
+    }
+}
+
+impl StageTimes {
+    /// The stages by name, in order.
+    #[must_use]
+    pub fn named(&self) -> [(&'static str, Duration); 4] {
+        [
+            ("walk", self.walk),
+            ("items", self.items),
+            ("join", self.join),
+            ("book", self.book),
+        ]
+    }
+
+    /// `a` and `b` added, where either is known.
+    #[must_use]
+    pub fn add_known(a: Option<StageTimes>, b: Option<StageTimes>) -> Option<StageTimes> {
+        match (a, b) {
+            (Some(a), Some(b)) => Some(a + b),
+            (a, b) => a.or(b),
+        }
+    }
 }
 
 impl Booked {
@@ -244,6 +298,7 @@ impl Booked {
             upload_time: self.upload_time + second.upload_time,
             kernel_time: self.kernel_time + second.kernel_time,
             readback_time: self.readback_time + second.readback_time,
+            stages: StageTimes::add_known(self.stages, second.stages),
             ..second
         }
     }
@@ -343,4 +398,7 @@ pub struct DeviceReport {
     pub kernel_time: Duration,
     /// Its shots' time reading results back ([`Booked::readback_time`]).
     pub readback_time: Duration,
+    /// Its shots' time by stage, by the device's clock
+    /// ([`Booked::stages`]; `None` where it does not say).
+    pub stages: Option<StageTimes>,
 }

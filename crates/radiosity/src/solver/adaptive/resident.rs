@@ -15,7 +15,7 @@ use glam::DVec3;
 use super::gather::Counters;
 use super::{AdaptiveShooting, overshoot};
 use crate::solver::Abort;
-use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, Booked, DeviceError};
+use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, Booked, DeviceError, StageTimes};
 use crate::solver::hierarchy::transfer::Cost;
 use crate::solver::method::{Checkpoint, Shot, ShotInputs, Stats};
 
@@ -179,6 +179,7 @@ impl AdaptiveShooting {
         self.report.upload_time += booked.upload_time;
         self.report.kernel_time += booked.kernel_time;
         self.report.readback_time += booked.readback_time;
+        self.report.stages = StageTimes::add_known(self.report.stages, booked.stages);
         if let Some(resident) = self.resident.as_mut() {
             resident.unshot_power = booked.unshot_power;
             resident.unshot_magnitude = booked.unshot_magnitude;
