@@ -197,6 +197,20 @@ impl DeviceScene {
     }
 }
 
+/// Errors `gpu` reports outside an error scope (a lost device) from now
+/// on, kept (the first) instead of wgpu's default, which panics.
+pub(crate) fn catch_uncaptured(gpu: &Gpu) -> Arc<Mutex<Option<String>>> {
+    let uncaptured = Arc::new(Mutex::new(None));
+    let sink = uncaptured.clone();
+    gpu.device
+        .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut slot) = sink.lock() {
+                slot.get_or_insert_with(|| e.to_string());
+            }
+        }));
+    uncaptured
+}
+
 /// `p - origin` as two `f32`s: the nearest, and what rounding it lost.
 pub(crate) fn split(p: DVec3, origin: DVec3) -> ([f32; 3], [f32; 3]) {
     let r = p - origin;
@@ -288,14 +302,7 @@ impl SceneTracer {
     ///
     /// When the device refuses the buffers or the kernel.
     pub fn new(gpu: &Gpu, surfaces: &[Surface]) -> Result<SceneTracer, GpuError> {
-        let uncaptured = Arc::new(Mutex::new(None));
-        let sink = uncaptured.clone();
-        gpu.device
-            .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-                if let Ok(mut slot) = sink.lock() {
-                    slot.get_or_insert_with(|| e.to_string());
-                }
-            }));
+        let uncaptured = catch_uncaptured(gpu);
         let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let module = gpu

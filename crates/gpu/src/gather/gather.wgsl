@@ -1,7 +1,8 @@
 // One shot of adaptive shooting on the GPU: the CPU's per-receiver walk of
 // the shooting node's subtree (radiosity::solver::adaptive, after the
 // adaptive source subdivision of Wallace, Elmquist & Haines 1989, section
-// 4), one thread a receiver, in the CPU's order and with its rules: a node
+// 4), a thread a receiver (and, for a long walk, a thread a subtree of its
+// frontier: `gather_items`), with the CPU's rules: a node
 // is accepted whole when what it can send is negligible, or far and either
 // dim or seen alike by four shadow rays; elements are the finest sources,
 // their exact factor by the paper's equation (2) (Baum et al.'s contour

@@ -4,7 +4,11 @@
 //! elements, as the CPU's `radiosity::solver::adaptive` does it): one
 //! thread a receiver walks the shooting node's subtree with the CPU's
 //! acceptance rules, its shadow rays answered by the `trace.wgsl` walk of
-//! the scene's BVH in the same kernel (`gather.wgsl`).
+//! the scene's BVH in the same kernel (`gather.wgsl`). A receiver whose
+//! walk is long (near the shooter) leaves the subtrees of its frontier to
+//! other threads, whose sums are joined in the frontier's order
+//! ([`FRONTIER`]), so a shot does not last as long as one thread's walk of
+//! the whole subtree.
 //!
 //! What is the same for a whole solve goes to the device once: the scene's
 //! triangles and BVH, the element tree, the elements (corners, centroid,

@@ -24,7 +24,7 @@ use super::buffers::{GpuBin, GpuBook, GpuNodeSource, GpuPartial, GpuShot};
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
-use crate::trace::{DeviceScene, entry, nonempty, read_back, split, storage};
+use crate::trace::{DeviceScene, catch_uncaptured, entry, nonempty, read_back, split, storage};
 
 /// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
 /// `book.wgsl`; the shooters' powers take 64).
@@ -312,14 +312,7 @@ impl GpuTransfers {
                 "the element tree is {tree_depth} deep; the GPU's walk holds {MAX_TREE_DEPTH}"
             )));
         }
-        let uncaptured = Arc::new(Mutex::new(None));
-        let sink = uncaptured.clone();
-        gpu.device
-            .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-                if let Ok(mut slot) = sink.lock() {
-                    slot.get_or_insert_with(|| e.to_string());
-                }
-            }));
+        let uncaptured = catch_uncaptured(&gpu);
         let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let device_scene = DeviceScene::of(&gpu, &solve.scene.surfaces);
@@ -605,43 +598,27 @@ impl GpuTransfers {
                     frontier: self.frontier,
                 },
             );
+            // What the walks and the split walks' items both read.
+            let walk_entries = [
+                entry(0, &self.scene.nodes),
+                entry(1, &self.scene.triangles),
+                entry(5, &self.tree),
+                entry(6, &self.surfaces),
+                entry(7, &self.element_buffer),
+                entry(8, &self.receivers),
+                entry(9, &self.total),
+                entry(10, &self.sources.buffer),
+                entry(11, &self.bins.buffer),
+                entry(13, &uniform),
+                entry(14, &self.counters),
+                entry(23, &self.panes),
+                entry(24, &self.split),
+            ];
             let group = self.bind(
                 &self.pipelines.gather,
-                &[
-                    entry(0, &self.scene.nodes),
-                    entry(1, &self.scene.triangles),
-                    entry(5, &self.tree),
-                    entry(6, &self.surfaces),
-                    entry(7, &self.element_buffer),
-                    entry(8, &self.receivers),
-                    entry(9, &self.total),
-                    entry(10, &self.sources.buffer),
-                    entry(11, &self.bins.buffer),
-                    entry(12, &self.shot_irradiance),
-                    entry(13, &uniform),
-                    entry(14, &self.counters),
-                    entry(23, &self.panes),
-                    entry(24, &self.split),
-                ],
+                &[&walk_entries[..], &[entry(12, &self.shot_irradiance)]].concat(),
             );
-            let items = self.bind(
-                &self.pipelines.gather_items,
-                &[
-                    entry(0, &self.scene.nodes),
-                    entry(1, &self.scene.triangles),
-                    entry(5, &self.tree),
-                    entry(6, &self.surfaces),
-                    entry(7, &self.element_buffer),
-                    entry(8, &self.receivers),
-                    entry(9, &self.total),
-                    entry(10, &self.sources.buffer),
-                    entry(11, &self.bins.buffer),
-                    entry(13, &uniform),
-                    entry(14, &self.counters),
-                    entry(23, &self.panes),
-                    entry(24, &self.split),
-                ],
-            );
+            let items = self.bind(&self.pipelines.gather_items, &walk_entries);
             let join = self.bind(
                 &self.pipelines.join_items,
                 &[
