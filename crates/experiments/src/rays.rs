@@ -546,6 +546,8 @@ pub fn rays_report(data: &Rays) -> Report {
                     ),
                     format!("{:.3}", run.upload_seconds),
                     format!("{:.1}", per_second / 1e6),
+                    run.kernel_segments_per_second()
+                        .map_or_else(|| "-".to_string(), |k| format!("{:.1}", k / 1e6)),
                     format!("{:.1}", per_second * cpu_ns * 1e-9),
                     format!("{} ({} not grazing)", run.differ, run.differ_not_grazing),
                 ])
@@ -554,7 +556,9 @@ pub fn rays_report(data: &Rays) -> Report {
         report.paragraph(&format!(
             "On the GPU ({adapter}): every recorded segment at once, timed from the call to \
              the answers (segments uploaded, traced by the occluded kernel, read back; median \
-             of the repetitions), the scene's tree and triangles uploaded once before. x one \
+             of the repetitions), the scene's tree and triangles uploaded once before; kernel: \
+             the occluded kernel alone, by the device's timestamps (upload, conversion and \
+             readback left out; - where the device has none). x one \
              thread: its throughput over the CPU BVH's on one thread. Differ: segments it \
              answered otherwise than the CPU's BVH (it works in f32), and of those the ones \
              whose CPU answer holds when their ends move by a millionth of the scene's size \
@@ -568,6 +572,7 @@ pub fn rays_report(data: &Rays) -> Report {
                 "blocked",
                 "scene upload s",
                 "M segments/s",
+                "kernel M segments/s",
                 "x one thread",
                 "differ",
             ],

@@ -232,10 +232,18 @@ fn rays_on_the_gpu_agrees_with_the_cpu() {
     assert_eq!(run.differ_not_grazing, 0, "{run:?}");
     assert!(run.blocked > 0 && run.blocked < run.segments, "{run:?}");
     assert!(run.segments_per_second() > 0.0);
+    // The kernel alone, where the device has timestamps: a time each
+    // repetition.
+    assert!(run.kernel_seconds.is_empty() || run.kernel_seconds.len() == run.seconds.len());
+    assert!(
+        run.kernel_segments_per_second().is_none_or(|k| k > 0.0),
+        "{run:?}"
+    );
     let report = rays::rays_report(&data);
     assert_table(
         &report,
-        "| scene | triangles | segments | blocked | scene upload s | M segments/s |",
+        "| scene | triangles | segments | blocked | scene upload s | M segments/s | kernel M \
+         segments/s | x one thread |",
     );
     assert!(report.body.contains(&adapter), "{}", report.body);
     // The CPU alone: no GPU table.

@@ -141,6 +141,9 @@ pub struct SceneTracer {
     /// Errors wgpu reports outside a scope (a lost device), kept instead of
     /// panicking.
     uncaptured: Arc<Mutex<Option<String>>>,
+    /// The device's own time tracing the last call's segments (seconds),
+    /// where it has timestamps.
+    traced: Mutex<Option<f64>>,
 }
 
 /// A scene's triangles and their BVH on the device, in the kernels'
@@ -335,7 +338,20 @@ impl SceneTracer {
             triangle_count: scene.count,
             scene,
             uncaptured,
+            traced: Mutex::new(None),
         })
+    }
+
+    /// The device's own time, by its timestamps, that the kernel took
+    /// over the last [`SceneTracer::occluded`]'s segments (the upload and
+    /// the readback left out), seconds; `None` where the device has no
+    /// timestamps.
+    #[must_use]
+    pub fn traced_seconds(&self) -> Option<f64> {
+        *self
+            .traced
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// How many triangles the surfaces were cut into.
@@ -361,14 +377,22 @@ impl SceneTracer {
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size) as usize;
         let per_upload = (binding / size_of::<GpuSegment>()).clamp(1, 16 * DISPATCH_SEGMENTS);
+        let mut traced = Some(0.0);
         for chunk in segments.chunks(per_upload) {
-            blocked.extend(self.occluded_chunk(chunk)?);
+            let (answers, seconds) = self.occluded_chunk(chunk)?;
+            blocked.extend(answers);
+            traced = traced.zip(seconds).map(|(a, b)| a + b);
         }
+        *self
+            .traced
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = traced;
         Ok(blocked)
     }
 
-    /// [`SceneTracer::occluded`] for segments that fit one upload.
-    fn occluded_chunk(&self, segments: &[Segment]) -> Result<Vec<bool>, GpuError> {
+    /// [`SceneTracer::occluded`] for segments that fit one upload, and the
+    /// kernel's time by the device's timestamps where it has them.
+    fn occluded_chunk(&self, segments: &[Segment]) -> Result<(Vec<bool>, Option<f64>), GpuError> {
         let gpu = &self.gpu;
         let gpu_segments: Vec<GpuSegment> = segments
             .iter()
@@ -396,19 +420,41 @@ impl SceneTracer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        // Two timestamps, before the first dispatch and after the last,
+        // read back after the answers.
+        let timed = gpu
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY);
+        let stamps = timed.then(|| {
+            (
+                gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("occluded timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                }),
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("occluded timestamps"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+            )
+        });
         let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("blocked readback"),
-            size: bytes,
+            size: bytes + 16,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let dispatches = segments.len().div_ceil(DISPATCH_SEGMENTS);
         let layout = self.pipeline.get_bind_group_layout(0);
         let mut encoder = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("occluded"),
             });
-        for first in (0..segments.len()).step_by(DISPATCH_SEGMENTS) {
+        for (k, first) in (0..segments.len()).step_by(DISPATCH_SEGMENTS).enumerate() {
             let count = DISPATCH_SEGMENTS.min(segments.len() - first);
             let dispatch = GpuDispatch {
                 first: first as u32,
@@ -435,22 +481,43 @@ impl SceneTracer {
             });
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("occluded"),
-                timestamp_writes: None,
+                timestamp_writes: stamps.as_ref().map(|(set, _)| {
+                    wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: (k == 0).then_some(0),
+                        end_of_pass_write_index: (k + 1 == dispatches).then_some(1),
+                    }
+                }),
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups((count as u32).div_ceil(WORKGROUP), 1, 1);
         }
         encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, bytes);
+        let mut read = bytes;
+        if let Some((set, resolve)) = &stamps {
+            encoder.resolve_query_set(set, 0..2, resolve, 0);
+            encoder.copy_buffer_to_buffer(resolve, 0, &readback, bytes, 16);
+            read += 16;
+        }
         gpu.queue.submit([encoder.finish()]);
         let out_of_memory = pollster::block_on(memory.pop());
         let invalid = pollster::block_on(scope.pop());
         if let Some(e) = out_of_memory.or(invalid) {
             return Err(gpu.failed(e));
         }
-        let bytes = read_back(gpu, &readback, bytes, &self.uncaptured)?;
-        let words: &[u32] = bytemuck::cast_slice(&bytes);
-        Ok(words.iter().map(|&w| w != 0).collect())
+        let data = read_back(gpu, &readback, read, &self.uncaptured)?;
+        let words: &[u32] = bytemuck::cast_slice(&data[..bytes as usize]);
+        let seconds = stamps.map(|_| {
+            let tick = |k: usize| {
+                let at = bytes as usize + 8 * k;
+                u64::from_le_bytes(data[at..at + 8].try_into().unwrap_or_default())
+            };
+            tick(1).saturating_sub(tick(0)) as f64
+                * f64::from(gpu.queue.get_timestamp_period())
+                * 1e-9
+        });
+        Ok((words.iter().map(|&w| w != 0).collect(), seconds))
     }
 }
 

@@ -30,6 +30,9 @@ pub struct GpuRun {
     /// Wall seconds of each repetition (upload of the segments, kernel,
     /// readback).
     pub seconds: Vec<f64>,
+    /// The kernel's own seconds in each repetition, by the device's
+    /// timestamps (empty where it has none).
+    pub kernel_seconds: Vec<f64>,
     /// Segments the GPU answered otherwise than the CPU's BVH.
     pub differ: usize,
     /// Of those, the ones that do not graze a surface (the CPU's own answer
@@ -45,6 +48,14 @@ impl GpuRun {
     #[must_use]
     pub fn segments_per_second(&self) -> f64 {
         self.segments as f64 / median(&mut self.seconds.clone()).max(1e-12)
+    }
+
+    /// Median segments a second of the kernel alone, where the device
+    /// timed it.
+    #[must_use]
+    pub fn kernel_segments_per_second(&self) -> Option<f64> {
+        (!self.kernel_seconds.is_empty())
+            .then(|| self.segments as f64 / median(&mut self.kernel_seconds.clone()).max(1e-12))
     }
 }
 
@@ -78,11 +89,13 @@ pub fn measure(
         .map(|s| bvh.occluded(s.from, s.to, s.skip))
         .collect();
     let mut seconds = Vec::new();
+    let mut kernel_seconds = Vec::new();
     let mut answers = Vec::new();
     for _ in 0..repetitions.max(1) {
         let start = Instant::now();
         answers = tracer.occluded(&queries).map_err(failed)?;
         seconds.push(start.elapsed().as_secs_f64());
+        kernel_seconds.extend(tracer.traced_seconds());
     }
     let differing: Vec<&trace::Segment> = queries
         .iter()
@@ -101,6 +114,7 @@ pub fn measure(
         upload_seconds,
         segments: segments.len(),
         seconds,
+        kernel_seconds,
         differ: differing.len(),
         differ_not_grazing,
         blocked: expected.iter().filter(|&&b| b).count(),
