@@ -24,8 +24,6 @@ GPU_LIMIT="${GPU_LIMIT:-90}"
 REPEAT="${REPEAT:-3}"
 BIN=target/release/radiosity
 log() { echo "== $*" | tee -a "$OUT/bench.log"; }
-TIMEV=""
-[ -x /usr/bin/time ] && TIMEV="/usr/bin/time -v"
 
 # shellcheck source=tools/gpu-env.sh
 . "$(dirname "$0")/gpu-env.sh"

@@ -3,6 +3,10 @@
 # with which a short GPU solve runs, and `run NAME DEVICE LIMIT SCENE
 # [ARGS...]`, one render with its --stats, summary and the GPU's memory
 # sampled while it goes. Expects OUT, BIN and log() set.
+# Each run's peak memory and times from GNU time, where there is one.
+TIMEV=""
+[ -x /usr/bin/time ] && TIMEV="/usr/bin/time -v"
+
 # Vulkan's loader from Debian's package, unpacked over /.
 for f in .gl/*.deb; do [ -e "$f" ] && dpkg -x "$f" /; done
 ldconfig

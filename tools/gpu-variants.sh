@@ -21,7 +21,10 @@ SPONZA=sponza_dabrovic/sponza_dabrovic.obj
 CONFERENCE=conference/conference.obj
 idle=$(nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits 2>/dev/null | head -1)
 echo "${idle:-0}" >"$OUT/idle.gpumem"
-FAST="--final-gather off"
+# The fixed-shot variants on the base mesh (no coarse pass, whose share
+# of --time-limit could cut it differently) and without the final pass:
+# the same mesh and the same shots, the kernels alone compared.
+FAST="--final-gather off --refine-levels 0"
 RADIOSITY_GPU_FRONTIER=1 run sponza-f1-s"$SHOTS" gpu 120 "$SPONZA" --max-shots "$SHOTS" $FAST
 run sponza-f32-s"$SHOTS" gpu 120 "$SPONZA" --max-shots "$SHOTS" $FAST
 run sponza-default gpu 90 "$SPONZA"
