@@ -481,13 +481,16 @@ impl SceneTracer {
             });
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("occluded"),
-                timestamp_writes: stamps.as_ref().map(|(set, _)| {
-                    wgpu::ComputePassTimestampWrites {
+                // A pass between the first and the last writes none (a
+                // pass's writes name at least one timestamp).
+                timestamp_writes: stamps
+                    .as_ref()
+                    .filter(|_| k == 0 || k + 1 == dispatches)
+                    .map(|(set, _)| wgpu::ComputePassTimestampWrites {
                         query_set: set,
                         beginning_of_pass_write_index: (k == 0).then_some(0),
                         end_of_pass_write_index: (k + 1 == dispatches).then_some(1),
-                    }
-                }),
+                    }),
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &group, &[]);

@@ -19,7 +19,7 @@ use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
 use radiosity::scene::Surface;
 use radiosity_gpu::trace::{
-    GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment, grazes,
+    DISPATCH_SEGMENTS, GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment, grazes,
 };
 use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
 use rng::Rng;
@@ -276,4 +276,40 @@ fn shared_edges_and_corners_block() {
     assert!(tracer.occluded(&[]).unwrap().is_empty());
     let empty = SceneTracer::new(&gpu, &[]).unwrap();
     assert_eq!(empty.occluded(&cases[..2]).unwrap(), [false, false]);
+}
+
+/// More segments than one dispatch traces (several passes, the device's
+/// timestamps around the first and the last): every one answered as the
+/// CPU's BVH answers it but for a few grazing ones, and the kernel's time
+/// read where the device has timestamps.
+#[test]
+fn more_segments_than_a_dispatch_are_all_answered() {
+    let Some(gpu) = gpu() else { return };
+    let scene = radiosity::scene::load("room").unwrap();
+    let surfaces = &scene.surfaces;
+    let tracer = SceneTracer::new(&gpu, surfaces).unwrap();
+    let segments = segments(surfaces, 2 * DISPATCH_SEGMENTS + 1_000);
+    let answers = tracer.occluded(&segments).unwrap();
+    assert_eq!(answers.len(), segments.len());
+    let bvh = radiosity::accel::bvh::Bvh::new(surfaces);
+    let (lo, hi) = scene.bounds();
+    let scale = (hi - lo).max_element();
+    let differ: Vec<&Segment> = segments
+        .iter()
+        .zip(&answers)
+        .filter(|(s, a)| **a != bvh.occluded(s.from, s.to, s.skip))
+        .map(|(s, _)| s)
+        .collect();
+    assert!(
+        differ.len() * 1000 <= segments.len(),
+        "{} differ",
+        differ.len()
+    );
+    assert!(differ.iter().all(|s| grazes(&bvh, s, 1e-6 * scale)));
+    let timed = gpu
+        .device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    assert_eq!(tracer.traced_seconds().is_some(), timed);
+    assert!(tracer.traced_seconds().is_none_or(|t| t > 0.0));
 }
