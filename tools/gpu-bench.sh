@@ -18,20 +18,12 @@
 # the first took under 30 s), SKIP_RAYS=1, SKIP_CPU=1.
 set -u
 OUT="${OUT:-./gpu-bench-out}"
-mkdir -p "$OUT"
 CPU_LIMIT="${1:-60}"
 GPU_LIMIT="${GPU_LIMIT:-90}"
 REPEAT="${REPEAT:-3}"
-BIN=target/release/radiosity
-log() { echo "== $*" | tee -a "$OUT/bench.log"; }
-
 # shellcheck source=tools/gpu-env.sh
 . "$(dirname "$0")/gpu-env.sh"
 
-SPONZA=sponza_dabrovic/sponza_dabrovic.obj
-CONFERENCE=conference/conference.obj
-idle=$(nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits 2>/dev/null | head -1)
-echo "${idle:-0}" >"$OUT/idle.gpumem"
 run sponza-gpu-1 gpu "$GPU_LIMIT" "$SPONZA"
 run conference-gpu-1 gpu "$GPU_LIMIT" "$CONFERENCE"
 if [ "${SKIP_CPU:-0}" != 1 ]; then

@@ -2,7 +2,13 @@
 # machine: Vulkan's loader unpacked from Debian's package, the first ICD
 # with which a short GPU solve runs, and `run NAME DEVICE LIMIT SCENE
 # [ARGS...]`, one render with its --stats, summary and the GPU's memory
-# sampled while it goes. Expects OUT, BIN and log() set.
+# sampled while it goes; SPONZA and CONFERENCE, the scenes under .scenes;
+# the GPU's memory in use before any run (idle.gpumem). Expects OUT set.
+mkdir -p "$OUT"
+BIN=target/release/radiosity
+log() { echo "== $*" | tee -a "$OUT/bench.log"; }
+SPONZA=sponza_dabrovic/sponza_dabrovic.obj
+CONFERENCE=conference/conference.obj
 # Each run's peak memory and times from GNU time, where there is one.
 TIMEV=""
 [ -x /usr/bin/time ] && TIMEV="/usr/bin/time -v"
@@ -44,6 +50,9 @@ if [ -z "$found" ]; then
   exit 1
 fi
 grep '"device"' /tmp/probe.json | tee -a "$OUT/bench.log"
+
+idle=$(nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits 2>/dev/null | head -1)
+echo "${idle:-0}" >"$OUT/idle.gpumem"
 
 # GPU memory in use, sampled every 50 ms while a run goes.
 sample_start() {

@@ -10,17 +10,10 @@
 # Usage: tools/gpu-variants.sh [SHOTS]   (default 400: the fixed-shot runs)
 set -u
 OUT="${OUT:-./gpu-variants-out}"
-mkdir -p "$OUT"
 SHOTS="${1:-400}"
-BIN=target/release/radiosity
-log() { echo "== $*" | tee -a "$OUT/bench.log"; }
 # shellcheck source=tools/gpu-env.sh
 . "$(dirname "$0")/gpu-env.sh"
 
-SPONZA=sponza_dabrovic/sponza_dabrovic.obj
-CONFERENCE=conference/conference.obj
-idle=$(nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits 2>/dev/null | head -1)
-echo "${idle:-0}" >"$OUT/idle.gpumem"
 # The fixed-shot variants on the base mesh (no coarse pass, whose share
 # of --time-limit could cut it differently) and without the final pass:
 # the same mesh and the same shots, the kernels alone compared.

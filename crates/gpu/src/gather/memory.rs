@@ -75,11 +75,7 @@ impl DeviceMemory {
             ("direct irradiance", bytes(receivers, 16)),
             (
                 "split walks",
-                super::transfers::split_bytes(
-                    receivers,
-                    super::DISPATCH_RECEIVERS,
-                    super::FRONTIER,
-                ),
+                super::kernels::split_bytes(receivers, super::DISPATCH_RECEIVERS, super::FRONTIER),
             ),
             ("unshot radiosity", bytes(elements, 16)),
             ("element book", bytes(elements, size_of::<GpuElementBook>())),

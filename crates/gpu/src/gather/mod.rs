@@ -35,6 +35,7 @@ use radiosity::solver::device::{AdaptiveSolve, AdaptiveTransfers, Backend, Devic
 use radiosity::solver::hierarchy::Tree;
 
 mod buffers;
+mod kernels;
 mod memory;
 mod scene;
 mod transfers;
@@ -43,9 +44,9 @@ pub use self::buffers::{
     GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPane, GpuPartial, GpuReceiver,
     GpuShot, GpuSurface, GpuTreeNode,
 };
+pub(crate) use self::kernels::Pipelines;
 pub use self::memory::DeviceMemory;
 use self::transfers::GpuTransfers;
-pub(crate) use self::transfers::Pipelines;
 use crate::Gpu;
 
 /// Receivers one dispatch (and one submission) gathers for: small enough

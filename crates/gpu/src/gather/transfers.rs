@@ -10,17 +10,17 @@
 //! counts; the state comes back only when asked ([`AdaptiveTransfers::state`]).
 
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use glam::DVec3;
 use radiosity::solver::device::{
-    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, StageTimes,
+    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError,
 };
 use radiosity::solver::hierarchy::NONE;
 use radiosity::solver::method::Received;
-use wgpu::util::DeviceExt;
 
 use super::buffers::{GpuBin, GpuBook, GpuNodeSource, GpuPartial, GpuShot};
+use super::kernels::{Growing, Pipelines, Timer, dvec3, split_bytes, state_buffer, uniform, vec4};
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
@@ -32,170 +32,6 @@ const BOOK_WORKGROUP: u32 = 256;
 
 /// Counters the walks sum (`counters` in `gather.wgsl`).
 const COUNTERS: usize = 8;
-
-/// A buffer that grows to hold what a shot uploads.
-struct Growing {
-    label: &'static str,
-    buffer: wgpu::Buffer,
-    capacity: u64,
-}
-
-impl Growing {
-    fn new(gpu: &Gpu, label: &'static str) -> Growing {
-        Growing {
-            label,
-            buffer: Growing::make(gpu, label, 256),
-            capacity: 256,
-        }
-    }
-
-    fn make(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
-        gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        })
-    }
-
-    /// Writes `bytes` at the start, growing the buffer first if need be.
-    fn write(&mut self, gpu: &Gpu, bytes: &[u8]) {
-        let size = (bytes.len() as u64).max(16).next_multiple_of(4);
-        if size > self.capacity {
-            self.capacity = size.next_power_of_two();
-            self.buffer = Growing::make(gpu, self.label, self.capacity);
-        }
-        gpu.queue.write_buffer(&self.buffer, 0, bytes);
-    }
-}
-
-/// The kernels, one pipeline an entry point of one module.
-pub(crate) struct Pipelines {
-    gather: wgpu::ComputePipeline,
-    size_items: wgpu::ComputePipeline,
-    gather_items: wgpu::ComputePipeline,
-    join_items: wgpu::ComputePipeline,
-    collect: wgpu::ComputePipeline,
-    leave_shooter: wgpu::ComputePipeline,
-    receive: wgpu::ComputePipeline,
-    accumulate: wgpu::ComputePipeline,
-    shooter_powers: wgpu::ComputePipeline,
-}
-
-impl Pipelines {
-    /// The kernels on `gpu`: compiled for its first solve, and kept for
-    /// the next (the solve that goes on from a coarse pass).
-    fn on(gpu: &Gpu) -> Arc<Pipelines> {
-        let mut kept = gpu
-            .pipelines
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        kept.get_or_insert_with(|| Arc::new(Pipelines::new(gpu)))
-            .clone()
-    }
-
-    fn new(gpu: &Gpu) -> Pipelines {
-        let source = [
-            include_str!("../trace.wgsl"),
-            include_str!("gather.wgsl"),
-            include_str!("book.wgsl"),
-        ]
-        .concat();
-        let module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("gather.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-        let pipeline = |entry: &str| {
-            gpu.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    cache: None,
-                })
-        };
-        Pipelines {
-            gather: pipeline("gather"),
-            size_items: pipeline("size_items"),
-            gather_items: pipeline("gather_items"),
-            join_items: pipeline("join_items"),
-            collect: pipeline("collect"),
-            leave_shooter: pipeline("leave_shooter"),
-            receive: pipeline("receive"),
-            accumulate: pipeline("accumulate"),
-            shooter_powers: pipeline("shooter_powers"),
-        }
-    }
-}
-
-/// The device's timestamps around each pass of a shot.
-struct Timer {
-    set: wgpu::QuerySet,
-    /// Where they are resolved, to be copied into the readback.
-    resolve: wgpu::Buffer,
-    /// Nanoseconds a tick.
-    period: f64,
-}
-
-impl Timer {
-    /// Timestamps around the passes of a shot whose walk takes `chunks`
-    /// dispatches, on `gpu`: `None` where the device has none, or a shot
-    /// would take more than a query set holds.
-    fn on(gpu: &Gpu, chunks: u32) -> Option<Timer> {
-        let count = 2 * (4 * chunks + 4);
-        if !gpu
-            .device
-            .features()
-            .contains(wgpu::Features::TIMESTAMP_QUERY)
-            || count > wgpu::QUERY_SET_MAX_QUERIES
-        {
-            return None;
-        }
-        Some(Timer {
-            set: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("shot timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count,
-            }),
-            resolve: gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("shot timestamps"),
-                size: 8 * u64::from(count),
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
-            period: f64::from(gpu.queue.get_timestamp_period()),
-        })
-    }
-
-    /// The stages' time from the timestamps read back (`bytes`), a begin
-    /// and an end a pass: `chunks` chunks' walk, items' size, items and
-    /// join, then the book-keeping's four.
-    fn stages(&self, bytes: &[u8], chunks: u32) -> StageTimes {
-        let tick = |k: usize| {
-            bytes
-                .get(8 * k..8 * k + 8)
-                .map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
-        };
-        let mut stages = StageTimes::default();
-        for pass in 0..4 * chunks + 4 {
-            let k = 2 * pass as usize;
-            let ticks = tick(k + 1).saturating_sub(tick(k));
-            let time = Duration::from_nanos((ticks as f64 * self.period) as u64);
-            let slot = match (pass < 4 * chunks, pass % 4) {
-                (false, _) => &mut stages.book,
-                (true, 0) => &mut stages.walk,
-                (true, 3) => &mut stages.join,
-                (true, _) => &mut stages.items,
-            };
-            *slot += time;
-        }
-        stages
-    }
-}
 
 /// A solve on the GPU.
 pub(super) struct GpuTransfers {
@@ -247,46 +83,6 @@ pub(super) struct GpuTransfers {
     bins: Growing,
     readback: wgpu::Buffer,
     uncaptured: Arc<Mutex<Option<String>>>,
-}
-
-/// Bytes of the split walks of one chunk of `dispatch_receivers` (of
-/// `receivers`): a header a receiver and at most `frontier` items each.
-pub(super) fn split_bytes(receivers: usize, dispatch_receivers: usize, frontier: u32) -> u64 {
-    let chunk = receivers.min(dispatch_receivers).max(1) as u64;
-    16 * chunk * (1 + u64::from(frontier))
-}
-
-/// A buffer the kernels read and write, and copies go in and out of.
-fn state_buffer(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
-    gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: bytes.max(16),
-        usage: wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_SRC
-            | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
-}
-
-/// A uniform buffer holding `value`.
-fn uniform<T: bytemuck::Pod>(gpu: &Gpu, label: &str, value: &T) -> wgpu::Buffer {
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::bytes_of(value),
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
-}
-
-/// `v` as the device keeps it.
-fn vec4(v: DVec3) -> [f32; 4] {
-    let v = v.as_vec3();
-    [v.x, v.y, v.z, 0.0]
-}
-
-/// A device `vec4` read back.
-fn dvec3(v: &[f32]) -> DVec3 {
-    DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
 }
 
 impl GpuTransfers {
