@@ -135,7 +135,15 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "Shot",
             GpuShot,
             [
-                root, first, count, negligible, origin, mean, origin_lo, frontier
+                root,
+                first,
+                count,
+                negligible,
+                origin,
+                mean,
+                origin_lo,
+                frontier,
+                item_groups
             ]
         ),
         layout!("ElementBook", GpuElementBook, [corners, rho, area]),
@@ -370,4 +378,32 @@ fn a_split_walk_sends_what_one_thread_sends() {
         chunked.iter().zip(&default).all(|(a, b)| a == b),
         "the split walk in dispatches of 100 receivers differs"
     );
+    // Every item walked when there are more than a dispatch's threads:
+    // one workgroup of 64 threads, each taking items 64 apart.
+    let narrow = solve(GpuBackend::new(open()).with_item_workgroups(1));
+    assert!(
+        narrow.iter().zip(&default).all(|(a, b)| a == b),
+        "the items in one workgroup differ"
+    );
+}
+
+/// A dispatch takes the whole scene where the adapter binds its split
+/// walks and within the workgroups a dispatch may have: as many as the
+/// binding holds at WebGPU's default limits, as many as the workgroups
+/// allow where the binding is larger.
+#[test]
+fn a_dispatch_takes_what_the_adapter_allows() {
+    use radiosity_gpu::gather::{MAX_WORKGROUPS, dispatch_receivers};
+    let limits = wgpu::Limits::default();
+    let per_receiver = 16 * (1 + 32);
+    assert_eq!(
+        dispatch_receivers(&limits, 32),
+        limits.max_storage_buffer_binding_size as usize / per_receiver
+    );
+    let large = wgpu::Limits {
+        max_storage_buffer_binding_size: u64::from(u32::MAX),
+        max_buffer_size: u64::MAX,
+        ..limits
+    };
+    assert_eq!(dispatch_receivers(&large, 32), MAX_WORKGROUPS as usize * 64);
 }

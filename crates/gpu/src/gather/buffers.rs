@@ -179,6 +179,10 @@ pub struct GpuShot {
     pub origin_lo: [f32; 3],
     /// Nodes a receiver's walk leaves to other threads at most (1: none).
     pub frontier: u32,
+    /// Workgroups the split walks' items are dispatched in at most.
+    pub item_groups: u32,
+    /// Padding to the uniform's 16-byte size.
+    pub _pad: [u32; 3],
 }
 
 /// An element's book-keeping data (WGSL `ElementBook`).

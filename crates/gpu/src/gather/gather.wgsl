@@ -119,6 +119,8 @@ struct Shot {
     // A receiver's walk is split into at most this many items once its
     // frontier holds this many nodes (`gather_items`); 1: never split.
     frontier: u32,
+    // The items' workgroups at most (`size_items`).
+    item_groups: u32,
 }
 
 // What the shot's walks counted, summed (integers: the same in any order).
@@ -796,29 +798,38 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     atomicAdd(&counters[ELEMENTS], element_sources);
 }
 
-// The workgroups of `gather_items`: as many as the chunk's items need.
+// The workgroups of `gather_items`: as many as the chunk's items need, at
+// most `shot.item_groups` (never more than a dispatch may have).
 @compute @workgroup_size(1)
 fn size_items() {
-    item_dispatch[0] = (atomicLoad(&counters[ITEMS]) + 63u) / 64u;
+    item_dispatch[0] = min((atomicLoad(&counters[ITEMS]) + 63u) / 64u, shot.item_groups);
     item_dispatch[1] = 1u;
     item_dispatch[2] = 1u;
 }
 
-// One item of a split walk: its subtree, depth first.
+// The items of split walks, each subtree walked depth first: a thread
+// takes items a dispatch's width apart until none is left, so any number
+// of workgroups walks them all.
 @compute @workgroup_size(64)
-fn gather_items(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= atomicLoad(&counters[ITEMS])) {
+fn gather_items(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let count = atomicLoad(&counters[ITEMS]);
+    if (id.x >= count) {
         return;
     }
-    let k = shot.count + id.x;
-    let item = split[k];
-    let i = item.y;
     pairs = 0u;
     rays = 0u;
     visits = 0u;
     element_sources = 0u;
-    let sum = walk_from(item.x, receivers[i], negligible_for(i));
-    split[k] = vec4<u32>(bitcast<vec3<u32>>(sum), 0u);
+    for (var t = id.x; t < count; t += groups.x * 64u) {
+        let k = shot.count + t;
+        let item = split[k];
+        let i = item.y;
+        let sum = walk_from(item.x, receivers[i], negligible_for(i));
+        split[k] = vec4<u32>(bitcast<vec3<u32>>(sum), 0u);
+    }
     atomicAdd(&counters[PAIRS], pairs);
     atomicAdd(&counters[RAYS], rays);
     atomicAdd(&counters[VISITS], visits);

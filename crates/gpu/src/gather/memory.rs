@@ -25,12 +25,15 @@ impl DeviceMemory {
     /// with their irradiance, a shot's and the readback, and a shot's
     /// sources (at most the whole tree, one bin a node; the shooters'
     /// powers and the staging of a shooter's elements at most one an
-    /// element).
+    /// element), and the split walks of a dispatch of `dispatch_receivers`
+    /// receivers, each split into at most `frontier` items.
     #[must_use]
     pub fn of(
         scene: &radiosity::scene::Scene,
         mesh: &radiosity::mesh::Mesh,
         receivers: usize,
+        dispatch_receivers: usize,
+        frontier: u32,
     ) -> DeviceMemory {
         let triangles: usize = scene
             .surfaces
@@ -75,7 +78,7 @@ impl DeviceMemory {
             ("direct irradiance", bytes(receivers, 16)),
             (
                 "split walks",
-                super::kernels::split_bytes(receivers, super::DISPATCH_RECEIVERS, super::FRONTIER),
+                super::kernels::split_bytes(receivers, dispatch_receivers, frontier),
             ),
             ("unshot radiosity", bytes(elements, 16)),
             ("element book", bytes(elements, size_of::<GpuElementBook>())),

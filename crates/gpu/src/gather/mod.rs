@@ -49,10 +49,9 @@ pub use self::memory::DeviceMemory;
 use self::transfers::GpuTransfers;
 use crate::Gpu;
 
-/// Receivers one dispatch (and one submission) gathers for: small enough
-/// that no dispatch runs long enough to trip a driver's watchdog on a
-/// large shooter, and the shot can be abandoned between them.
-pub const DISPATCH_RECEIVERS: usize = 1 << 15;
+/// The most workgroups a dispatch may have along one dimension: the
+/// least every adapter allows (WebGPU's default limit, Vulkan's minimum).
+pub const MAX_WORKGROUPS: u32 = 65_535;
 
 /// Nodes a receiver's walk may leave to other threads: once the nodes it
 /// has still to visit, breadth first, are this many, each is an item of
@@ -81,8 +80,11 @@ pub struct GpuBackend {
     gpu: Arc<Gpu>,
     /// The most device memory a solve may take (`--max-gpu-memory`).
     max_memory: Option<u64>,
-    /// Receivers a dispatch of the walk takes at most.
-    dispatch_receivers: usize,
+    /// Receivers a dispatch of the walk takes at most; `None`: as many as
+    /// the adapter binds ([`dispatch_receivers`]).
+    dispatch_receivers: Option<usize>,
+    /// Workgroups the split walks' items are dispatched in at most.
+    item_workgroups: u32,
     /// Nodes a receiver's walk may leave to other threads.
     frontier: u32,
 }
@@ -94,17 +96,33 @@ impl GpuBackend {
         GpuBackend {
             gpu: Arc::new(gpu),
             max_memory: None,
-            dispatch_receivers: DISPATCH_RECEIVERS,
+            dispatch_receivers: None,
+            item_workgroups: MAX_WORKGROUPS,
             frontier: FRONTIER,
         }
     }
 
     /// The same, its walk dispatched `receivers` receivers at a time (at
-    /// least one; [`DISPATCH_RECEIVERS`] by default): how the work is cut
-    /// never changes the answer.
+    /// least one, at most what [`dispatch_receivers`] allows, which is the
+    /// default): how the work is cut never changes the answer. Each
+    /// dispatch is a submission of its own, between which a shot can be
+    /// abandoned; fewer receivers a dispatch keep each one short on a slow
+    /// device, at the price of a shot's time on a fast one (a dispatch
+    /// lasts as long as its longest walk, and a small one leaves most of a
+    /// large GPU idle).
     #[must_use]
     pub fn with_dispatch_receivers(mut self, receivers: usize) -> GpuBackend {
-        self.dispatch_receivers = receivers.max(1);
+        self.dispatch_receivers = Some(receivers.max(1));
+        self
+    }
+
+    /// The same, the split walks' items dispatched in at most `workgroups`
+    /// workgroups (1 to [`MAX_WORKGROUPS`], the default), each thread
+    /// walking items a dispatch's width apart until none is left: the
+    /// same answer to the last bit, in any number of workgroups.
+    #[must_use]
+    pub fn with_item_workgroups(mut self, workgroups: u32) -> GpuBackend {
+        self.item_workgroups = workgroups.clamp(1, MAX_WORKGROUPS);
         self
     }
 
@@ -144,8 +162,9 @@ impl Backend for GpuBackend {
         mesh: &radiosity::mesh::Mesh,
         receivers: usize,
     ) -> Result<u64, DeviceError> {
-        let memory = DeviceMemory::of(scene, mesh, receivers);
         let limits = self.gpu.device.limits();
+        let chunk = self.chunk(&limits, receivers);
+        let memory = DeviceMemory::of(scene, mesh, receivers, chunk, self.frontier);
         let largest = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
@@ -186,13 +205,48 @@ impl Backend for GpuBackend {
         &self,
         solve: &AdaptiveSolve<'_>,
     ) -> Result<Box<dyn AdaptiveTransfers>, DeviceError> {
+        let chunk = self.chunk(&self.gpu.device.limits(), solve.order.len());
         Ok(Box::new(GpuTransfers::new(
             self.gpu.clone(),
             solve,
-            self.dispatch_receivers,
+            chunk,
             self.frontier,
+            self.item_workgroups,
         )?))
     }
+}
+
+impl GpuBackend {
+    /// Receivers a dispatch of the walk takes, of `receivers`: as many as
+    /// the adapter allows, or fewer if asked.
+    fn chunk(&self, limits: &wgpu::Limits, receivers: usize) -> usize {
+        let most = dispatch_receivers(limits, self.frontier);
+        self.dispatch_receivers
+            .map_or(most, |asked| asked.min(most))
+            .min(receivers)
+            .max(1)
+    }
+}
+
+/// The most receivers one dispatch of the walk may take on an adapter
+/// with `limits`, a receiver's walk split into at most `frontier` items:
+/// its split walks (a header and `frontier` items a receiver) in one
+/// binding, its workgroups within [`MAX_WORKGROUPS`].
+///
+/// The whole scene in one dispatch where that fits: a shot's walks then
+/// overlap, and a large GPU is kept busy. Cut into dispatches of 32,768
+/// receivers, Sponza's shots took 2.5 times as long on an H200 as in one
+/// (`docs/experiments/gpu.md`).
+#[must_use]
+pub fn dispatch_receivers(limits: &wgpu::Limits, frontier: u32) -> usize {
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let by_binding = binding / kernels::split_bytes(1, 1, frontier);
+    let by_workgroups = u64::from(MAX_WORKGROUPS) * u64::from(WORKGROUP);
+    usize::try_from(by_binding.min(by_workgroups))
+        .unwrap_or(usize::MAX)
+        .max(1)
 }
 
 /// The depth of a tree (a lone root is 1).

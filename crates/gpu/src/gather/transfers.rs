@@ -50,6 +50,8 @@ pub(super) struct GpuTransfers {
     dispatch_receivers: usize,
     /// Nodes a receiver's walk may leave to other threads (`Shot::frontier`).
     frontier: u32,
+    /// Workgroups the items are dispatched in at most (`Shot::item_groups`).
+    item_workgroups: u32,
     pipelines: Arc<Pipelines>,
     /// The scene's triangles and BVH (shared with other solves).
     scene: Arc<DeviceScene>,
@@ -91,6 +93,7 @@ impl GpuTransfers {
         solve: &AdaptiveSolve<'_>,
         dispatch_receivers: usize,
         frontier: u32,
+        item_workgroups: u32,
     ) -> Result<GpuTransfers, DeviceError> {
         let limits = gpu.device.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
@@ -150,6 +153,7 @@ impl GpuTransfers {
             shooters: s as u32,
             dispatch_receivers,
             frontier,
+            item_workgroups,
             timer,
             pipelines,
             scene: device_scene,
@@ -373,11 +377,7 @@ impl GpuTransfers {
         let mut encoder = self.encoder("shot");
         encoder.clear_buffer(&self.counters, 0, None);
         let mut groups = Vec::new();
-        let mut item_groups = Vec::new();
-        let size = self.bind(
-            &self.pipelines.size_items,
-            &[entry(14, &self.counters), entry(25, &self.item_dispatch)],
-        );
+        let mut item_binds = Vec::new();
         for start in (0..count).step_by(self.dispatch_receivers) {
             let n = self.dispatch_receivers.min(count - start);
             let uniform = uniform(
@@ -392,6 +392,8 @@ impl GpuTransfers {
                     mean: shot.mean_radiosity as f32,
                     origin_lo,
                     frontier: self.frontier,
+                    item_groups: self.item_workgroups,
+                    _pad: [0; 3],
                 },
             );
             // What the walks and the split walks' items both read.
@@ -415,6 +417,14 @@ impl GpuTransfers {
                 &[&walk_entries[..], &[entry(12, &self.shot_irradiance)]].concat(),
             );
             let items = self.bind(&self.pipelines.gather_items, &walk_entries);
+            let size = self.bind(
+                &self.pipelines.size_items,
+                &[
+                    entry(13, &uniform),
+                    entry(14, &self.counters),
+                    entry(25, &self.item_dispatch),
+                ],
+            );
             let join = self.bind(
                 &self.pipelines.join_items,
                 &[
@@ -428,7 +438,7 @@ impl GpuTransfers {
                 (group, (n as u32).div_ceil(WORKGROUP)),
                 (join, (n as u32).div_ceil(WORKGROUP)),
             ]);
-            item_groups.push(items);
+            item_binds.push([items, size]);
         }
         let leave = self.bind(
             &self.pipelines.leave_shooter,
@@ -501,13 +511,13 @@ impl GpuTransfers {
             {
                 let mut p = pass(&mut chunk, "size items", base + 1);
                 p.set_pipeline(&self.pipelines.size_items);
-                p.set_bind_group(0, &size, &[]);
+                p.set_bind_group(0, &item_binds[k][1], &[]);
                 p.dispatch_workgroups(1, 1, 1);
             }
             {
                 let mut p = pass(&mut chunk, "items", base + 2);
                 p.set_pipeline(&self.pipelines.gather_items);
-                p.set_bind_group(0, &item_groups[k], &[]);
+                p.set_bind_group(0, &item_binds[k][0], &[]);
                 p.dispatch_workgroups_indirect(&self.item_dispatch, 0);
             }
             {
