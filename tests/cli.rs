@@ -419,6 +419,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "replayed_shots",
             "scene",
             "settings",
+            "shadow_cache_hits",
             "shots",
             "sky_portals",
             "solve_seconds",

@@ -47,10 +47,12 @@
 //! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each piece's
 //! centroid, each piece with its own exact factor.
 
+use std::cell::Cell;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::accel::{self, Occluder};
+use crate::accel::{self, Occluder, ShadowCache};
 use crate::export::lightmap::texels::Locator;
 use crate::form_factor;
 use crate::geometry;
@@ -404,14 +406,17 @@ impl<'a> FinalPass<'a> {
         receivers
             .par_iter()
             .enumerate()
-            .map(|(i, r)| {
-                let sample = points.and_then(|p| p[i].sample);
-                let seed = points.map_or(i as u64, |p| p[i].seed);
-                self.emitters
-                    .iter()
-                    .map(|e| self.emitter_light(e, r, sample, seed))
-                    .sum()
-            })
+            .map_init(
+                || Cell::new(ShadowCache::default()),
+                |cache, (i, r)| {
+                    let sample = points.and_then(|p| p[i].sample);
+                    let seed = points.map_or(i as u64, |p| p[i].seed);
+                    self.emitters
+                        .iter()
+                        .map(|e| self.emitter_light(e, r, sample, seed, cache))
+                        .sum()
+                },
+            )
             .collect()
     }
 
@@ -421,6 +426,7 @@ impl<'a> FinalPass<'a> {
         r: &Receiver,
         sample: Option<(u32, u32)>,
         seed: u64,
+        cache: &Cell<ShadowCache>,
     ) -> DVec3 {
         if r.group == e.group || e.normal.dot(r.point) - e.offset <= 0.0 {
             return DVec3::ZERO;
@@ -446,7 +452,12 @@ impl<'a> FinalPass<'a> {
                 }
             };
             let (a, b) = accel::shorten(c, r.point);
-            if self.occluder.occluded(a, b, [e.group, r.group]) {
+            let mut shadow = cache.get();
+            let blocked = self
+                .occluder
+                .occluded_cached(a, b, [e.group, r.group], &mut shadow);
+            cache.set(shadow);
+            if blocked {
                 DVec3::ZERO
             } else if self.scene.panes.is_empty() {
                 DVec3::ONE

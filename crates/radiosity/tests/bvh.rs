@@ -5,15 +5,15 @@
 //! scene are checked with every other accelerator's in `tests/accel.rs`.
 
 use glam::DVec3;
-use radiosity::accel::Occluder;
 use radiosity::accel::bvh::{Bvh, BvhSettings, MAX_DEPTH, SplitMethod};
+use radiosity::accel::{Occluder, ShadowCache};
 use radiosity::scene::bounds_of;
 
 mod common;
 
 use common::soup::{
-    Rng, builtin, bvh_settings, geometric_stack, one_triangle, parallel_squares, random_point,
-    varied_soup,
+    Rng, builtin, bvh_settings, geometric_stack, numbered, one_triangle, parallel_squares,
+    random_point, random_skip, surface, varied_soup,
 };
 
 const NOTHING_SKIPPED: [u32; 2] = [u32::MAX; 2];
@@ -66,6 +66,71 @@ fn a_segment_between_parallel_planes_tests_a_leaf_or_two() {
     );
     assert!(!blocked);
     assert!(tested <= 2 * bvh.stats().max_leaf_size as u32, "{tested}");
+}
+
+/// The shadow cache changes no answer: runs of segments from one point to
+/// points near one another (as a receiver's rays to a shooter's samples),
+/// each run with its own surfaces skipped, answered through one cache
+/// carried across all of them, equal [`Occluder::occluded`]'s answers,
+/// on the built-in scenes and a soup of polygons that share planes and
+/// edges. The cache answers many of them, and a blocker the next run
+/// skips is not taken from it.
+#[test]
+fn a_shadow_cache_answers_as_the_walk_does() {
+    let mut rng = Rng(0x5eed_cac8e);
+    let scenes = [
+        builtin("room").surfaces,
+        builtin("cornell").surfaces,
+        varied_soup(7, 300),
+    ];
+    for surfaces in scenes {
+        let bvh = Bvh::new(&surfaces);
+        let (lo, hi) = radiosity::scene::bounds_of(&surfaces);
+        let mut cache = ShadowCache::default();
+        let (mut blocked, mut total) = (0u64, 0u64);
+        for _ in 0..400 {
+            let from = random_point(&mut rng, &surfaces, lo, hi);
+            let towards = random_point(&mut rng, &surfaces, lo, hi);
+            let skip = random_skip(&mut rng, surfaces.len());
+            let spread = 0.02 * (hi - lo).length();
+            for _ in 0..16 {
+                let to = towards
+                    + (rng.point_in(lo, hi) - 0.5 * (lo + hi)) * spread / (hi - lo).length();
+                let walk = bvh.occluded(from, to, skip);
+                assert_eq!(
+                    bvh.occluded_cached(from, to, skip, &mut cache),
+                    walk,
+                    "{from} -> {to}, skipping {skip:?}"
+                );
+                blocked += u64::from(walk);
+                total += 1;
+            }
+        }
+        println!(
+            "{total} segments, {blocked} blocked, {} by the cache",
+            cache.hits
+        );
+        assert!(blocked > 0 && cache.hits > 0 && cache.hits <= blocked);
+    }
+    // A segment blocked by one square only, then the same segment with
+    // the square skipped: the cached square must not answer for it.
+    let square = |z: f64| {
+        surface(vec![
+            DVec3::new(-1.0, -1.0, z),
+            DVec3::new(1.0, -1.0, z),
+            DVec3::new(1.0, 1.0, z),
+            DVec3::new(-1.0, 1.0, z),
+        ])
+        .unwrap()
+    };
+    let surfaces = numbered(&[square(0.0), square(5.0)]);
+    let bvh = Bvh::new(&surfaces);
+    let mut cache = ShadowCache::default();
+    let (from, to) = (DVec3::new(0.5, 0.5, -1.0), DVec3::new(0.5, 0.5, 1.0));
+    assert!(bvh.occluded_cached(from, to, NOTHING_SKIPPED, &mut cache));
+    assert!(!bvh.occluded_cached(from, to, [surfaces[0].group, u32::MAX], &mut cache));
+    assert!(bvh.occluded_cached(from, to, [surfaces[1].group, u32::MAX], &mut cache));
+    assert_eq!(cache.hits, 1);
 }
 
 /// A geometric series of planes, which a surface-area split cuts into a

@@ -7,15 +7,17 @@
 //! sample is checked against brute force and timed on the BVH and, when
 //! given, Embree, interleaved, as the paper preset's are.
 
-use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
 use radiosity::accel::bvh::Bvh;
+use radiosity::accel::{Occluder, ShadowCache};
 use radiosity::mesh::Mesh;
 use radiosity::scene::Scene;
 use radiosity::solver::Settings;
 
 use super::embree::EmbreeRun;
-use super::{Rays, Timing, brute_budget, record_with, sample, segment_budget, time_queries};
+use super::{
+    Clock, Rays, Segment, Timing, brute_budget, record_with, sample, segment_budget, time_queries,
+};
 use crate::{Context, Error, Report, table};
 
 /// The default method's shots whose segments are recorded (1-based): the
@@ -41,6 +43,11 @@ pub struct Own {
     pub brute_checked: usize,
     /// The BVH's timings.
     pub bvh: Timing,
+    /// The BVH's through a shadow cache carried from segment to segment
+    /// in the order the solve cast them.
+    pub bvh_cached: Timing,
+    /// Segments the shadow cache answered.
+    pub cache_hits: u64,
     /// Mean surfaces tested and child boxes tested per ray by the BVH.
     pub per_ray: [f64; 2],
     /// Embree's, when a Python with `embreex` was given.
@@ -106,6 +113,9 @@ pub fn measure(context: &Context, name: &str, scene: &Scene, mesh: &Mesh) -> Res
             if (round + i) % 2 == 0 {
                 let seconds = time_queries(&bvh, &segments);
                 own.bvh.ns_per_ray.push(1e9 * seconds / n as f64);
+                let (seconds, hits) = time_cached_queries(&bvh, &segments);
+                own.bvh_cached.ns_per_ray.push(1e9 * seconds / n as f64);
+                own.cache_hits = hits;
             } else if let Some(run) = &embree {
                 own.embree_agreement = Some(run.time_into(&mut embree_timing)?);
             }
@@ -117,6 +127,24 @@ pub fn measure(context: &Context, name: &str, scene: &Scene, mesh: &Mesh) -> Res
     Ok(own)
 }
 
+/// [`time_queries`] through one [`ShadowCache`] carried from segment to
+/// segment, as a solver's thread carries it.
+fn time_cached_queries(occluder: &dyn Occluder, segments: &[Segment]) -> (f64, u64) {
+    let clock = Clock::start();
+    let mut count = 0usize;
+    let mut cache = ShadowCache::default();
+    for s in segments {
+        count += usize::from(occluder.occluded_cached(
+            std::hint::black_box(s.from),
+            s.to,
+            s.skip,
+            &mut cache,
+        ));
+    }
+    std::hint::black_box(count);
+    (clock.seconds(), cache.hits)
+}
+
 /// The report's table of the default method's segments.
 pub fn report(data: &Rays, report: &mut Report) {
     let rows: Vec<Vec<String>> = data
@@ -126,6 +154,7 @@ pub fn report(data: &Rays, report: &mut Report) {
             let own = &measured.own;
             let bvh = own.bvh.per_ray();
             let embree = own.embree.as_ref().map(Timing::per_ray);
+            let cached = own.bvh_cached.per_ray();
             vec![
                 measured.name.to_string(),
                 own.recorded.to_string(),
@@ -138,8 +167,14 @@ pub fn report(data: &Rays, report: &mut Report) {
                 format!("{:.1}", own.per_ray[0]),
                 format!("{:.1}", own.per_ray[1]),
                 format!("{bvh:.0}"),
+                format!("{cached:.0}"),
+                format!(
+                    "{:.1}%",
+                    100.0 * own.cache_hits as f64 / own.timed.max(1) as f64
+                ),
                 embree.map_or("-".into(), |e| format!("{e:.0}")),
                 embree.map_or("-".into(), |e| format!("{:.2}", e / bvh)),
+                embree.map_or("-".into(), |e| format!("{:.2}", e / cached)),
                 own.embree_agreement
                     .map_or("-".into(), |a| format!("{:.2}%", 100.0 * a)),
             ]
@@ -150,7 +185,10 @@ pub fn report(data: &Rays, report: &mut Report) {
         "The default method's own segments (adaptive shooting on the base mesh, shots \
          {recorded:?}: a shooter's node samples and elements to each receiver), sampled and \
          checked the same way, timed on the BVH and Embree only (interleaved; medians). Tests \
-         and boxes: per ray, surfaces given the exact test and child boxes tested."
+         and boxes: per ray, surfaces given the exact test and child boxes tested. Cached: the \
+         BVH through a shadow cache (the last two blockers tested first), carried from segment \
+         to segment in the order the solve cast them, as its threads carry it; cache hits: the \
+         segments it answered; embree/cached: Embree's time over that."
     ));
     report.body.push_str(&table(
         &[
@@ -162,8 +200,11 @@ pub fn report(data: &Rays, report: &mut Report) {
             "tests/ray",
             "boxes/ray",
             "bvh ns",
+            "bvh, cached ns",
+            "cache hits",
             "embree ns",
             "embree/bvh",
+            "embree/cached",
             "embree agrees",
         ],
         &rows,

@@ -94,6 +94,32 @@ pub struct Hit {
     pub t: f64,
 }
 
+/// The last blockers of one caller's shadow segments, for
+/// [`Occluder::occluded_cached`]: segments cast one after another from
+/// nearby points to nearby points (a receiver's rays to a shooter's
+/// samples) are mostly blocked by the same surface or its neighbour. One
+/// a thread; how it is used never changes an answer. Two blockers: on
+/// Sponza's first 60 shots one answered 25.8% of the rays and two 31.7%,
+/// four 36.8% but no faster (each costs an exact test on every ray it
+/// does not answer).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShadowCache {
+    /// The accelerator's handles of the last two blockers, the latest
+    /// first; `u32::MAX` for none.
+    pub(crate) last: [u32; 2],
+    /// Segments answered by the cached blocker.
+    pub hits: u64,
+}
+
+impl Default for ShadowCache {
+    fn default() -> ShadowCache {
+        ShadowCache {
+            last: [u32::MAX; 2],
+            hits: 0,
+        }
+    }
+}
+
 /// A visibility query structure over a scene's surfaces: shadow segments
 /// and closest hits.
 pub trait Occluder: Sync {
@@ -103,6 +129,24 @@ pub trait Occluder: Sync {
     /// cannot hide its own points from a point in front of it, and skipping
     /// them makes the test immune to round-off at both ends.
     fn occluded(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> bool;
+
+    /// [`Occluder::occluded`] with a shadow cache (Haines & Greenberg
+    /// 1986, "The light buffer"): the surfaces that blocked the caller's
+    /// last blocked segments are tested first, and where one blocks this
+    /// one too the walk is spared. The answer is [`Occluder::occluded`]'s to
+    /// the bit: a surface that blocks is a blocker whichever way it is
+    /// found. Without a cache of its own an accelerator answers as
+    /// [`Occluder::occluded`] does.
+    fn occluded_cached(
+        &self,
+        from: DVec3,
+        to: DVec3,
+        skip: [u32; 2],
+        cache: &mut ShadowCache,
+    ) -> bool {
+        let _ = cache;
+        self.occluded(from, to, skip)
+    }
 
     /// The nearest surface whose [`Surface::group`] is neither `skip[0]`
     /// nor `skip[1]` crossed by the ray `origin + t direction`, `0 < t <

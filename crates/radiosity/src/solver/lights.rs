@@ -34,7 +34,7 @@ use super::Stats;
 use super::device::{DeviceError, Segment, Segments};
 use super::method::ShotInputs;
 use super::sky::SkyPlan;
-use crate::accel;
+use crate::accel::{self, ShadowCache};
 use crate::scene::{Light, LightKind, Scene, glass};
 
 /// Receivers gathered between two checks of the shot's abort.
@@ -121,7 +121,9 @@ fn answer(
         Some(device) => device.occluded(segments)?,
         None => segments
             .par_iter()
-            .map(|s| inputs.occluder.occluded(s.from, s.to, s.skip))
+            .map_init(ShadowCache::default, |cache, s| {
+                inputs.occluder.occluded_cached(s.from, s.to, s.skip, cache)
+            })
             .collect(),
     };
     let panes = &inputs.scene.panes;

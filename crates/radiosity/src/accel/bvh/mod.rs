@@ -9,7 +9,9 @@
 //! hierarchies"), then collapsed into an eight-wide tree (Dammertz et al.
 //! 2008; Wald et al. 2008) whose eight child boxes are tested at once. A
 //! shadow segment walks it depth first, nearer children first, and stops at
-//! the first blocker (an any-hit query). A closest-hit ray walks it the
+//! the first blocker (an any-hit query); through a shadow cache (Haines &
+//! Greenberg 1986) the last two blockers a thread met are tested first,
+//! and one that blocks spares the walk. A closest-hit ray walks it the
 //! same way but to the end, skipping every box entered beyond the nearest
 //! crossing found so far (the ray shrinks as hits are found).
 //!
@@ -73,7 +75,9 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::{AcceptanceRegion, Hit, InvalidTree, Nearest, Occluder, PreparedSurfaces, ray_end};
+use super::{
+    AcceptanceRegion, Hit, InvalidTree, Nearest, Occluder, PreparedSurfaces, ShadowCache, ray_end,
+};
 use crate::scene::Surface;
 
 mod build;
@@ -306,27 +310,40 @@ impl<'a> Bvh<'a> {
     /// child boxes of the eight-wide tree were tested (for benchmarks).
     #[must_use]
     pub fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
+        let (blocker, tested, visited) = self.blocker(from, to, skip);
+        (blocker.is_some(), tested, visited)
+    }
+
+    /// The surface (its position in leaf order) at which the any-hit walk
+    /// found the segment blocked, if any, with the surfaces and child
+    /// boxes tested.
+    fn blocker(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (Option<u32>, u32, u32) {
         let magnitude = from.abs().max_element().max(to.abs().max_element());
         let mut tested = 0u32;
+        let mut found = None;
         // `position` is in leaf order; the skip rule is on surface ids.
         let mut blocks = |position: u32| {
             if self.prepared.skips(position, skip) {
                 return false;
             }
             tested += 1;
-            self.prepared.crosses(position, from, to)
+            let blocked = self.prepared.crosses(position, from, to);
+            if blocked {
+                found = Some(position);
+            }
+            blocked
         };
         // NaN or huge coordinates: the f32 walk could not be trusted.
         let reference = magnitude.max(self.scale);
         let representable = from.is_finite() && to.is_finite() && reference < F32_SAFE_COORDINATE;
         if !representable {
-            let blocked = (0..self.surfaces.len() as u32).any(&mut blocks);
-            return (blocked, tested, 0);
+            (0..self.surfaces.len() as u32).any(&mut blocks);
+            return (found, tested, 0);
         }
         let query = SegmentQuery::new(from, to, QUERY_MARGIN * reference);
         let leaf = |first, count| (first..first + count).any(&mut blocks);
-        let (blocked, visited) = wide_any_hit(&self.wide, &query, leaf);
-        (blocked, tested, visited)
+        let (_, visited) = wide_any_hit(&self.wide, &query, leaf);
+        (found, tested, visited)
     }
 
     /// Like [`Occluder::closest_hit`], also returning how many surfaces
@@ -484,6 +501,35 @@ impl Occluder for Bvh<'_> {
 
     fn occluded_counting(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (bool, u32, u32) {
         Bvh::occluded_counting(self, from, to, skip)
+    }
+
+    /// The cached blocker given the exact test first: if it blocks, the
+    /// walk would have found a blocker too (every box is conservative, so
+    /// the walk finds a blocker whenever one exists).
+    fn occluded_cached(
+        &self,
+        from: DVec3,
+        to: DVec3,
+        skip: [u32; 2],
+        cache: &mut ShadowCache,
+    ) -> bool {
+        for k in 0..cache.last.len() {
+            let last = cache.last[k];
+            if (last as usize) < self.surfaces.len()
+                && !self.prepared.skips(last, skip)
+                && self.prepared.crosses(last, from, to)
+            {
+                cache.hits += 1;
+                cache.last[..=k].rotate_right(1);
+                return true;
+            }
+        }
+        let (blocker, _, _) = self.blocker(from, to, skip);
+        if let Some(position) = blocker {
+            cache.last.rotate_right(1);
+            cache.last[0] = position;
+        }
+        blocker.is_some()
     }
 
     fn closest_hit(

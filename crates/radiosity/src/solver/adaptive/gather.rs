@@ -38,6 +38,7 @@ impl Counters {
             ("receiver_walks", Counter::Count(self.walks)),
             ("walk_node_visits", Counter::Count(self.node_visits)),
             ("element_sources", Counter::Count(self.element_sources)),
+            ("shadow_cache_hits", Counter::Count(self.cost.shadow.hits)),
         ]
     }
 }

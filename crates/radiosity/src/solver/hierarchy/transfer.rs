@@ -14,7 +14,7 @@ use glam::DVec3;
 
 use super::sources::{Bin, MAX_BINS, NodeSource, Sources, point_factor};
 use super::{Hierarchy, NONE, Node, Tree};
-use crate::accel::{self, Occluder};
+use crate::accel::{self, Occluder, ShadowCache};
 use crate::form_factor::{FormFactor, Source};
 use crate::geometry;
 use crate::luminance;
@@ -65,6 +65,9 @@ pub(crate) struct Cost {
     pub(crate) ray_time: Duration,
     /// Thread time in node geometries.
     pub(crate) form_factor_time: Duration,
+    /// The task's last blocker, tested first by its next shadow ray, and
+    /// how many rays it answered.
+    pub(crate) shadow: ShadowCache,
 }
 
 impl std::ops::AddAssign for Cost {
@@ -74,6 +77,7 @@ impl std::ops::AddAssign for Cost {
         self.factors += o.factors;
         self.ray_time += o.ray_time;
         self.form_factor_time += o.form_factor_time;
+        self.shadow.hits += o.shadow.hits;
     }
 }
 
@@ -489,7 +493,9 @@ impl Transfer<'_> {
         let timed = cost.rays.is_multiple_of(TIMING_SAMPLE);
         let t0 = timed.then(Instant::now);
         let (from, to) = accel::shorten(origin, r.point);
-        let blocked = self.occluder.occluded(from, to, [group, r.group]);
+        let blocked = self
+            .occluder
+            .occluded_cached(from, to, [group, r.group], &mut cost.shadow);
         cost.rays += 1;
         if let Some(t0) = t0 {
             cost.ray_time += t0.elapsed() * TIMING_SAMPLE as u32;
