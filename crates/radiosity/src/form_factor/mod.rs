@@ -19,6 +19,7 @@
 //! does not see each other and gives 0.
 
 pub mod analytic;
+pub mod angle;
 pub mod closed_form;
 
 pub use analytic::analytic;

@@ -442,7 +442,7 @@ impl Transfer<'_> {
         );
         if self.form_factor == FormFactor::Analytic {
             // The element's normal is its surface's: not computed again.
-            return crate::form_factor::analytic::analytic_facing(
+            return crate::form_factor::analytic::analytic_facing_fast(
                 r.point,
                 r.normal,
                 polygon,
