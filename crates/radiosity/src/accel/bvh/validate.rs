@@ -1,5 +1,6 @@
-//! The BVH's `validate`: the invariants of the built tree against its
-//! primitives' boxes (see [`super::Bvh::validate`]).
+//! The BVH's `validate`: the invariants of the built tree, and of the
+//! eight-wide tree the queries walk, against its primitives' boxes (see
+//! [`super::Bvh::validate`]).
 
 use super::*;
 
@@ -120,6 +121,92 @@ impl Tree {
             return Err(InvalidTree(format!(
                 "statistics {stats:?}, tree {actual:?}"
             )));
+        }
+        Ok(())
+    }
+}
+
+impl Bvh<'_> {
+    /// The eight-wide tree's part of [`Bvh::validate`]: every wide node
+    /// reached once, every surface in one wide leaf, each child box
+    /// containing everything below it.
+    pub(super) fn validate_wide(&self, boxes: &[Aabb]) -> Result<(), InvalidTree> {
+        let wide = &self.wide;
+        if wide.len() != self.stats.wide_nodes || wide.is_empty() != boxes.is_empty() {
+            return Err(InvalidTree(format!(
+                "{} wide nodes for {} surfaces, statistics say {}",
+                wide.len(),
+                boxes.len(),
+                self.stats.wide_nodes
+            )));
+        }
+        let mut reached = vec![false; wide.len()];
+        let mut seen = vec![false; boxes.len()];
+        let mut todo = if wide.is_empty() {
+            vec![]
+        } else {
+            vec![0usize]
+        };
+        let within = |outer: &WideNode, k: usize, min: [f32; 3], max: [f32; 3]| {
+            let (lower, upper) = outer.child_box(k);
+            (0..3).all(|a| lower[a] <= min[a] && upper[a] >= max[a])
+        };
+        while let Some(i) = todo.pop() {
+            if std::mem::replace(&mut reached[i], true) {
+                return Err(InvalidTree(format!("wide node {i} is reached twice")));
+            }
+            let node = &wide[i];
+            for k in 0..WIDTH {
+                let link = node.link[k];
+                let leaf = node.leaves >> k & 1 == 1;
+                if leaf != (node.count[k] > 0) || (link == EMPTY_SLOT && leaf) {
+                    return Err(InvalidTree(format!(
+                        "wide node {i}: child {k}'s leaf bit disagrees with its count"
+                    )));
+                }
+                if link == EMPTY_SLOT {
+                    continue;
+                }
+                if node.count[k] == 0 {
+                    let c = link as usize;
+                    let Some(child) = wide.get(c) else {
+                        return Err(InvalidTree(format!(
+                            "wide node {i}: child {c} out of range"
+                        )));
+                    };
+                    for j in 0..WIDTH {
+                        let (min, max) = child.child_box(j);
+                        if child.link[j] != EMPTY_SLOT && !within(node, k, min, max) {
+                            return Err(InvalidTree(format!(
+                                "wide node {i}: box {k} does not contain {c}'s"
+                            )));
+                        }
+                    }
+                    todo.push(c);
+                    continue;
+                }
+                let range = link as usize..link as usize + node.count[k] as usize;
+                let Some(primitives) = self.tree.primitives.get(range) else {
+                    return Err(InvalidTree(format!("wide node {i}: leaf {k} out of range")));
+                };
+                for &p in primitives {
+                    if std::mem::replace(&mut seen[p as usize], true) {
+                        return Err(InvalidTree(format!("surface {p} is in two wide leaves")));
+                    }
+                    let n = Node::new(boxes[p as usize], 0, 1);
+                    if !within(node, k, n.min, n.max) {
+                        return Err(InvalidTree(format!(
+                            "wide node {i}: box {k} does not contain surface {p}"
+                        )));
+                    }
+                }
+            }
+        }
+        if let Some(i) = reached.iter().position(|r| !r) {
+            return Err(InvalidTree(format!("wide node {i} is not reached")));
+        }
+        if let Some(p) = seen.iter().position(|s| !s) {
+            return Err(InvalidTree(format!("surface {p} is in no wide leaf")));
         }
         Ok(())
     }
