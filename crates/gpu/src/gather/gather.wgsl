@@ -479,6 +479,27 @@ fn visible_element_factor(e: u32, r: Receiver) -> vec4<f32> {
     return vec4<f32>(through, analytic(poly, r.normal, surfaces[el.surface].normal));
 }
 
+const SIDE_FRONT: u32 = 0u;
+const SIDE_BEHIND: u32 = 1u;
+const SIDE_ACROSS: u32 = 2u;
+
+// Transfer::side: where element `e` lies against the receiver's tangent
+// plane.
+fn element_side(e: u32, r: Receiver) -> u32 {
+    let poly = element_polygon(e, r);
+    var front = false;
+    var behind = false;
+    for (var i = 0u; i < poly.count; i += 1u) {
+        let h = dot(r.normal, poly.p[i]);
+        front = front || h > 0.0;
+        behind = behind || h <= 0.0;
+    }
+    if (front && behind) {
+        return SIDE_ACROSS;
+    }
+    return select(SIDE_BEHIND, SIDE_FRONT, front);
+}
+
 fn node_offset(n: TreeNode, r: Receiver) -> vec3<f32> {
     return minus(n.centre, n.centre_lo, r.point, r.point_lo);
 }
@@ -545,13 +566,31 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
         let node = tree[piece];
         let o = node_offset(node, r);
         let reach = QUADRATURE_RATIO * node.radius;
-        let near = dot(o, o) < reach * reach || straddles(node, r);
+        let close = dot(o, o) < reach * reach;
+        let straddling = straddles(node, r);
         let leaf = node.second == NONE;
-        if (near && !leaf) {
+        if ((close || straddling) && !leaf) {
             pieces[depth] = node.second;
             pieces[depth + 1u] = piece + 1u;
             depth += 2u;
             continue;
+        }
+        // An element far away whose sphere the receiver's tangent plane
+        // cuts: a point source if it lies wholly in front, nothing if
+        // wholly behind, its exact factor only if the plane cuts it
+        // (Transfer::side).
+        var near = close;
+        if (!close && straddling) {
+            // A leaf with power has one bin, its element's.
+            let own = sources[piece - shot.root];
+            if (own.bins == 0u) {
+                continue;
+            }
+            let side = element_side(bins[own.first_bin].representative, r);
+            if (side == SIDE_BEHIND) {
+                continue;
+            }
+            near = side == SIDE_ACROSS;
         }
         let ps = sources[piece - shot.root];
         for (var k = 0u; k < ps.bins; k += 1u) {

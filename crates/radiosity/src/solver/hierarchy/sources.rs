@@ -351,4 +351,59 @@ mod tests {
             );
         }
     }
+
+    /// A far element whose bounding sphere the receiver's tangent plane
+    /// cuts but whose corners all lie in front of it (seen at a grazing
+    /// angle; [`super::transfer::Side::Front`]): its corrected point
+    /// source errs by little against the factor it could send head on.
+    #[test]
+    fn a_grazing_element_wholly_in_front_is_a_point_source() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut random = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (hx, hy) = (1.0, 0.25);
+        let rectangle = [
+            DVec3::new(-hx, -hy, 0.0),
+            DVec3::new(hx, -hy, 0.0),
+            DVec3::new(hx, hy, 0.0),
+            DVec3::new(-hx, hy, 0.0),
+        ];
+        let area = 4.0 * hx * hy;
+        let bin = Bin {
+            power: DVec3::splat(area),
+            weight: area,
+            normal: DVec3::Z * area,
+            position: DVec3::ZERO,
+            moment: hierarchy::second_moment(&rectangle, DVec3::ZERO) * area,
+            representative: 0,
+            axis: 4,
+            point: PointSource::default(),
+        }
+        .finished();
+        let radius = (hx * hx + hy * hy).sqrt();
+        let (mut worst, mut tested) = (0.0f64, 0);
+        while tested < 2000 {
+            let direction =
+                DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
+            let distance = radius * (4.0 + 8.0 * random());
+            let point = direction * distance;
+            let normal =
+                DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5).normalize_or_zero();
+            let heights = rectangle.map(|c| normal.dot(c - point));
+            let centre = normal.dot(-point);
+            if centre.abs() >= radius || heights.iter().any(|&h| h <= 0.0) {
+                continue;
+            }
+            let exact = crate::form_factor::analytic(point, normal, &rectangle);
+            let corrected = area * point_factor(&bin, DVec3::ZERO, point, normal);
+            let head_on = area / (PI * distance * distance);
+            worst = worst.max((corrected - exact).abs() / head_on);
+            tested += 1;
+        }
+        assert!(worst < 3e-3, "errs by {worst} of the head-on factor");
+    }
 }

@@ -305,7 +305,11 @@ impl Transfer<'_> {
     /// by their exact factor): the midpoint rule over a node seen from three
     /// of its radii errs by a few per cent, over pieces seen from four with
     /// the correction of [`point_factor`] by far less, and the extra factors
-    /// cost no rays.
+    /// cost no rays. A piece whose sphere the receiver's tangent plane cuts
+    /// is split down to elements, and each such element is placed by its
+    /// corners ([`Transfer::side`]): wholly in front it is a point source
+    /// like any other far piece, wholly behind it sends nothing, and only
+    /// one the plane cuts takes its exact factor, clipped.
     pub(crate) fn node_geometry(
         &self,
         n: u32,
@@ -326,14 +330,24 @@ impl Transfer<'_> {
         pieces.push(n);
         while let Some(piece) = pieces.pop() {
             let node = self.source_node(piece);
-            let near = r.point.distance_squared(node.centre)
-                < (QUADRATURE_RATIO * node.radius).powi(2)
-                || straddles(node, r);
-            if near && !node.is_leaf() {
+            let close =
+                r.point.distance_squared(node.centre) < (QUADRATURE_RATIO * node.radius).powi(2);
+            let straddling = straddles(node, r);
+            if (close || straddling) && !node.is_leaf() {
                 pieces.push(node.second);
                 pieces.push(piece + 1);
                 continue;
             }
+            // An element far away whose sphere the receiver's tangent plane
+            // cuts: a point source if it lies wholly in front, nothing if
+            // wholly behind, its exact factor only if the plane cuts it.
+            let near = close
+                || (straddling
+                    && match self.side(self.hierarchy.tree.items[node.first as usize], r) {
+                        Side::Behind => continue,
+                        Side::Front => false,
+                        Side::Across => true,
+                    });
             for bin in self.bins_of(piece) {
                 let Some(k) = slot(bin.axis) else { continue };
                 geometry.values[k] += if near {
@@ -351,6 +365,23 @@ impl Transfer<'_> {
             cost.form_factor_time += t0.elapsed() * TIMING_SAMPLE as u32;
         }
         geometry
+    }
+
+    /// Which side of the receiver's tangent plane element `e` lies on.
+    pub(crate) fn side(&self, e: u32, r: &Receiver) -> Side {
+        let (mut front, mut behind) = (false, false);
+        for &v in self.mesh.elements[e as usize].vertices() {
+            let h = r
+                .normal
+                .dot(self.mesh.vertices[v as usize].position - r.point);
+            front |= h > 0.0;
+            behind |= h <= 0.0;
+        }
+        match (front, behind) {
+            (true, true) => Side::Across,
+            (true, false) => Side::Front,
+            _ => Side::Behind,
+        }
     }
 
     /// One element as a source: its polygon's factor (clipped to the
@@ -502,6 +533,17 @@ impl Transfer<'_> {
         }
         !blocked
     }
+}
+
+/// Where an element lies against a receiver's tangent plane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Side {
+    /// Every corner in front of the plane.
+    Front,
+    /// Every corner on or behind it: the element sends nothing.
+    Behind,
+    /// Corners on both sides.
+    Across,
 }
 
 /// The answer every vote gives, `None` when there are none or two differ;
