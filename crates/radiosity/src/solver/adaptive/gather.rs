@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::{ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, PARALLEL_RECEIVERS};
-use crate::solver::hierarchy::sources::point_factor;
+use crate::solver::hierarchy::sources::{MAX_BINS, point_factor};
 use crate::solver::hierarchy::transfer::{Cost, Scratch, Transfer, straddles};
 use crate::solver::hierarchy::{NONE, Node, Tree};
 use crate::solver::{Abort, Counter, Receiver};
@@ -182,26 +182,31 @@ impl Gatherer<'_> {
             } else {
                 // Far: the corrected point sources are accurate; what is
                 // left to judge is occlusion.
-                let estimate: f64 = self
-                    .transfer
-                    .bins_of(n)
-                    .iter()
-                    .map(|b| b.weight * point_factor(b, self.transfer.origin, r.point, r.normal))
-                    .sum();
+                let bins = self.transfer.bins_of(n);
+                let mut factors = [0.0; MAX_BINS];
+                for (f, b) in factors.iter_mut().zip(bins) {
+                    *f = point_factor(b, self.transfer.origin, r.point, r.normal);
+                }
+                let estimate: f64 = bins.iter().zip(&factors).map(|(b, f)| b.weight * f).sum();
+                // The node's geometry: its bins' factors as they are where
+                // the quadrature would take it whole.
+                let whole = self.transfer.whole(n, r);
+                let cost = &mut counters.cost;
+                let geometry = |scratch: &mut Scratch, cost: &mut Cost| {
+                    if whole {
+                        self.transfer.whole_geometry(n, &factors, cost)
+                    } else {
+                        self.transfer.node_geometry(n, r, scratch, cost)
+                    }
+                };
                 if estimate <= FAR_FACTOR * negligible {
-                    sum += self
-                        .transfer
-                        .dim_irradiance(n, r, scratch, &mut counters.cost);
+                    let g = geometry(scratch, cost);
+                    sum += self.transfer.dim_irradiance_of(n, r, &g, cost);
                     continue;
                 }
-                if let Some(passing) = self.transfer.uniform_visibility(n, r, &mut counters.cost) {
+                if let Some(passing) = self.transfer.uniform_visibility(n, r, cost) {
                     if passing != DVec3::ZERO {
-                        sum += self
-                            .transfer
-                            .node_geometry(n, r, scratch, &mut counters.cost)
-                            .iter()
-                            .sum::<DVec3>()
-                            * passing;
+                        sum += geometry(scratch, cost).iter().sum::<DVec3>() * passing;
                     }
                     continue;
                 }

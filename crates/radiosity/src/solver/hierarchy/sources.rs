@@ -78,6 +78,10 @@ pub struct PointSource {
     pub length: f64,
     /// The covariance of the bin's points about its centre.
     pub covariance: DMat3,
+    /// The covariance times the unit mean normal.
+    pub spread: DVec3,
+    /// The covariance's trace.
+    pub trace: f64,
 }
 
 impl Bin {
@@ -88,11 +92,15 @@ impl Bin {
         let centre = self.position / w;
         let mean_normal = self.normal / w;
         let length = mean_normal.length();
+        let covariance = self.moment * (1.0 / w) - outer(centre);
+        let normal = mean_normal / length;
         self.point = PointSource {
             centre,
-            normal: mean_normal / length,
+            normal,
             length,
-            covariance: self.moment * (1.0 / w) - outer(centre),
+            covariance,
+            spread: covariance * normal,
+            trace: covariance.x_axis.x + covariance.y_axis.y + covariance.z_axis.z,
         };
         self
     }
@@ -248,6 +256,8 @@ pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f6
         normal: s,
         length,
         covariance,
+        spread,
+        trace,
     } = bin.point;
     let d = point - origin - centre;
     let q = d.length_squared();
@@ -258,11 +268,14 @@ pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f6
     if a <= 0.0 || b >= 0.0 {
         return 0.0;
     }
-    let c = normal.dot(covariance * s) / (a * b)
-        - 4.0 * d.dot(covariance * (normal * a + s * b)) / (a * b * q)
-        - 2.0 * (covariance.x_axis.x + covariance.y_axis.y + covariance.z_axis.z) / q
-        + 12.0 * d.dot(covariance * d) / (q * q);
-    -length * a * b / (PI * q * q) * (1.0 + c.clamp(-0.5, 0.5))
+    // `C` is symmetric, so every term takes `C d` and the bin's own `C s`
+    // and `tr(C)`: one product of a matrix and a vector, two divisions.
+    let cd = covariance * d;
+    let (inverse_ab, inverse_q) = (1.0 / (a * b), 1.0 / q);
+    let c = (normal.dot(spread) - 4.0 * (a * normal.dot(cd) + b * d.dot(spread)) * inverse_q)
+        * inverse_ab
+        - (2.0 * trace - 12.0 * d.dot(cd) * inverse_q) * inverse_q;
+    -length * a * b * inverse_q * inverse_q * (1.0 + c.clamp(-0.5, 0.5)) / PI
 }
 
 #[cfg(test)]

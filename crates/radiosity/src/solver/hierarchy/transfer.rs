@@ -214,6 +214,17 @@ impl Transfer<'_> {
         cost: &mut Cost,
     ) -> DVec3 {
         let geometry = self.node_geometry(n, r, scratch, cost);
+        self.dim_irradiance_of(n, r, &geometry, cost)
+    }
+
+    /// [`Transfer::dim_irradiance`] with the node's geometry given.
+    pub(crate) fn dim_irradiance_of(
+        &self,
+        n: u32,
+        r: &Receiver,
+        geometry: &Geometry,
+        cost: &mut Cost,
+    ) -> DVec3 {
         let Some((bin, _)) = self
             .bins_of(n)
             .iter()
@@ -296,6 +307,31 @@ impl Transfer<'_> {
             }
         }
         (total > 0.0).then(|| (seen / total, !(any_visible && any_hidden)))
+    }
+
+    /// Whether [`Transfer::node_geometry`] takes node `n` as it is, its
+    /// bins' point sources, at the receiver: at least [`QUADRATURE_RATIO`]
+    /// of its radii away and not cut by the receiver's tangent plane.
+    pub(crate) fn whole(&self, n: u32, r: &Receiver) -> bool {
+        let node = self.source_node(n);
+        r.point.distance_squared(node.centre) >= (QUADRATURE_RATIO * node.radius).powi(2)
+            && !straddles(node, r)
+    }
+
+    /// [`Transfer::node_geometry`] of a node it takes [`Transfer::whole`],
+    /// from its bins' point factors (`factors`, in the bins' order), already
+    /// evaluated.
+    pub(crate) fn whole_geometry(&self, n: u32, factors: &[f64], cost: &mut Cost) -> Geometry {
+        let bins = self.bins_of(n);
+        let mut geometry = Geometry {
+            values: [DVec3::ZERO; MAX_BINS],
+            count: bins.len(),
+        };
+        for ((value, bin), factor) in geometry.values.iter_mut().zip(bins).zip(factors) {
+            *value += bin.power * *factor;
+        }
+        cost.factors += 1;
+        geometry
     }
 
     /// The irradiance each of a node's bins sends to the receiver, ignoring
@@ -456,14 +492,13 @@ impl Transfer<'_> {
         if passing == DVec3::ZERO {
             return (0.0, DVec3::ZERO);
         }
-        (self.element_factor(e, r, &mut scratch.polygon), passing)
+        (self.polygon_factor(e, r, &scratch.polygon), passing)
     }
 
     /// The factor of element `e`'s polygon at the receiver (clipped to its
     /// front by the formula).
     pub(crate) fn element_factor(&self, e: u32, r: &Receiver, polygon: &mut Vec<DVec3>) -> f64 {
         let element = &self.mesh.elements[e as usize];
-        let surface = &self.scene.surfaces[element.surface as usize];
         polygon.clear();
         polygon.extend(
             element
@@ -471,6 +506,13 @@ impl Transfer<'_> {
                 .iter()
                 .map(|&v| self.mesh.vertices[v as usize].position),
         );
+        self.polygon_factor(e, r, polygon)
+    }
+
+    /// [`Transfer::element_factor`], element `e`'s corners given.
+    fn polygon_factor(&self, e: u32, r: &Receiver, polygon: &[DVec3]) -> f64 {
+        let element = &self.mesh.elements[e as usize];
+        let surface = &self.scene.surfaces[element.surface as usize];
         if self.form_factor == FormFactor::Analytic {
             // The element's normal is its surface's: not computed again.
             return crate::form_factor::analytic::analytic_facing_fast(
