@@ -283,6 +283,30 @@ mod tests {
     use super::super as hierarchy;
     use super::*;
 
+    /// A `2 hx` by `2 hy` rectangle in the plane `z = 0` facing `+z`, its
+    /// area, and the bin of its uniform unit power.
+    fn rectangle_bin(hx: f64, hy: f64) -> ([DVec3; 4], f64, Bin) {
+        let rectangle = [
+            DVec3::new(-hx, -hy, 0.0),
+            DVec3::new(hx, -hy, 0.0),
+            DVec3::new(hx, hy, 0.0),
+            DVec3::new(-hx, hy, 0.0),
+        ];
+        let area = 4.0 * hx * hy;
+        let bin = Bin {
+            power: DVec3::splat(area),
+            weight: area,
+            normal: DVec3::Z * area,
+            position: DVec3::ZERO,
+            moment: hierarchy::second_moment(&rectangle, DVec3::ZERO) * area,
+            representative: 0,
+            axis: 4,
+            point: PointSource::default(),
+        }
+        .finished();
+        (rectangle, area, bin)
+    }
+
     /// The corrected point source against the exact factor (the analytic
     /// formula) of a square and of a 4:1 strip, from three to twelve of
     /// their radii, in random directions and receiver orientations (facing
@@ -299,24 +323,7 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         for (hx, hy) in [(0.5, 0.5), (1.0, 0.25)] {
-            let rectangle = [
-                DVec3::new(-hx, -hy, 0.0),
-                DVec3::new(hx, -hy, 0.0),
-                DVec3::new(hx, hy, 0.0),
-                DVec3::new(-hx, hy, 0.0),
-            ];
-            let area = 4.0 * hx * hy;
-            let bin = Bin {
-                power: DVec3::splat(area),
-                weight: area,
-                normal: DVec3::Z * area,
-                position: DVec3::ZERO,
-                moment: hierarchy::second_moment(&rectangle, DVec3::ZERO) * area,
-                representative: 0,
-                axis: 4,
-                point: PointSource::default(),
-            }
-            .finished();
+            let (rectangle, area, bin) = rectangle_bin(hx, hy);
             let radius = (hx * hx + hy * hy).sqrt();
             let (mut worst, mut worst_near, mut worst_plain): (f64, f64, f64) = (0.0, 0.0, 0.0);
             let mut tested = 0;
@@ -379,24 +386,7 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let (hx, hy) = (1.0, 0.25);
-        let rectangle = [
-            DVec3::new(-hx, -hy, 0.0),
-            DVec3::new(hx, -hy, 0.0),
-            DVec3::new(hx, hy, 0.0),
-            DVec3::new(-hx, hy, 0.0),
-        ];
-        let area = 4.0 * hx * hy;
-        let bin = Bin {
-            power: DVec3::splat(area),
-            weight: area,
-            normal: DVec3::Z * area,
-            position: DVec3::ZERO,
-            moment: hierarchy::second_moment(&rectangle, DVec3::ZERO) * area,
-            representative: 0,
-            axis: 4,
-            point: PointSource::default(),
-        }
-        .finished();
+        let (rectangle, area, bin) = rectangle_bin(hx, hy);
         let radius = (hx * hx + hy * hy).sqrt();
         let (mut worst, mut tested) = (0.0f64, 0);
         while tested < 2000 {
