@@ -188,12 +188,12 @@ impl Gatherer<'_> {
                     *f = point_factor(b, self.transfer.origin, r.point, r.normal);
                 }
                 let estimate: f64 = bins.iter().zip(&factors).map(|(b, f)| b.weight * f).sum();
-                // The node's geometry: its bins' factors as they are where
-                // the quadrature would take it whole.
-                let whole = self.transfer.whole(n, r);
+                // The node's geometry, where it is needed: its bins'
+                // factors as they are where the quadrature would take it
+                // whole.
                 let cost = &mut counters.cost;
                 let geometry = |scratch: &mut Scratch, cost: &mut Cost| {
-                    if whole {
+                    if self.transfer.whole(n, r) {
                         self.transfer.whole_geometry(n, &factors, cost)
                     } else {
                         self.transfer.node_geometry(n, r, scratch, cost)

@@ -283,6 +283,16 @@ mod tests {
     use super::super as hierarchy;
     use super::*;
 
+    /// Numbers in `[0, 1)` from a xorshift generator seeded with `seed`.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// A `2 hx` by `2 hy` rectangle in the plane `z = 0` facing `+z`, its
     /// area, and the bin of its uniform unit power.
     fn rectangle_bin(hx: f64, hy: f64) -> ([DVec3; 4], f64, Bin) {
@@ -315,13 +325,7 @@ mod tests {
     /// errs by several per cent.
     #[test]
     fn corrected_point_source_matches_the_exact_factor() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut random = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = uniform(0x9e37_79b9_7f4a_7c15);
         for (hx, hy) in [(0.5, 0.5), (1.0, 0.25)] {
             let (rectangle, area, bin) = rectangle_bin(hx, hy);
             let radius = (hx * hx + hy * hy).sqrt();
@@ -378,13 +382,7 @@ mod tests {
     /// source errs by little against the factor it could send head on.
     #[test]
     fn a_grazing_element_wholly_in_front_is_a_point_source() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut random = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = uniform(0x2545_f491_4f6c_dd1d);
         let (hx, hy) = (1.0, 0.25);
         let (rectangle, area, bin) = rectangle_bin(hx, hy);
         let radius = (hx * hx + hy * hy).sqrt();
