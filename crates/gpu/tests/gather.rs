@@ -76,7 +76,8 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "TreeNode",
             GpuTreeNode,
             [
-                centre, radius, centre_lo, second, group, surface, element, pad0
+                centre, radius, centre_lo, second, group, surface, element, pad0, box_middle, pad1,
+                box_half, pad2
             ]
         ),
         layout!(

@@ -26,6 +26,14 @@ pub struct GpuTreeNode {
     pub element: u32,
     /// Padding.
     pub pad0: u32,
+    /// The middle of its box, less its centre.
+    pub box_middle: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+    /// Half its box's extent along each axis.
+    pub box_half: [f32; 3],
+    /// Padding.
+    pub pad2: u32,
 }
 
 /// A surface's plane (WGSL `Surface`).

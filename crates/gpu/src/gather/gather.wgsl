@@ -28,6 +28,11 @@ struct TreeNode {
     // A leaf's element.
     element: u32,
     pad0: u32,
+    // The middle of its box less its centre, and half the box's extent.
+    box_middle: vec3<f32>,
+    pad1: u32,
+    box_half: vec3<f32>,
+    pad2: u32,
 }
 
 struct Pane {
@@ -485,19 +490,19 @@ const SIDE_ACROSS: u32 = 2u;
 
 // Transfer::side: where element `e` lies against the receiver's tangent
 // plane.
-fn element_side(e: u32, r: Receiver) -> u32 {
+fn element_side(e: u32, r: Receiver, graze: f32) -> u32 {
     let poly = element_polygon(e, r);
-    var front = false;
-    var behind = false;
+    var low = 3.0e38;
+    var high = -3.0e38;
     for (var i = 0u; i < poly.count; i += 1u) {
         let h = dot(r.normal, poly.p[i]);
-        front = front || h > 0.0;
-        behind = behind || h <= 0.0;
+        low = min(low, h);
+        high = max(high, h);
     }
-    if (front && behind) {
-        return SIDE_ACROSS;
+    if (high <= 0.0) {
+        return SIDE_BEHIND;
     }
-    return select(SIDE_BEHIND, SIDE_FRONT, front);
+    return select(SIDE_ACROSS, SIDE_FRONT, low >= -graze);
 }
 
 fn node_offset(n: TreeNode, r: Receiver) -> vec3<f32> {
@@ -521,6 +526,31 @@ fn faces(n: TreeNode, r: Receiver) -> bool {
 
 fn straddles(n: TreeNode, r: Receiver) -> bool {
     return abs(dot(r.normal, node_offset(n, r))) < n.radius;
+}
+
+// hierarchy::transfer::GRAZE.
+const GRAZE: f32 = 0.0625;
+
+// transfer::placement: which side of the receiver's tangent plane a node
+// lies on, by its sphere and its box, in front also when it reaches
+// behind by no more than GRAZE of its radius.
+fn placement(n: TreeNode, r: Receiver) -> u32 {
+    let h = dot(r.normal, node_offset(n, r));
+    if (h >= n.radius) {
+        return SIDE_FRONT;
+    }
+    if (h <= -n.radius) {
+        return SIDE_BEHIND;
+    }
+    let middle = h + dot(r.normal, n.box_middle);
+    let reach = dot(abs(r.normal), n.box_half);
+    if (middle - reach >= -GRAZE * n.radius) {
+        return SIDE_FRONT;
+    }
+    if (middle + reach <= 0.0) {
+        return SIDE_BEHIND;
+    }
+    return SIDE_ACROSS;
 }
 
 // The receiver less the shot's centre.
@@ -567,7 +597,11 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
         let o = node_offset(node, r);
         let reach = QUADRATURE_RATIO * node.radius;
         let close = dot(o, o) < reach * reach;
-        let straddling = straddles(node, r);
+        let side = placement(node, r);
+        if (side == SIDE_BEHIND) {
+            continue;
+        }
+        let straddling = side == SIDE_ACROSS;
         let leaf = node.second == NONE;
         if ((close || straddling) && !leaf) {
             pieces[depth] = node.second;
@@ -575,10 +609,9 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
             depth += 2u;
             continue;
         }
-        // An element far away whose sphere the receiver's tangent plane
-        // cuts: a point source if it lies wholly in front, nothing if
-        // wholly behind, its exact factor only if the plane cuts it
-        // (Transfer::side).
+        // An element far away whose box the receiver's tangent plane cuts:
+        // a point source if its corners lie in front, nothing if behind,
+        // its exact factor only if the plane cuts it (Transfer::side).
         var near = close;
         if (!close && straddling) {
             // A leaf with power has one bin, its element's.
@@ -586,11 +619,11 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
             if (own.bins == 0u) {
                 continue;
             }
-            let side = element_side(bins[own.first_bin].representative, r);
-            if (side == SIDE_BEHIND) {
+            let corners = element_side(bins[own.first_bin].representative, r, GRAZE * node.radius);
+            if (corners == SIDE_BEHIND) {
                 continue;
             }
-            near = side == SIDE_ACROSS;
+            near = corners == SIDE_ACROSS;
         }
         let ps = sources[piece - shot.root];
         for (var k = 0u; k < ps.bins; k += 1u) {
@@ -714,6 +747,9 @@ fn step(n: u32, r: Receiver, offset: vec3<f32>, small: f32) -> vec4<f32> {
         element_sources += 1u;
         let f = visible_element_factor(node.element, r);
         return vec4<f32>(source.unshot * f.w * f.xyz, 0.0);
+    }
+    if (placement(node, r) == SIDE_BEHIND) {
+        return vec4<f32>(0.0);
     }
     let distance = length(node_offset(node, r));
     if (distance < FAR_RATIO * node.radius || straddles(node, r)) {

@@ -55,7 +55,9 @@ impl SceneData {
                     group: n.group,
                     surface: mesh.elements[first as usize].surface,
                     element: if n.is_leaf() { first } else { NONE },
-                    pad0: 0,
+                    box_middle: (0.5 * (n.lo + n.hi) - n.centre).as_vec3().to_array(),
+                    box_half: (0.5 * (n.hi - n.lo)).as_vec3().to_array(),
+                    ..GpuTreeNode::default()
                 }
             })
             .collect();

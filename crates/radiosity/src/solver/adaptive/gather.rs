@@ -14,7 +14,7 @@ use glam::DVec3;
 
 use super::{ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, PARALLEL_RECEIVERS};
 use crate::solver::hierarchy::sources::{MAX_BINS, point_factor};
-use crate::solver::hierarchy::transfer::{Cost, Scratch, Transfer, straddles};
+use crate::solver::hierarchy::transfer::{Cost, Scratch, Side, Transfer, placement, straddles};
 use crate::solver::hierarchy::{NONE, Node, Tree};
 use crate::solver::{Abort, Counter, Receiver};
 
@@ -166,6 +166,11 @@ impl Gatherer<'_> {
                 sum += self
                     .transfer
                     .element_irradiance(e, r, scratch, &mut counters.cost);
+                continue;
+            }
+            // A node whose box lies behind the receiver's plane sends
+            // nothing, whatever its sphere.
+            if placement(node, r) == Side::Behind {
                 continue;
             }
             let distance = node.centre.distance(r.point);

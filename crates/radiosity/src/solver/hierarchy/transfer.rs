@@ -311,11 +311,12 @@ impl Transfer<'_> {
 
     /// Whether [`Transfer::node_geometry`] takes node `n` as it is, its
     /// bins' point sources, at the receiver: at least [`QUADRATURE_RATIO`]
-    /// of its radii away and not cut by the receiver's tangent plane.
+    /// of its radii away and in front of the receiver's tangent plane
+    /// ([`placement`]).
     pub(crate) fn whole(&self, n: u32, r: &Receiver) -> bool {
         let node = self.source_node(n);
         r.point.distance_squared(node.centre) >= (QUADRATURE_RATIO * node.radius).powi(2)
-            && !straddles(node, r)
+            && placement(node, r) == Side::Front
     }
 
     /// [`Transfer::node_geometry`] of a node it takes [`Transfer::whole`],
@@ -341,10 +342,12 @@ impl Transfer<'_> {
     /// by their exact factor): the midpoint rule over a node seen from three
     /// of its radii errs by a few per cent, over pieces seen from four with
     /// the correction of [`point_factor`] by far less, and the extra factors
-    /// cost no rays. A piece whose sphere the receiver's tangent plane cuts
-    /// is split down to elements, and each such element is placed by its
-    /// corners ([`Transfer::side`]): wholly in front it is a point source
-    /// like any other far piece, wholly behind it sends nothing, and only
+    /// cost no rays. A piece is placed against the receiver's tangent plane
+    /// by its sphere and its box ([`placement`]): wholly behind it sends
+    /// nothing, in front (touching the plane, or reaching behind it by no
+    /// more than [`GRAZE`] of its radius) it is a point source like any
+    /// other far piece, and one the plane cuts is split down to elements,
+    /// each placed by its corners ([`Transfer::side`]) the same way: only
     /// one the plane cuts takes its exact factor, clipped.
     pub(crate) fn node_geometry(
         &self,
@@ -368,18 +371,26 @@ impl Transfer<'_> {
             let node = self.source_node(piece);
             let close =
                 r.point.distance_squared(node.centre) < (QUADRATURE_RATIO * node.radius).powi(2);
-            let straddling = straddles(node, r);
+            let straddling = match placement(node, r) {
+                Side::Behind => continue,
+                Side::Front => false,
+                Side::Across => true,
+            };
             if (close || straddling) && !node.is_leaf() {
                 pieces.push(node.second);
                 pieces.push(piece + 1);
                 continue;
             }
-            // An element far away whose sphere the receiver's tangent plane
-            // cuts: a point source if it lies wholly in front, nothing if
-            // wholly behind, its exact factor only if the plane cuts it.
+            // An element far away whose box the receiver's tangent plane
+            // cuts: a point source if its corners lie in front, nothing if
+            // behind, its exact factor only if the plane cuts it.
             let near = close
                 || (straddling
-                    && match self.side(self.hierarchy.tree.items[node.first as usize], r) {
+                    && match self.side(
+                        self.hierarchy.tree.items[node.first as usize],
+                        r,
+                        GRAZE * node.radius,
+                    ) {
                         Side::Behind => continue,
                         Side::Front => false,
                         Side::Across => true,
@@ -403,20 +414,24 @@ impl Transfer<'_> {
         geometry
     }
 
-    /// Which side of the receiver's tangent plane element `e` lies on.
-    pub(crate) fn side(&self, e: u32, r: &Receiver) -> Side {
-        let (mut front, mut behind) = (false, false);
+    /// Which side of the receiver's tangent plane element `e` lies on, by
+    /// its corners: in front also when it reaches behind by no more than
+    /// `graze`.
+    pub(crate) fn side(&self, e: u32, r: &Receiver, graze: f64) -> Side {
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
         for &v in self.mesh.elements[e as usize].vertices() {
             let h = r
                 .normal
                 .dot(self.mesh.vertices[v as usize].position - r.point);
-            front |= h > 0.0;
-            behind |= h <= 0.0;
+            low = low.min(h);
+            high = high.max(h);
         }
-        match (front, behind) {
-            (true, true) => Side::Across,
-            (true, false) => Side::Front,
-            _ => Side::Behind,
+        if high <= 0.0 {
+            Side::Behind
+        } else if low >= -graze {
+            Side::Front
+        } else {
+            Side::Across
         }
     }
 
@@ -619,6 +634,31 @@ pub(crate) fn box_straddles(node: &Node, r: &Receiver) -> bool {
     low < 0.0 && high > 0.0
 }
 
+/// A piece reaching behind the receiver's tangent plane by at most this
+/// share of its radius is taken as lying in front.
+pub const GRAZE: f64 = 1.0 / 16.0;
+
+/// Which side of the receiver's tangent plane a node lies on, judged by
+/// its sphere and its box: [`Side::Front`] also when it reaches behind by
+/// no more than [`GRAZE`] of its radius.
+pub(crate) fn placement(node: &Node, r: &Receiver) -> Side {
+    let h = r.normal.dot(node.centre - r.point);
+    if h >= node.radius {
+        return Side::Front;
+    }
+    if h <= -node.radius {
+        return Side::Behind;
+    }
+    let (low, high) = box_extent(node, r.point, r.normal);
+    if low >= -GRAZE * node.radius {
+        Side::Front
+    } else if high <= 0.0 {
+        Side::Behind
+    } else {
+        Side::Across
+    }
+}
+
 /// True when the receiver's tangent plane cuts the node's bounding sphere:
 /// part of the node may be behind the receiver and part in front, which no
 /// point source (whose centre is on one side) can stand for; such a node is
@@ -626,3 +666,7 @@ pub(crate) fn box_straddles(node: &Node, r: &Receiver) -> bool {
 pub(crate) fn straddles(node: &Node, r: &Receiver) -> bool {
     r.normal.dot(node.centre - r.point).abs() < node.radius
 }
+
+#[cfg(test)]
+#[path = "transfer_tests.rs"]
+mod tests;
