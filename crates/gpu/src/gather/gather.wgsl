@@ -447,6 +447,47 @@ fn analytic(poly: Polygon, normal: vec3<f32>, source_normal: vec3<f32>) -> f32 {
     return clamp(f, 0.0, 1.0);
 }
 
+// Transfer::front_point_factor: the part of element `e` in front of the
+// receiver's tangent plane as a corrected point source of its area,
+// centroid and covariance (PointSource::of_polygon, over its fan of
+// triangles about the first corner).
+fn front_point_factor(e: u32, r: Receiver) -> f32 {
+    let part = clip(element_polygon(e, r), r.normal, 0.0);
+    if (part.count < 3u) {
+        return 0.0;
+    }
+    let normal = surfaces[elements[e].surface].normal;
+    let first = part.p[0];
+    var area = 0.0;
+    var first_moment = vec3<f32>(0.0);
+    var diagonal = vec3<f32>(0.0);
+    var off_diagonal = vec3<f32>(0.0);
+    for (var i = 1u; i + 1u < part.count; i += 1u) {
+        let a = part.p[i] - first;
+        let b = part.p[i + 1u] - first;
+        let t = 0.5 * dot(cross(a, b), normal);
+        let m = a + b;
+        area += t;
+        first_moment += m * (t / 3.0);
+        diagonal += (a * a + b * b + m * m) * (t / 12.0);
+        off_diagonal += (vec3<f32>(a.x * a.y, a.x * a.z, a.y * a.z)
+            + vec3<f32>(b.x * b.y, b.x * b.z, b.y * b.z)
+            + vec3<f32>(m.x * m.y, m.x * m.z, m.y * m.z)) * (t / 12.0);
+    }
+    if (area == 0.0) {
+        return 0.0;
+    }
+    let c = first_moment / area;
+    var source: Bin;
+    source.normal = normal;
+    source.length = 1.0;
+    source.centre = first + c;
+    source.diagonal = diagonal / area - c * c;
+    source.off_diagonal = off_diagonal / area - vec3<f32>(c.x * c.y, c.x * c.z, c.y * c.z);
+    // The polygon is relative to the receiver: the receiver is at 0.
+    return abs(area) * point_factor(source, vec3<f32>(0.0), r.normal);
+}
+
 fn element_factor(e: u32, r: Receiver) -> f32 {
     return analytic(element_polygon(e, r), r.normal, surfaces[elements[e].surface].normal);
 }
@@ -611,8 +652,9 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
         }
         // An element far away whose box the receiver's tangent plane cuts:
         // a point source if its corners lie in front, nothing if behind,
-        // its exact factor only if the plane cuts it (Transfer::side).
-        var near = close;
+        // and if the plane cuts it, the point source of the part in front
+        // (Transfer::side).
+        var across = false;
         if (!close && straddling) {
             // A leaf with power has one bin, its element's.
             let own = sources[piece - shot.root];
@@ -623,7 +665,7 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
             if (corners == SIDE_BEHIND) {
                 continue;
             }
-            near = corners == SIDE_ACROSS;
+            across = corners == SIDE_ACROSS;
         }
         let ps = sources[piece - shot.root];
         for (var k = 0u; k < ps.bins; k += 1u) {
@@ -637,9 +679,11 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
             if (slot == NONE) {
                 continue;
             }
-            if (near) {
+            if (close) {
                 // An element close by: its exact factor.
                 g.e[slot] += element_factor(b.representative, r) * ps.unshot;
+            } else if (across) {
+                g.e[slot] += front_point_factor(b.representative, r) * ps.unshot;
             } else {
                 g.e[slot] += b.power * point_factor(b, offset, r.normal);
             }

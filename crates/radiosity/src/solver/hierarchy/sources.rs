@@ -251,31 +251,74 @@ pub fn outer(v: DVec3) -> DMat3 {
 /// where the expansion fails (a receiver seeing the source almost edge-on,
 /// whose factor is then small anyway).
 pub fn point_factor(bin: &Bin, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
-    let PointSource {
-        centre,
-        normal: s,
-        length,
-        covariance,
-        spread,
-        trace,
-    } = bin.point;
-    let d = point - origin - centre;
-    let q = d.length_squared();
-    if q <= 0.0 || length <= 0.0 {
-        return 0.0;
+    bin.point.factor(origin, point, normal)
+}
+
+impl PointSource {
+    /// A flat convex polygon with normal `normal` (its corners in either
+    /// order) as a point source of uniform power: its centroid, its
+    /// covariance and its area, from one pass over its fan of triangles
+    /// about the first corner (`(1/12) t (a a^T + b b^T + (a + b)(a + b)^T)`
+    /// the second moment of the triangle of area `t` with corners `0, a,
+    /// b`). `None` when it has no area.
+    #[must_use]
+    pub fn of_polygon(polygon: &[DVec3], normal: DVec3) -> Option<(PointSource, f64)> {
+        let first = *polygon.first()?;
+        let (mut area, mut first_moment, mut moment) = (0.0, DVec3::ZERO, DMat3::ZERO);
+        for pair in polygon[1..].windows(2) {
+            let (a, b) = (pair[0] - first, pair[1] - first);
+            let t = 0.5 * a.cross(b).dot(normal);
+            area += t;
+            first_moment += (a + b) * (t / 3.0);
+            moment += (outer(a) + outer(b) + outer(a + b)) * (t / 12.0);
+        }
+        if area == 0.0 || !area.is_finite() {
+            return None;
+        }
+        let centre = first_moment / area;
+        let covariance = moment * (1.0 / area) - outer(centre);
+        Some((
+            PointSource {
+                centre: first + centre,
+                normal,
+                length: 1.0,
+                covariance,
+                spread: covariance * normal,
+                trace: covariance.x_axis.x + covariance.y_axis.y + covariance.z_axis.z,
+            },
+            area.abs(),
+        ))
     }
-    let (a, b) = (s.dot(d), normal.dot(d));
-    if a <= 0.0 || b >= 0.0 {
-        return 0.0;
+
+    /// [`point_factor`] of this source, its centre relative to `origin`.
+    #[must_use]
+    pub fn factor(&self, origin: DVec3, point: DVec3, normal: DVec3) -> f64 {
+        let PointSource {
+            centre,
+            normal: s,
+            length,
+            covariance,
+            spread,
+            trace,
+        } = *self;
+        let d = point - origin - centre;
+        let q = d.length_squared();
+        if q <= 0.0 || length <= 0.0 {
+            return 0.0;
+        }
+        let (a, b) = (s.dot(d), normal.dot(d));
+        if a <= 0.0 || b >= 0.0 {
+            return 0.0;
+        }
+        // `C` is symmetric, so every term takes `C d` and the bin's own `C s`
+        // and `tr(C)`: one product of a matrix and a vector, two divisions.
+        let cd = covariance * d;
+        let (inverse_ab, inverse_q) = (1.0 / (a * b), 1.0 / q);
+        let c = (normal.dot(spread) - 4.0 * (a * normal.dot(cd) + b * d.dot(spread)) * inverse_q)
+            * inverse_ab
+            - (2.0 * trace - 12.0 * d.dot(cd) * inverse_q) * inverse_q;
+        -length * a * b * inverse_q * inverse_q * (1.0 + c.clamp(-0.5, 0.5)) / PI
     }
-    // `C` is symmetric, so every term takes `C d` and the bin's own `C s`
-    // and `tr(C)`: one product of a matrix and a vector, two divisions.
-    let cd = covariance * d;
-    let (inverse_ab, inverse_q) = (1.0 / (a * b), 1.0 / q);
-    let c = (normal.dot(spread) - 4.0 * (a * normal.dot(cd) + b * d.dot(spread)) * inverse_q)
-        * inverse_ab
-        - (2.0 * trace - 12.0 * d.dot(cd) * inverse_q) * inverse_q;
-    -length * a * b * inverse_q * inverse_q * (1.0 + c.clamp(-0.5, 0.5)) / PI
 }
 
 #[cfg(test)]
@@ -430,5 +473,73 @@ mod tests {
             worst_beyond > worst,
             "errs by {worst_beyond} reaching further behind, {worst} within"
         );
+    }
+
+    /// A polygon's own point source ([`PointSource::of_polygon`]) is the
+    /// one its bin makes, whichever way its corners run.
+    #[test]
+    fn a_polygon_is_the_point_source_its_bin_makes() {
+        let (rectangle, area, bin) = rectangle_bin(1.0, 0.25);
+        let shifted = rectangle.map(|c| c + DVec3::new(0.3, -0.2, 0.0));
+        let mut reversed = shifted;
+        reversed.reverse();
+        for corners in [shifted, reversed] {
+            let (source, a) = PointSource::of_polygon(&corners, DVec3::Z).unwrap();
+            assert!((a - area).abs() < 1e-12);
+            assert!((source.centre - DVec3::new(0.3, -0.2, 0.0)).length() < 1e-12);
+            let difference = source.covariance - bin.point.covariance;
+            assert!(difference.to_cols_array().iter().all(|x| x.abs() < 1e-12));
+        }
+        assert!(PointSource::of_polygon(&rectangle[..2], DVec3::Z).is_none());
+    }
+
+    /// A far element that the receiver's tangent plane cuts, deeper than
+    /// [`GRAZE`](super::super::transfer::GRAZE): the part in front as a
+    /// corrected point source ([`PointSource::of_polygon`]) against its
+    /// exact factor, clipped, for a square and a 4:1 strip from four to
+    /// twelve of their radii: within a little of the factor it would have
+    /// head on, where the midpoint rule over that part errs by more.
+    #[test]
+    fn the_part_in_front_of_a_cut_element_is_a_point_source() {
+        let graze = super::super::transfer::GRAZE;
+        let mut random = uniform(0x6a09_e667_f3bc_c909);
+        let mut clipped = Vec::new();
+        for (hx, hy) in [(0.5, 0.5), (1.0, 0.25)] {
+            let (rectangle, area, _) = rectangle_bin(hx, hy);
+            let radius = (hx * hx + hy * hy).sqrt();
+            let (mut worst, mut worst_midpoint, mut tested) = (0.0f64, 0.0f64, 0);
+            while tested < 4000 {
+                let direction =
+                    DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
+                let normal =
+                    DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5).normalize_or_zero();
+                let point = direction * radius * (4.0 + 8.0 * random());
+                let heights = rectangle.map(|c| normal.dot(c - point));
+                let low = heights.iter().copied().fold(f64::INFINITY, f64::min);
+                let high = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                if low >= -graze * radius || high <= 0.0 {
+                    continue;
+                }
+                let exact = crate::form_factor::analytic(point, normal, &rectangle);
+                crate::geometry::clip_to_half_space(&rectangle, point, normal, 0.0, &mut clipped);
+                let (source, part) = PointSource::of_polygon(&clipped, DVec3::Z).unwrap();
+                let corrected = part * source.factor(DVec3::ZERO, point, normal);
+                let d = point - source.centre;
+                let q = d.length_squared();
+                let midpoint = part * d.z * (-normal.dot(d)).max(0.0) / (PI * q * q);
+                let head_on = area / (PI * point.length_squared());
+                worst = worst.max((corrected - exact).abs() / head_on);
+                worst_midpoint = worst_midpoint.max((midpoint - exact).abs() / head_on);
+                tested += 1;
+            }
+            assert!(
+                worst < 2e-3,
+                "{hx} x {hy}: errs by {worst} of the head-on factor"
+            );
+            assert!(
+                worst_midpoint > 5.0 * worst,
+                "{hx} x {hy}: the midpoint rule errs by {worst_midpoint}, {worst} corrected"
+            );
+        }
     }
 }

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
-use super::sources::{Bin, MAX_BINS, NodeSource, Sources, point_factor};
+use super::sources::{Bin, MAX_BINS, NodeSource, PointSource, Sources, point_factor};
 use super::{Hierarchy, NONE, Node, Tree};
 use crate::accel::{self, Occluder, ShadowCache};
 use crate::form_factor::{FormFactor, Source};
@@ -383,24 +383,27 @@ impl Transfer<'_> {
             }
             // An element far away whose box the receiver's tangent plane
             // cuts: a point source if its corners lie in front, nothing if
-            // behind, its exact factor only if the plane cuts it.
-            let near = close
-                || (straddling
-                    && match self.side(
-                        self.hierarchy.tree.items[node.first as usize],
-                        r,
-                        GRAZE * node.radius,
-                    ) {
-                        Side::Behind => continue,
-                        Side::Front => false,
-                        Side::Across => true,
-                    });
+            // behind, and if the plane cuts it, the point source of the
+            // part in front.
+            let across = !close
+                && straddling
+                && match self.side(
+                    self.hierarchy.tree.items[node.first as usize],
+                    r,
+                    GRAZE * node.radius,
+                ) {
+                    Side::Behind => continue,
+                    Side::Front => false,
+                    Side::Across => true,
+                };
             for bin in self.bins_of(piece) {
                 let Some(k) = slot(bin.axis) else { continue };
-                geometry.values[k] += if near {
+                let e = bin.representative;
+                geometry.values[k] += if close {
                     // An element close by: its exact factor.
-                    let e = bin.representative;
                     self.element_factor(e, r, &mut scratch.polygon) * self.unshot[e as usize]
+                } else if across {
+                    self.front_point_factor(e, r, scratch) * self.unshot[e as usize]
                 } else {
                     bin.power * point_factor(bin, self.origin, r.point, r.normal)
                 };
@@ -412,6 +415,29 @@ impl Transfer<'_> {
             cost.form_factor_time += t0.elapsed() * TIMING_SAMPLE as u32;
         }
         geometry
+    }
+
+    /// The factor of the part of element `e` in front of the receiver's
+    /// tangent plane, that part taken as a corrected point source (its
+    /// area, centroid and covariance, [`PointSource::of_polygon`]): for an
+    /// element [`QUADRATURE_RATIO`] or more of its radii away, within
+    /// 0.11% of the factor it would have head on (the test in
+    /// [`super::sources`]), where its exact factor takes an angle an edge.
+    fn front_point_factor(&self, e: u32, r: &Receiver, scratch: &mut Scratch) -> f64 {
+        let element = &self.mesh.elements[e as usize];
+        let polygon = &mut scratch.polygon;
+        polygon.clear();
+        polygon.extend(
+            element
+                .vertices()
+                .iter()
+                .map(|&v| self.mesh.vertices[v as usize].position),
+        );
+        geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
+        let normal = self.scene.surfaces[element.surface as usize].normal;
+        PointSource::of_polygon(&scratch.clipped, normal).map_or(0.0, |(source, area)| {
+            area * source.factor(DVec3::ZERO, r.point, r.normal)
+        })
     }
 
     /// Which side of the receiver's tangent plane element `e` lies on, by
