@@ -347,8 +347,9 @@ impl Transfer<'_> {
     /// nothing, in front (touching the plane, or reaching behind it by no
     /// more than [`GRAZE`] of its radius) it is a point source like any
     /// other far piece, and one the plane cuts is split down to elements,
-    /// each placed by its corners ([`Transfer::side`]) the same way: only
-    /// one the plane cuts takes its exact factor, clipped.
+    /// each placed by its corners ([`Transfer::side`]) the same way: one
+    /// the plane cuts is the point source of its part in front
+    /// ([`Transfer::front_point_factor`]).
     pub(crate) fn node_geometry(
         &self,
         n: u32,
