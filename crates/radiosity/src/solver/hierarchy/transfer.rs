@@ -427,13 +427,7 @@ impl Transfer<'_> {
     fn front_point_factor(&self, e: u32, r: &Receiver, scratch: &mut Scratch) -> f64 {
         let element = &self.mesh.elements[e as usize];
         let polygon = &mut scratch.polygon;
-        polygon.clear();
-        polygon.extend(
-            element
-                .vertices()
-                .iter()
-                .map(|&v| self.mesh.vertices[v as usize].position),
-        );
+        self.corners(e, polygon);
         geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
         let normal = self.scene.surfaces[element.surface as usize].normal;
         PointSource::of_polygon(&scratch.clipped, normal).map_or(0.0, |(source, area)| {
@@ -503,13 +497,7 @@ impl Transfer<'_> {
         let element = &self.mesh.elements[e as usize];
         let surface = &self.scene.surfaces[element.surface as usize];
         let polygon = &mut scratch.polygon;
-        polygon.clear();
-        polygon.extend(
-            element
-                .vertices()
-                .iter()
-                .map(|&v| self.mesh.vertices[v as usize].position),
-        );
+        self.corners(e, polygon);
         let tolerance = 1e-9 * element.area.sqrt().max(1e-300);
         let (mut any_front, mut all_front) = (false, true);
         for c in polygon.iter() {
@@ -540,15 +528,19 @@ impl Transfer<'_> {
     /// The factor of element `e`'s polygon at the receiver (clipped to its
     /// front by the formula).
     pub(crate) fn element_factor(&self, e: u32, r: &Receiver, polygon: &mut Vec<DVec3>) -> f64 {
-        let element = &self.mesh.elements[e as usize];
+        self.corners(e, polygon);
+        self.polygon_factor(e, r, polygon)
+    }
+
+    /// Element `e`'s corners, into `polygon`.
+    fn corners(&self, e: u32, polygon: &mut Vec<DVec3>) {
         polygon.clear();
         polygon.extend(
-            element
+            self.mesh.elements[e as usize]
                 .vertices()
                 .iter()
                 .map(|&v| self.mesh.vertices[v as usize].position),
         );
-        self.polygon_factor(e, r, polygon)
     }
 
     /// [`Transfer::element_factor`], element `e`'s corners given.
