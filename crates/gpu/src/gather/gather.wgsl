@@ -615,18 +615,55 @@ fn representative(n: u32) -> u32 {
     return best;
 }
 
+// The first of source `s`'s bins on `axis`; NONE if none is.
+fn bin_slot(s: NodeSource, axis: u32) -> u32 {
+    for (var j = 0u; j < s.bins; j += 1u) {
+        if (bins[s.first_bin + j].axis == axis) {
+            return j;
+        }
+    }
+    return NONE;
+}
+
 // Irradiance of each of a node's bins, in its bins' order, with no
 // occlusion (Transfer::node_geometry).
 struct Geometry {
     e: array<vec3<f32>, 6>,
 }
 
-fn node_geometry(n: u32, r: Receiver) -> Geometry {
+// hierarchy::transfer::DIM_SHARE.
+const DIM_SHARE: f32 = 0.05;
+
+// Transfer::bound: the most irradiance (luminance) a node of power
+// `weight` can send the receiver, from its box's nearest point at the
+// smallest angles any point of the box makes; 3e38 when the receiver is
+// inside the box.
+fn bound(node: TreeNode, weight: f32, r: Receiver) -> f32 {
+    let middle = node_offset(node, r) + node.box_middle;
+    let clearance = length(max(abs(middle) - node.box_half, vec3<f32>(0.0)));
+    if (clearance <= 0.0) {
+        return 3.0e38;
+    }
+    let high = dot(r.normal, middle) + dot(abs(r.normal), node.box_half);
+    let receiving = clamp(high / clearance, 0.0, 1.0);
+    var sending = 1.0;
+    if (node.group != NONE) {
+        let normal = surfaces[node.surface].normal;
+        let low = dot(normal, middle) - dot(abs(normal), node.box_half);
+        sending = clamp(-low / clearance, 0.0, 1.0);
+    }
+    return weight * receiving * sending / (PI * clearance * clearance);
+}
+
+// `budget`: the error accepted (Transfer::node_geometry), 0 for none.
+fn node_geometry(n: u32, r: Receiver, budget: f32) -> Geometry {
     var g: Geometry;
     let s = sources[n - shot.root];
     for (var k = 0u; k < 6u; k += 1u) {
         g.e[k] = vec3<f32>(0.0);
     }
+    // The error a unit of the node's power may bring.
+    let allowance = budget / s.weight;
     let offset = from_origin(r);
     var pieces: array<u32, WALK_STACK>;
     var depth = 1u;
@@ -644,6 +681,35 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
         }
         let straddling = side == SIDE_ACROSS;
         let leaf = node.second == NONE;
+        // A piece that would be split or taken exactly, and can send so
+        // little that any value up to its bound is within its share of the
+        // budget: its point sources, capped at the bound.
+        if ((close || straddling) && allowance > 0.0) {
+            let ps = sources[piece - shot.root];
+            let most = bound(node, ps.weight, r);
+            if (most <= allowance * ps.weight) {
+                var added: array<vec3<f32>, 6>;
+                var sent = 0.0;
+                for (var k = 0u; k < 6u; k += 1u) {
+                    added[k] = vec3<f32>(0.0);
+                }
+                for (var k = 0u; k < ps.bins; k += 1u) {
+                    let b = bins[ps.first_bin + k];
+                    let slot = bin_slot(s, b.axis);
+                    if (slot == NONE) {
+                        continue;
+                    }
+                    let value = b.power * point_factor(b, offset, r.normal);
+                    sent += luminance(value);
+                    added[slot] += value;
+                }
+                let scale = select(1.0, most / sent, sent > most);
+                for (var k = 0u; k < 6u; k += 1u) {
+                    g.e[k] += added[k] * scale;
+                }
+                continue;
+            }
+        }
         if ((close || straddling) && !leaf) {
             pieces[depth] = node.second;
             pieces[depth + 1u] = piece + 1u;
@@ -670,12 +736,7 @@ fn node_geometry(n: u32, r: Receiver) -> Geometry {
         let ps = sources[piece - shot.root];
         for (var k = 0u; k < ps.bins; k += 1u) {
             let b = bins[ps.first_bin + k];
-            var slot = NONE;
-            for (var j = 0u; j < s.bins; j += 1u) {
-                if (slot == NONE && bins[s.first_bin + j].axis == b.axis) {
-                    slot = j;
-                }
-            }
+            let slot = bin_slot(s, b.axis);
             if (slot == NONE) {
                 continue;
             }
@@ -702,9 +763,10 @@ fn geometry_sum(g: Geometry, count: u32) -> vec3<f32> {
 
 // Transfer::dim_irradiance: the node's geometry behind one shadow ray
 // from the representative of the bin that sends the most.
-fn dim_irradiance(n: u32, r: Receiver) -> vec3<f32> {
+// Its geometry within DIM_SHARE of `small`, the negligible irradiance.
+fn dim_irradiance(n: u32, r: Receiver, small: f32) -> vec3<f32> {
     let s = sources[n - shot.root];
-    let g = node_geometry(n, r);
+    let g = node_geometry(n, r, DIM_SHARE * small);
     var best = NONE;
     var most = 0.0;
     for (var k = 0u; k < s.bins; k += 1u) {
@@ -801,7 +863,7 @@ fn step(n: u32, r: Receiver, offset: vec3<f32>, small: f32) -> vec4<f32> {
         // point of its bounding sphere would be negligible.
         let clearance = distance - node.radius;
         if (clearance > 0.0 && source.weight <= small * PI * clearance * clearance) {
-            return vec4<f32>(dim_irradiance(n, r), 0.0);
+            return vec4<f32>(dim_irradiance(n, r, small), 0.0);
         }
     } else {
         // Far: the corrected point sources are accurate; what is left to
@@ -812,12 +874,12 @@ fn step(n: u32, r: Receiver, offset: vec3<f32>, small: f32) -> vec4<f32> {
             estimate += b.weight * point_factor(b, offset, r.normal);
         }
         if (estimate <= FAR_FACTOR * small) {
-            return vec4<f32>(dim_irradiance(n, r), 0.0);
+            return vec4<f32>(dim_irradiance(n, r, small), 0.0);
         }
         let seen = uniform_visibility(n, r);
         if (seen.w != 2.0) {
             if (seen.w == 1.0) {
-                return vec4<f32>(geometry_sum(node_geometry(n, r), source.bins) * seen.xyz, 0.0);
+                return vec4<f32>(geometry_sum(node_geometry(n, r, 0.0), source.bins) * seen.xyz, 0.0);
             }
             return vec4<f32>(0.0);
         }

@@ -14,7 +14,9 @@ use glam::DVec3;
 
 use super::{ABORT_CHECK_RECEIVERS, FAR_FACTOR, FAR_RATIO, PARALLEL_RECEIVERS};
 use crate::solver::hierarchy::sources::{MAX_BINS, point_factor};
-use crate::solver::hierarchy::transfer::{Cost, Scratch, Side, Transfer, placement, straddles};
+use crate::solver::hierarchy::transfer::{
+    Cost, DIM_SHARE, Scratch, Side, Transfer, placement, straddles,
+};
 use crate::solver::hierarchy::{NONE, Node, Tree};
 use crate::solver::{Abort, Counter, Receiver};
 
@@ -179,9 +181,9 @@ impl Gatherer<'_> {
                 // nearest point of its bounding sphere would be negligible.
                 let clearance = distance - node.radius;
                 if clearance > 0.0 && source.weight <= negligible * PI * clearance * clearance {
-                    sum += self
-                        .transfer
-                        .dim_irradiance(n, r, scratch, &mut counters.cost);
+                    sum +=
+                        self.transfer
+                            .dim_irradiance(n, r, negligible, scratch, &mut counters.cost);
                     continue;
                 }
             } else {
@@ -197,21 +199,21 @@ impl Gatherer<'_> {
                 // factors as they are where the quadrature would take it
                 // whole.
                 let cost = &mut counters.cost;
-                let geometry = |scratch: &mut Scratch, cost: &mut Cost| {
+                let geometry = |budget: f64, scratch: &mut Scratch, cost: &mut Cost| {
                     if self.transfer.whole(n, r) {
                         self.transfer.whole_geometry(n, &factors, cost)
                     } else {
-                        self.transfer.node_geometry(n, r, scratch, cost)
+                        self.transfer.node_geometry(n, r, budget, scratch, cost)
                     }
                 };
                 if estimate <= FAR_FACTOR * negligible {
-                    let g = geometry(scratch, cost);
+                    let g = geometry(DIM_SHARE * negligible, scratch, cost);
                     sum += self.transfer.dim_irradiance_of(n, r, &g, cost);
                     continue;
                 }
                 if let Some(passing) = self.transfer.uniform_visibility(n, r, cost) {
                     if passing != DVec3::ZERO {
-                        sum += geometry(scratch, cost).iter().sum::<DVec3>() * passing;
+                        sum += geometry(0.0, scratch, cost).iter().sum::<DVec3>() * passing;
                     }
                     continue;
                 }

@@ -33,7 +33,10 @@
 //! * **Negligible** is the tolerance ([`AdaptiveSettings::tolerance`]) times
 //!   what the receiver has gathered so far (or the scene's mean radiosity,
 //!   if more): a bright source is shot carefully everywhere, a dim one
-//!   coarsely where it adds little.
+//!   coarsely where it adds little. A node accepted as dim has its
+//!   geometry integrated to within [`DIM_SHARE`] of the negligible
+//!   irradiance, not to the quadrature's full accuracy (its one shadow
+//!   ray can miss by all of it).
 //!
 //! * **Overshooting** (`--overshoot`, off by default; `overshoot.rs`): a
 //!   shooter may also send light it is bound to receive, estimated by the
@@ -55,8 +58,8 @@ use glam::DVec3;
 use self::gather::{Counters, Gatherer};
 use super::device::{AdaptiveSolve, AdaptiveTransfers, DeviceReport};
 use super::hierarchy::sources::Sources;
-pub use super::hierarchy::transfer::FAR_RATIO;
 use super::hierarchy::transfer::Transfer;
+pub use super::hierarchy::transfer::{DIM_SHARE, FAR_RATIO};
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
     self, Checkpoint, Counter, ElementState, Emission, Kind, Method, MethodError, Parameter,

@@ -356,7 +356,7 @@ impl Refiner<'_> {
     /// A node's transfer to the receiver, ignoring occlusion.
     fn unoccluded(&self, n: u32, r: &Receiver, ts: &mut Scratch, work: &mut Work) -> DVec3 {
         self.transfer
-            .node_geometry(n, r, ts, &mut work.cost)
+            .node_geometry(n, r, 0.0, ts, &mut work.cost)
             .iter()
             .sum::<DVec3>()
             .max(DVec3::ZERO)

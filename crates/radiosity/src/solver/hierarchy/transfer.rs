@@ -31,6 +31,15 @@ pub const FAR_RATIO: f64 = 3.0;
 /// ([`point_factor`]).
 pub const QUADRATURE_RATIO: f64 = 4.0;
 
+/// A dim node (accepted because what it can send the receiver is
+/// negligible, or, far away, below a few tens of times that, and judged
+/// by one shadow ray) has its geometry integrated to within this share
+/// of the receiver's negligible irradiance, not to the quadrature's full
+/// accuracy: pieces whose bound (`Transfer::bound`) is within their share
+/// of that error are taken as they are (an error-driven refinement, as
+/// Lischinski, Smits & Greenberg 1994 bound a link's error).
+pub const DIM_SHARE: f64 = 0.05;
+
 /// The irradiance each of a node's bins sends a receiver, ignoring
 /// occlusion ([`Transfer::node_geometry`]): one value per bin, in the
 /// bins' order, kept on the stack.
@@ -205,15 +214,17 @@ impl Transfer<'_> {
     /// A node that can send the receiver little, as up to six sources by
     /// normal direction behind one shadow ray, from the representative of
     /// the bin that sends the most: an error in its visibility costs at
-    /// most what the node sends.
+    /// most what the node sends. Its geometry is integrated to within
+    /// [`DIM_SHARE`] of `negligible`, the receiver's negligible irradiance.
     pub(crate) fn dim_irradiance(
         &self,
         n: u32,
         r: &Receiver,
+        negligible: f64,
         scratch: &mut Scratch,
         cost: &mut Cost,
     ) -> DVec3 {
-        let geometry = self.node_geometry(n, r, scratch, cost);
+        let geometry = self.node_geometry(n, r, DIM_SHARE * negligible, scratch, cost);
         self.dim_irradiance_of(n, r, &geometry, cost)
     }
 
@@ -350,10 +361,19 @@ impl Transfer<'_> {
     /// each placed by its corners ([`Transfer::side`]) the same way: one
     /// the plane cuts is the point source of its part in front
     /// ([`Transfer::front_point_factor`]).
+    ///
+    /// `budget` (irradiance, luminance; 0 for none) is the error the caller
+    /// accepts, shared among the pieces by power: a piece that the rules
+    /// above would split or take exactly, and whose bound
+    /// ([`Transfer::bound`]) is within its share, is taken as its point
+    /// sources capped at that bound. Both lie between 0 and the bound, so
+    /// the geometry errs by at most `budget` more than the quadrature's
+    /// own (the test `a_budget_bounds_the_geometry_s_error`).
     pub(crate) fn node_geometry(
         &self,
         n: u32,
         r: &Receiver,
+        budget: f64,
         scratch: &mut Scratch,
         cost: &mut Cost,
     ) -> Geometry {
@@ -365,6 +385,8 @@ impl Transfer<'_> {
             count: bins.len(),
         };
         let slot = |axis: u8| bins.iter().position(|b| b.axis == axis);
+        // The error a unit of the node's power may bring.
+        let allowance = budget / self.source(n).weight;
         let mut pieces = std::mem::take(&mut scratch.pieces);
         pieces.clear();
         pieces.push(n);
@@ -377,6 +399,30 @@ impl Transfer<'_> {
                 Side::Front => false,
                 Side::Across => true,
             };
+            // A piece that would be split or taken exactly, and can send so
+            // little that any value up to its bound is within its share of
+            // the budget: its point sources, capped at the bound.
+            if (close || straddling) && allowance > 0.0 {
+                let weight = self.source(piece).weight;
+                let most = self.bound(piece, weight, r);
+                if most <= allowance * weight {
+                    let start = geometry.values;
+                    let mut sent = 0.0;
+                    for bin in self.bins_of(piece) {
+                        let Some(k) = slot(bin.axis) else { continue };
+                        let value = bin.power * point_factor(bin, self.origin, r.point, r.normal);
+                        sent += luminance(value);
+                        geometry.values[k] += value;
+                    }
+                    if sent > most {
+                        let scale = most / sent;
+                        for (value, before) in geometry.values.iter_mut().zip(start) {
+                            *value = before + (*value - before) * scale;
+                        }
+                    }
+                    continue;
+                }
+            }
             if (close || straddling) && !node.is_leaf() {
                 pieces.push(node.second);
                 pieces.push(piece + 1);
