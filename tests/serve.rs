@@ -886,19 +886,26 @@ fn the_ended_solve_is_drawn_with_the_final_pass() {
 #[cfg(target_os = "linux")]
 #[test]
 fn binds_loopback_unless_told() {
-    /// Local addresses of the listening IPv4 sockets on `port`.
+    /// Local addresses of the listening IPv4 sockets on `port`, one per
+    /// socket: the kernel's table is read in pieces, so a socket can be
+    /// listed twice when other sockets (the other tests') open or close
+    /// meanwhile; its inode (the tenth field) tells the copies apart.
     fn listening(port: u16) -> Vec<String> {
         let table = std::fs::read_to_string("/proc/net/tcp").unwrap();
-        table
+        let mut sockets: Vec<(String, String)> = table
             .lines()
             .skip(1)
             .filter_map(|line| {
                 let fields: Vec<&str> = line.split_whitespace().collect();
                 let (address, p) = fields[1].split_once(':')?;
+                let inode = fields.get(9)?;
                 (fields[3] == "0A" && u16::from_str_radix(p, 16).ok()? == port)
-                    .then(|| address.to_string())
+                    .then(|| (inode.to_string(), address.to_string()))
             })
-            .collect()
+            .collect();
+        sockets.sort();
+        sockets.dedup();
+        sockets.into_iter().map(|(_, address)| address).collect()
     }
     let served = Served::start(&LONG_SOLVE);
     assert_eq!(served.address.ip().to_string(), "127.0.0.1");
