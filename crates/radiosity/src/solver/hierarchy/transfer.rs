@@ -406,19 +406,16 @@ impl Transfer<'_> {
                 let weight = self.source(piece).weight;
                 let most = self.bound(piece, weight, r);
                 if most <= allowance * weight {
-                    let start = geometry.values;
+                    let mut values = [DVec3::ZERO; MAX_BINS];
                     let mut sent = 0.0;
                     for bin in self.bins_of(piece) {
                         let Some(k) = slot(bin.axis) else { continue };
-                        let value = bin.power * point_factor(bin, self.origin, r.point, r.normal);
-                        sent += luminance(value);
-                        geometry.values[k] += value;
+                        values[k] = bin.power * point_factor(bin, self.origin, r.point, r.normal);
+                        sent += luminance(values[k]);
                     }
-                    if sent > most {
-                        let scale = most / sent;
-                        for (value, before) in geometry.values.iter_mut().zip(start) {
-                            *value = before + (*value - before) * scale;
-                        }
+                    let scale = if sent > most { most / sent } else { 1.0 };
+                    for (total, value) in geometry.values.iter_mut().zip(values) {
+                        *total += value * scale;
                     }
                     continue;
                 }
