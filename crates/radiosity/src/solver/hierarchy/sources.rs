@@ -336,6 +336,16 @@ mod tests {
         }
     }
 
+    /// A direction from a source in the plane `z = 0` into the half space
+    /// it faces (at least a little above the plane), and a receiver normal
+    /// in any direction, drawn from `random` in that order.
+    fn direction_and_normal(random: &mut impl FnMut() -> f64) -> (DVec3, DVec3) {
+        let direction =
+            DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
+        let normal = DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5).normalize_or_zero();
+        (direction, normal)
+    }
+
     /// A `2 hx` by `2 hy` rectangle in the plane `z = 0` facing `+z`, its
     /// area, and the bin of its uniform unit power.
     fn rectangle_bin(hx: f64, hy: f64) -> ([DVec3; 4], f64, Bin) {
@@ -436,10 +446,7 @@ mod tests {
         // `graze` of its radius, and by one to four times that.
         let (mut worst, mut worst_beyond, mut tested) = (0.0f64, 0.0f64, 0);
         while tested < 4000 {
-            let direction =
-                DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
-            let normal =
-                DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5).normalize_or_zero();
+            let (direction, normal) = direction_and_normal(&mut random);
             // The receiver moved along its normal until the lowest corner
             // is `reach` behind its plane (in front where negative).
             let beyond = tested % 2 == 1;
@@ -509,10 +516,7 @@ mod tests {
             let radius = (hx * hx + hy * hy).sqrt();
             let (mut worst, mut worst_midpoint, mut tested) = (0.0f64, 0.0f64, 0);
             while tested < 4000 {
-                let direction =
-                    DVec3::new(random() - 0.5, random() - 0.5, random() * 0.9 + 0.1).normalize();
-                let normal =
-                    DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5).normalize_or_zero();
+                let (direction, normal) = direction_and_normal(&mut random);
                 let point = direction * radius * (4.0 + 8.0 * random());
                 let heights = rectangle.map(|c| normal.dot(c - point));
                 let low = heights.iter().copied().fold(f64::INFINITY, f64::min);
