@@ -47,7 +47,7 @@
 //! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each piece's
 //! centroid, each piece with its own exact factor.
 
-use std::cell::Cell;
+use std::cell::RefCell;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -407,13 +407,17 @@ impl<'a> FinalPass<'a> {
             .par_iter()
             .enumerate()
             .map_init(
-                || Cell::new(ShadowCache::default()),
+                || RefCell::new(ShadowCache::default()),
                 |cache, (i, r)| {
                     let sample = points.and_then(|p| p[i].sample);
                     let seed = points.map_or(i as u64, |p| p[i].seed);
                     self.emitters
                         .iter()
-                        .map(|e| self.emitter_light(e, r, sample, seed, cache))
+                        .enumerate()
+                        .map(|(k, e)| {
+                            cache.borrow_mut().from_origin(k as u32);
+                            self.emitter_light(e, r, sample, seed, cache)
+                        })
                         .sum()
                 },
             )
@@ -426,7 +430,7 @@ impl<'a> FinalPass<'a> {
         r: &Receiver,
         sample: Option<(u32, u32)>,
         seed: u64,
-        cache: &Cell<ShadowCache>,
+        cache: &RefCell<ShadowCache>,
     ) -> DVec3 {
         if r.group == e.group || e.normal.dot(r.point) - e.offset <= 0.0 {
             return DVec3::ZERO;
@@ -452,11 +456,9 @@ impl<'a> FinalPass<'a> {
                 }
             };
             let (a, b) = accel::shorten(c, r.point);
-            let mut shadow = cache.get();
-            let blocked = self
-                .occluder
-                .occluded_cached(a, b, [e.group, r.group], &mut shadow);
-            cache.set(shadow);
+            let blocked =
+                self.occluder
+                    .occluded_cached(a, b, [e.group, r.group], &mut cache.borrow_mut());
             if blocked {
                 DVec3::ZERO
             } else if self.scene.panes.is_empty() {

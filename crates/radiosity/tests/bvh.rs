@@ -133,6 +133,66 @@ fn a_shadow_cache_answers_as_the_walk_does() {
     assert_eq!(cache.hits, 1);
 }
 
+/// A receiver's segments to several origins in turn, receiver after
+/// receiver, as the solver casts them: naming each segment's origin lets
+/// the cache test the blocker last found from there, which the next
+/// receiver's segment from the same origin meets too, where the last two
+/// blockers found (from other origins, in other directions) rarely block.
+/// The answers stay the walk's.
+#[test]
+fn a_shadow_cache_remembers_a_blocker_per_origin() {
+    // A lattice of squares at z = 1 with gaps between them.
+    let mut squares = Vec::new();
+    for i in -10..10 {
+        for j in -10..10 {
+            let (x, y) = (f64::from(i), f64::from(j));
+            squares.push(
+                surface(vec![
+                    DVec3::new(x, y, 1.0),
+                    DVec3::new(x + 0.8, y, 1.0),
+                    DVec3::new(x + 0.8, y + 0.8, 1.0),
+                    DVec3::new(x, y + 0.8, 1.0),
+                ])
+                .unwrap(),
+            );
+        }
+    }
+    let surfaces = numbered(&squares);
+    let bvh = Bvh::new(&surfaces);
+    let origins: Vec<DVec3> = (0..8)
+        .map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / 8.0;
+            DVec3::new(4.0 * a.cos(), 4.0 * a.sin(), 2.0)
+        })
+        .collect();
+    let mut hits = [0u64; 2];
+    let mut blocked = 0u64;
+    for (named, hits) in [false, true].into_iter().zip(&mut hits) {
+        let mut cache = ShadowCache::default();
+        blocked = 0;
+        for step in 0..600 {
+            let receiver = DVec3::new(-3.0 + 0.01 * f64::from(step), 0.3, 0.0);
+            for (k, &origin) in origins.iter().enumerate() {
+                cache.from_origin(if named { k as u32 } else { u32::MAX });
+                let walk = bvh.occluded(origin, receiver, NOTHING_SKIPPED);
+                assert_eq!(
+                    bvh.occluded_cached(origin, receiver, NOTHING_SKIPPED, &mut cache),
+                    walk,
+                    "{origin} -> {receiver}"
+                );
+                blocked += u64::from(walk);
+            }
+        }
+        *hits = cache.hits;
+    }
+    println!("{blocked} blocked; the cache answered {hits:?} (origins unnamed, named)");
+    assert!(blocked > 1000 && hits[1] <= blocked);
+    assert!(
+        hits[1] > blocked * 9 / 10 && hits[1] > 2 * hits[0],
+        "{hits:?} of {blocked}"
+    );
+}
+
 /// A geometric series of planes, which a surface-area split cuts into a
 /// lopsided tree; the median fallback keeps its depth within the stack.
 #[test]

@@ -102,21 +102,58 @@ pub struct Hit {
 /// Sponza's first 60 shots one answered 25.8% of the rays and two 31.7%,
 /// four 36.8% but no faster (each costs an exact test on every ray it
 /// does not answer).
+///
+/// A caller whose segments start from a few points in turn (a receiver's
+/// rays to each of a source's sample elements, receiver after receiver)
+/// names each segment's origin with [`ShadowCache::from_origin`]: the
+/// blocker last found for a segment from the same origin is then tested
+/// first, since the next receiver's segment from there passes beside the
+/// last one, while the segment just before came from another origin, in
+/// another direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ShadowCache {
     /// The accelerator's handles of the last two blockers, the latest
     /// first; `u32::MAX` for none.
     pub(crate) last: [u32; 2],
+    /// The blocker last found from each origin, by slot
+    /// ([`ShadowCache::slot`]); `u32::MAX` for none.
+    pub(crate) by_origin: [u32; ORIGIN_SLOTS],
+    /// The origin of the next segment, `u32::MAX` for none named.
+    origin: u32,
     /// Segments answered by the cached blocker.
     pub hits: u64,
 }
+
+/// Origins a [`ShadowCache`] remembers a blocker for (a direct-mapped
+/// table: an origin takes the slot its hash names, replacing the one
+/// there).
+const ORIGIN_SLOTS: usize = 64;
 
 impl Default for ShadowCache {
     fn default() -> ShadowCache {
         ShadowCache {
             last: [u32::MAX; 2],
+            by_origin: [u32::MAX; ORIGIN_SLOTS],
+            origin: u32::MAX,
             hits: 0,
         }
+    }
+}
+
+impl ShadowCache {
+    /// Names the origin of the next segments (any number the caller uses
+    /// for one point, such as the element it lies on), or none with
+    /// `u32::MAX`.
+    pub fn from_origin(&mut self, origin: u32) {
+        self.origin = origin;
+    }
+
+    /// The slot of the named origin, if one is named (Fibonacci hashing,
+    /// so consecutive numbers spread over the table).
+    pub(crate) fn slot(&self) -> Option<usize> {
+        const BITS: u32 = ORIGIN_SLOTS.trailing_zeros();
+        (self.origin != u32::MAX)
+            .then(|| (self.origin.wrapping_mul(0x9E37_79B1) >> (32 - BITS)) as usize)
     }
 }
 

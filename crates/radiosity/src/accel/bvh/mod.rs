@@ -432,14 +432,27 @@ impl Occluder for Bvh<'_> {
         skip: [u32; 2],
         cache: &mut ShadowCache,
     ) -> bool {
+        let blocks = |c: u32| {
+            (c as usize) < self.prepared.len()
+                && !self.prepared.skips(c, skip)
+                && self.prepared.crosses(c, from, to)
+        };
+        let slot = cache.slot();
+        // The blocker last found from this origin first, then the last two
+        // found from anywhere.
+        let mine = slot.map_or(u32::MAX, |s| cache.by_origin[s]);
+        if mine != u32::MAX && blocks(mine) {
+            cache.hits += 1;
+            return true;
+        }
         for k in 0..cache.last.len() {
             let last = cache.last[k];
-            if (last as usize) < self.surfaces.len()
-                && !self.prepared.skips(last, skip)
-                && self.prepared.crosses(last, from, to)
-            {
+            if last != mine && blocks(last) {
                 cache.hits += 1;
                 cache.last[..=k].rotate_right(1);
+                if let Some(s) = slot {
+                    cache.by_origin[s] = last;
+                }
                 return true;
             }
         }
@@ -447,6 +460,9 @@ impl Occluder for Bvh<'_> {
         if let Some(position) = blocker {
             cache.last.rotate_right(1);
             cache.last[0] = position;
+            if let Some(s) = slot {
+                cache.by_origin[s] = position;
+            }
         }
         blocker.is_some()
     }

@@ -561,6 +561,7 @@ impl Transfer<'_> {
             geometry::centroid(&scratch.clipped)
         };
         cost.pairs += 1;
+        cost.shadow.from_origin(e);
         let passing = self.passes(origin, r, surface.group, cost);
         if passing == DVec3::ZERO {
             return (0.0, DVec3::ZERO);
@@ -615,6 +616,7 @@ impl Transfer<'_> {
     pub(crate) fn visible_from(&self, e: u32, r: &Receiver, cost: &mut Cost) -> bool {
         let e = e as usize;
         let group = self.scene.surfaces[self.mesh.elements[e].surface as usize].group;
+        cost.shadow.from_origin(e as u32);
         self.visible(self.hierarchy.centroids[e], r, group, cost)
     }
 
@@ -622,6 +624,7 @@ impl Transfer<'_> {
     /// a surface blocks it, else the transmittance of the glass it crosses.
     pub(crate) fn passes_from(&self, e: u32, r: &Receiver, cost: &mut Cost) -> DVec3 {
         let group = self.scene.surfaces[self.mesh.elements[e as usize].surface as usize].group;
+        cost.shadow.from_origin(e);
         self.passes(self.hierarchy.centroids[e as usize], r, group, cost)
     }
 
