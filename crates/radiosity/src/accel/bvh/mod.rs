@@ -10,8 +10,9 @@
 //! 2008; Wald et al. 2008) whose eight child boxes are tested at once. A
 //! shadow segment walks it depth first, nearer children first, and stops at
 //! the first blocker (an any-hit query); through a shadow cache (Haines &
-//! Greenberg 1986) the last two blockers a thread met are tested first,
-//! and one that blocks spares the walk. A closest-hit ray walks it the
+//! Greenberg 1986) the blocker last met from the segment's origin, when
+//! the caller names it, and the last two blockers a thread met are tested
+//! first, and one that blocks spares the walk. A closest-hit ray walks it the
 //! same way but to the end, skipping every box entered beyond the nearest
 //! crossing found so far (the ray shrinks as hits are found).
 //!

@@ -416,18 +416,46 @@ fn receiver_negligible(
     mean_radiosity: f64,
     irradiance: &[DVec3],
 ) -> Vec<f64> {
-    let nodes = &tree.nodes;
-    let mut out = vec![0.0; nodes.len()];
-    for n in (0..nodes.len()).rev() {
-        let node = &nodes[n];
-        out[n] = if node.is_leaf() {
-            let r = tree.items[node.first as usize] as usize;
-            negligible * (luminance(irradiance[r]) / mean_radiosity).max(1.0)
-        } else {
-            out[n + 1].min(out[node.second as usize])
-        };
+    let mut out = vec![0.0; tree.nodes.len()];
+    if !out.is_empty() {
+        let leaf = |r: usize| negligible * (luminance(irradiance[r]) / mean_radiosity).max(1.0);
+        subtree_negligible(tree, 0, &mut out, &leaf);
     }
     out
+}
+
+/// Fills `out`, the entries of the nodes of node `n`'s subtree (which
+/// are `n..n + out.len()`, the tree being depth first), with their
+/// negligible irradiance, the smallest of their receivers' (`leaf`);
+/// returns node `n`'s. Large subtrees in parallel: it runs before every
+/// shot's transfers, which wait for it.
+fn subtree_negligible(
+    tree: &Tree,
+    n: usize,
+    out: &mut [f64],
+    leaf: &(impl Fn(usize) -> f64 + Sync),
+) -> f64 {
+    let node = &tree.nodes[n];
+    let value = if node.is_leaf() {
+        leaf(tree.items[node.first as usize] as usize)
+    } else {
+        let second = node.second as usize;
+        let (left, right) = out[1..].split_at_mut(second - n - 1);
+        let (a, b) = if node.last - node.first >= PARALLEL_RECEIVERS {
+            rayon::join(
+                || subtree_negligible(tree, n + 1, left, leaf),
+                || subtree_negligible(tree, second, right, leaf),
+            )
+        } else {
+            (
+                subtree_negligible(tree, n + 1, left, leaf),
+                subtree_negligible(tree, second, right, leaf),
+            )
+        };
+        a.min(b)
+    };
+    out[0] = value;
+    value
 }
 
 impl AdaptiveShooting {

@@ -325,3 +325,33 @@ fn failing_devices(scene: &Scene, settings: &Settings, overshoot: f64) {
         }
     }
 }
+
+/// Each receiver-tree node's negligible irradiance, computed subtree by
+/// subtree in parallel, is the smallest of its receivers' (counted by
+/// brute force over every node's range), on a tree large enough to be
+/// split between threads.
+#[test]
+fn a_node_s_negligible_irradiance_is_its_receivers_smallest() {
+    let scene = scene::load("room").unwrap();
+    let sizes = scene.default_mesh_sizes();
+    let mut settings = Settings::adaptive();
+    settings.mesh.element_size = 0.25 * sizes.element_size;
+    let mesh = Mesh::build(&scene, &settings.mesh).unwrap();
+    let receivers = crate::solver::receiver::vertex_receivers(&scene, &mesh);
+    let tree = hierarchy::receiver_tree(&receivers, sizes.patch_size);
+    assert!(tree.nodes[0].last - tree.nodes[0].first >= 4 * super::PARALLEL_RECEIVERS);
+    // Irradiance varying over five orders of magnitude, some of it below
+    // the mean radiosity's share.
+    let irradiance: Vec<DVec3> = (0..receivers.len())
+        .map(|i| DVec3::splat(10f64.powf(((i * 7919) % 1000) as f64 / 200.0 - 2.0)))
+        .collect();
+    let (negligible, mean) = (1e-3, 1.0);
+    let out = super::receiver_negligible(&tree, negligible, mean, &irradiance);
+    for (n, node) in tree.nodes.iter().enumerate() {
+        let smallest = tree.items[node.first as usize..node.last as usize]
+            .iter()
+            .map(|&r| negligible * (luminance(irradiance[r as usize]) / mean).max(1.0))
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(out[n], smallest, "node {n}");
+    }
+}
