@@ -96,13 +96,7 @@ fn a_shadow_cache_answers_as_the_walk_does() {
             for _ in 0..16 {
                 let to = towards
                     + (rng.point_in(lo, hi) - 0.5 * (lo + hi)) * spread / (hi - lo).length();
-                let walk = bvh.occluded(from, to, skip);
-                assert_eq!(
-                    bvh.occluded_cached(from, to, skip, &mut cache),
-                    walk,
-                    "{from} -> {to}, skipping {skip:?}"
-                );
-                blocked += u64::from(walk);
+                blocked += u64::from(cached_as_walked(&bvh, from, to, skip, &mut cache));
                 total += 1;
             }
         }
@@ -174,13 +168,13 @@ fn a_shadow_cache_remembers_a_blocker_per_origin() {
             let receiver = DVec3::new(-3.0 + 0.01 * f64::from(step), 0.3, 0.0);
             for (k, &origin) in origins.iter().enumerate() {
                 cache.from_origin(if named { k as u32 } else { u32::MAX });
-                let walk = bvh.occluded(origin, receiver, NOTHING_SKIPPED);
-                assert_eq!(
-                    bvh.occluded_cached(origin, receiver, NOTHING_SKIPPED, &mut cache),
-                    walk,
-                    "{origin} -> {receiver}"
-                );
-                blocked += u64::from(walk);
+                blocked += u64::from(cached_as_walked(
+                    &bvh,
+                    origin,
+                    receiver,
+                    NOTHING_SKIPPED,
+                    &mut cache,
+                ));
             }
         }
         *hits = cache.hits;
@@ -191,6 +185,23 @@ fn a_shadow_cache_remembers_a_blocker_per_origin() {
         hits[1] > blocked * 9 / 10 && hits[1] > 2 * hits[0],
         "{hits:?} of {blocked}"
     );
+}
+
+/// The segment's answer through `cache`, checked against the walk's.
+fn cached_as_walked(
+    bvh: &Bvh,
+    from: DVec3,
+    to: DVec3,
+    skip: [u32; 2],
+    cache: &mut ShadowCache,
+) -> bool {
+    let walk = bvh.occluded(from, to, skip);
+    assert_eq!(
+        bvh.occluded_cached(from, to, skip, cache),
+        walk,
+        "{from} -> {to}, skipping {skip:?}"
+    );
+    walk
 }
 
 /// A geometric series of planes, which a surface-area split cuts into a
