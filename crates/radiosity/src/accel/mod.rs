@@ -148,6 +148,22 @@ impl ShadowCache {
         self.origin = origin;
     }
 
+    /// Records `blocker` as the latest found, from anywhere and from the
+    /// named origin: moved to the front of the last two (or put there,
+    /// pushing out the older), and kept for the origin's slot.
+    pub(crate) fn remember(&mut self, blocker: u32) {
+        match self.last.iter().position(|&b| b == blocker) {
+            Some(k) => self.last[..=k].rotate_right(1),
+            None => {
+                self.last.rotate_right(1);
+                self.last[0] = blocker;
+            }
+        }
+        if let Some(s) = self.slot() {
+            self.by_origin[s] = blocker;
+        }
+    }
+
     /// The slot of the named origin, if one is named (Fibonacci hashing,
     /// so consecutive numbers spread over the table).
     pub(crate) fn slot(&self) -> Option<usize> {

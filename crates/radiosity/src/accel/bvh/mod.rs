@@ -438,32 +438,23 @@ impl Occluder for Bvh<'_> {
                 && !self.prepared.skips(c, skip)
                 && self.prepared.crosses(c, from, to)
         };
-        let slot = cache.slot();
         // The blocker last found from this origin first, then the last two
         // found from anywhere.
-        let mine = slot.map_or(u32::MAX, |s| cache.by_origin[s]);
+        let mine = cache.slot().map_or(u32::MAX, |s| cache.by_origin[s]);
         if mine != u32::MAX && blocks(mine) {
             cache.hits += 1;
             return true;
         }
-        for k in 0..cache.last.len() {
-            let last = cache.last[k];
+        for last in cache.last {
             if last != mine && blocks(last) {
                 cache.hits += 1;
-                cache.last[..=k].rotate_right(1);
-                if let Some(s) = slot {
-                    cache.by_origin[s] = last;
-                }
+                cache.remember(last);
                 return true;
             }
         }
         let (blocker, _, _) = self.blocker(from, to, skip);
         if let Some(position) = blocker {
-            cache.last.rotate_right(1);
-            cache.last[0] = position;
-            if let Some(s) = slot {
-                cache.by_origin[s] = position;
-            }
+            cache.remember(position);
         }
         blocker.is_some()
     }
