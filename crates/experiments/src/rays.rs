@@ -397,6 +397,14 @@ pub fn rays_report(data: &Rays) -> Report {
         report.setting("scenes", folder.display());
     }
     report.setting(
+        "bvh slab test",
+        format!(
+            "a node's {} child boxes in groups of {} lanes",
+            radiosity::accel::bvh::WIDTH,
+            radiosity::accel::bvh::slab_lanes()
+        ),
+    );
+    report.setting(
         "embree",
         match &data.embree_python {
             Some(p) => format!("{} tools/embree_rays.py", p.display()),

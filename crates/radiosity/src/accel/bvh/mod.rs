@@ -64,15 +64,16 @@
 //! `Vec<u32>` of surface ids. The eight-wide nodes the queries walk are
 //! 256 bytes (four cache lines): the eight boxes coordinate by coordinate
 //! and side by side, tested as two groups of four lanes (SSE on x86-64),
-//! the eight links, the leaf children's counts and a mask of which children
+//! or as one group of eight where the processor has AVX (the same
+//! operations lane by lane, so the same answers), the eight links, the leaf children's counts and a mask of which children
 //! are leaves. A walk visits about a third fewer nodes than on the
 //! four-wide tree, and each visit is a chain of dependent loads and
 //! compares whose length barely grows with the width; the walk prefetches
 //! a node when it pushes it. The
 //! surfaces' prepared planes and edges are stored in leaf order, so a
 //! leaf's tests read adjacent memory; the skip rule compares surface ids,
-//! in one closure. Queries use a fixed stack: no allocation, no interior
-//! mutability, any number of threads.
+//! in one closure. Queries use a fixed stack, left uninitialised: no
+//! allocation, no interior mutability, any number of threads.
 
 use glam::{DVec3, Vec3A};
 
@@ -88,8 +89,8 @@ mod validate;
 
 use build::*;
 pub use flat::{FLAT_INTERIOR, FlatNode, FlatTree};
-pub use traverse::WIDTH;
 use traverse::*;
+pub use traverse::{WIDTH, slab_lanes};
 
 // ------------------------------------------------------------------ settings
 

@@ -1,9 +1,10 @@
 //! The BVH's traversal: the segment prepared for the slab test, the
 //! eight-wide layout the binary tree is collapsed into (Dammertz et al.
 //! 2008; Wald et al. 2008), the slab test of a node's eight child boxes in
-//! two groups of four SIMD lanes, the depth-first any-hit walk for shadow
-//! segments and the front-to-back closest-hit walk, which shrinks the
-//! segment as hits are found.
+//! two groups of four SIMD lanes (or one group of eight where the
+//! processor has AVX, chosen at run time), the depth-first any-hit walk
+//! for shadow segments and the front-to-back closest-hit walk, which
+//! shrinks the segment as hits are found.
 
 use std::mem::MaybeUninit;
 
@@ -45,6 +46,17 @@ pub const WIDTH: usize = 8;
 /// Entries of a walk's stack: each node pushes at most `WIDTH - 1` above
 /// its ancestors'.
 const STACK: usize = (WIDTH - 1) * MAX_DEPTH + 1;
+
+/// The SIMD lanes the walks test a node's child boxes in on this
+/// processor: 8 where it has AVX (one group), 4 elsewhere (two groups).
+#[must_use]
+pub fn slab_lanes() -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        return 8;
+    }
+    4
+}
 
 /// No child in a slot.
 pub(super) const EMPTY_SLOT: u32 = u32::MAX;
@@ -619,7 +631,7 @@ mod tests {
             state ^= state << 17;
             state
         };
-        let mut coordinate = |next: &mut dyn FnMut() -> u64| match next() % 8 {
+        let coordinate = |next: &mut dyn FnMut() -> u64| match next() % 8 {
             0 => 0.0,
             1 => -0.0,
             2 => 1.0,
@@ -648,7 +660,7 @@ mod tests {
                 for axis in 0..3 {
                     // Some faces where the segment's widened origin is: a
                     // parameter 0 * inf = NaN where it runs parallel.
-                    let mut face = |next: &mut dyn FnMut() -> u64| match next() % 6 {
+                    let face = |next: &mut dyn FnMut() -> u64| match next() % 6 {
                         0 => slabs.o_near[axis].x,
                         1 => slabs.o_far[axis].x,
                         _ => coordinate(next) as f32,
