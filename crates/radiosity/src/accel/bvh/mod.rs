@@ -716,6 +716,56 @@ mod tests {
         assert_eq!((s.leaf_size, s.max_leaf_size, s.bins), (10, 10, MAX_BINS));
     }
 
+    /// Walks in two groups of four lanes (a processor without AVX) give
+    /// the same answers, surface tests and box counts as the walks this
+    /// processor runs, any-hit and closest-hit, on random segments
+    /// through the built-in room and from its vertices (segments that
+    /// graze corners and edges).
+    #[test]
+    fn four_lanes_walk_as_eight() {
+        let scene = crate::scene::builtin::load("room").unwrap().unwrap();
+        let bvh = Bvh::new(&scene.surfaces);
+        let corners: Vec<DVec3> = scene
+            .surfaces
+            .iter()
+            .flat_map(|s| s.polygon.iter().copied())
+            .collect();
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let (mut blocked, mut hits) = (0, 0);
+        for _ in 0..5_000 {
+            let mut point = || {
+                let c = corners[(next() % corners.len() as u64) as usize];
+                if next() % 2 == 0 {
+                    c
+                } else {
+                    c + DVec3::new(
+                        (next() % 1000) as f64 / 500.0 - 1.0,
+                        (next() % 1000) as f64 / 500.0 - 1.0,
+                        (next() % 1000) as f64 / 500.0 - 1.0,
+                    )
+                }
+            };
+            let (from, to) = (point(), point());
+            let skip = [(next() % 8) as u32, u32::MAX];
+            let eight = bvh.occluded_counting(from, to, skip);
+            let four = traverse::four_lanes_only(|| bvh.occluded_counting(from, to, skip));
+            assert_eq!(eight, four, "{from} -> {to}");
+            blocked += usize::from(eight.0);
+            let eight = bvh.closest_hit_counting(from, to - from, 1.0, skip);
+            let four =
+                traverse::four_lanes_only(|| bvh.closest_hit_counting(from, to - from, 1.0, skip));
+            assert_eq!(eight, four, "{from} -> {to}");
+            hits += usize::from(eight.0.is_some());
+        }
+        assert!(blocked > 500 && hits > 500, "{blocked} {hits}");
+    }
+
     #[test]
     fn node_is_32_bytes() {
         assert_eq!(std::mem::size_of::<Node>(), 32);

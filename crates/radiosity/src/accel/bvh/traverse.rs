@@ -51,11 +51,38 @@ const STACK: usize = (WIDTH - 1) * MAX_DEPTH + 1;
 /// processor: 8 where it has AVX (one group), 4 elsewhere (two groups).
 #[must_use]
 pub fn slab_lanes() -> usize {
+    if eight_lanes() { 8 } else { 4 }
+}
+
+/// Whether the walks test a node's boxes in one group of eight lanes:
+/// where the processor has AVX (and, in tests, unless the thread asked
+/// for four, see [`four_lanes_only`]).
+#[inline]
+fn eight_lanes() -> bool {
+    #[cfg(test)]
+    if FOUR_LANES_ONLY.with(std::cell::Cell::get) {
+        return false;
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
-        return 8;
+        return true;
     }
-    4
+    false
+}
+
+#[cfg(test)]
+thread_local! {
+    static FOUR_LANES_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with this thread's walks in two groups of four lanes, as on a
+/// processor without AVX.
+#[cfg(test)]
+pub(super) fn four_lanes_only<T>(f: impl FnOnce() -> T) -> T {
+    FOUR_LANES_ONLY.with(|flag| flag.set(true));
+    let result = f();
+    FOUR_LANES_ONLY.with(|flag| flag.set(false));
+    result
 }
 
 /// No child in a slot.
@@ -314,8 +341,8 @@ pub(super) fn wide_any_hit(
     }
     let slabs = Slabs::new(query);
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the processor has AVX, checked just above.
+    if eight_lanes() {
+        // SAFETY: the processor has AVX, checked by `eight_lanes`.
         return unsafe { avx::any_hit(nodes, &slabs, blocks) };
     }
     any_hit_with(nodes, &slabs, blocks)
@@ -421,8 +448,8 @@ pub(super) fn wide_closest_hit(
     }
     let slabs = Slabs::new(query);
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the processor has AVX, checked just above.
+    if eight_lanes() {
+        // SAFETY: the processor has AVX, checked by `eight_lanes`.
         return unsafe { avx::closest_hit(nodes, &slabs, offer) };
     }
     closest_hit_with(nodes, &slabs, offer)
