@@ -539,13 +539,7 @@ mod tests {
         let scene = crate::scene::builtin::load("room").unwrap().unwrap();
         let prepared = PreparedSurfaces::new(&scene.surfaces);
         let (lo, hi) = scene.bounds();
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut random = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = test_scenes::uniform(0x2545_f491_4f6c_dd1d);
         let corners: Vec<DVec3> = scene
             .surfaces
             .iter()
@@ -582,6 +576,24 @@ pub(crate) mod test_scenes {
 
     /// No surface skipped.
     pub(crate) const NONE_SKIPPED: [u32; 2] = [u32::MAX; 2];
+
+    /// A fixed-seed xorshift generator (Marsaglia 2003) for the tests'
+    /// random queries: the same draws on every run and machine.
+    pub(crate) fn xorshift(seed: u64) -> impl FnMut() -> u64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        }
+    }
+
+    /// [`xorshift`]'s draws as uniform numbers in `[0, 1)`.
+    pub(crate) fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut next = xorshift(seed);
+        move || (next() >> 11) as f64 / (1u64 << 53) as f64
+    }
 
     /// A grey quad with the given corners, surface id 0.
     pub(crate) fn quad(corners: [[f64; 3]; 4]) -> Surface {

@@ -91,13 +91,7 @@ mod tests {
     fn within_two_ulps_of_the_platform() {
         // A fixed-seed walk over magnitudes 1e-12 to 1e4 and every octant
         // of the upper half plane, and the cut points themselves.
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut unit = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = crate::accel::test_scenes::uniform(0x9e37_79b9_7f4a_7c15);
         let mut worst = 0.0f64;
         for _ in 0..1_000_000 {
             let y = unit() * 10f64.powf(16.0 * unit() - 12.0);

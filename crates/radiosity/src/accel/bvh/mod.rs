@@ -492,7 +492,7 @@ mod tests {
     use super::*;
     use crate::accel::brute::BruteForce;
 
-    use crate::accel::test_scenes::{NONE_SKIPPED, square_at_z};
+    use crate::accel::test_scenes::{NONE_SKIPPED, square_at_z, xorshift};
 
     #[test]
     fn empty_scene_blocks_nothing() {
@@ -730,18 +730,12 @@ mod tests {
             .iter()
             .flat_map(|s| s.polygon.iter().copied())
             .collect();
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         let (mut blocked, mut hits) = (0, 0);
         for _ in 0..5_000 {
             let mut point = || {
                 let c = corners[(next() % corners.len() as u64) as usize];
-                if next() % 2 == 0 {
+                if next().is_multiple_of(2) {
                     c
                 } else {
                     c + DVec3::new(

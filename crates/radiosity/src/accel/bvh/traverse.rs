@@ -651,13 +651,7 @@ mod tests {
         if !std::arch::is_x86_feature_detected!("avx") {
             return;
         }
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = crate::accel::test_scenes::xorshift(0x9e37_79b9_7f4a_7c15);
         let coordinate = |next: &mut dyn FnMut() -> u64| match next() % 8 {
             0 => 0.0,
             1 => -0.0,
@@ -681,7 +675,7 @@ mod tests {
             let eight = avx::Slabs8::for_tests(&slabs);
             let mut node = WideNode::UNUSED;
             for k in 0..WIDTH {
-                if next() % 6 == 0 {
+                if next().is_multiple_of(6) {
                     continue; // an empty slot
                 }
                 for axis in 0..3 {
@@ -693,7 +687,11 @@ mod tests {
                         _ => coordinate(next) as f32,
                     };
                     let a = face(&mut next);
-                    let b = if next() % 5 == 0 { a } else { face(&mut next) };
+                    let b = if next().is_multiple_of(5) {
+                        a
+                    } else {
+                        face(&mut next)
+                    };
                     node.bounds[axis][0][k] = a.min(b);
                     node.bounds[axis][1][k] = a.max(b);
                 }
