@@ -65,8 +65,8 @@
 //! 256 bytes (four cache lines): the eight boxes coordinate by coordinate
 //! and side by side, tested as two groups of four lanes (SSE on x86-64),
 //! or as one group of eight where the processor has AVX (the same
-//! operations lane by lane, so the same answers), the eight links, the leaf children's counts and a mask of which children
-//! are leaves. A walk visits about a third fewer nodes than on the
+//! operations lane by lane, so the same answers), the eight links, the
+//! leaf children's counts and a mask of which children are leaves. A walk visits about a third fewer nodes than on the
 //! four-wide tree, and each visit is a chain of dependent loads and
 //! compares whose length barely grows with the width; the walk prefetches
 //! a node when it pushes it. The

@@ -92,8 +92,9 @@ pub(super) const EMPTY_SLOT: u32 = u32::MAX;
 /// A node of the eight-wide tree the queries walk: the boxes of up to
 /// eight children side by side, one array per coordinate and side
 /// (structure of arrays), so two passes of four-lane arithmetic, or one of
-/// eight with AVX, test them all (Dammertz et al. 2008, "Shallow bounding volume hierarchies"; Wald
-/// et al. 2008, "Getting rid of packets"). 256 bytes: four cache lines.
+/// eight with AVX, test them all (Dammertz et al. 2008, "Shallow bounding
+/// volume hierarchies"; Wald et al. 2008, "Getting rid of packets"). 256
+/// bytes: four cache lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct WideNode {
