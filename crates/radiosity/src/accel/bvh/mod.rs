@@ -66,10 +66,10 @@
 //! and side by side, tested as two groups of four lanes (SSE on x86-64),
 //! or as one group of eight where the processor has AVX (the same
 //! operations lane by lane, so the same answers), the eight links, the
-//! leaf children's counts and a mask of which children are leaves. A walk visits about a third fewer nodes than on the
-//! four-wide tree, and each visit is a chain of dependent loads and
-//! compares whose length barely grows with the width; the walk prefetches
-//! a node when it pushes it. The
+//! leaf children's counts and a mask of which children are leaves. A walk
+//! visits about a third fewer nodes than on the four-wide tree, and each
+//! visit is a chain of dependent loads and compares whose length barely
+//! grows with the width; the walk prefetches a node when it pushes it. The
 //! surfaces' prepared planes and edges are stored in leaf order, so a
 //! leaf's tests read adjacent memory; the skip rule compares surface ids,
 //! in one closure. Queries use a fixed stack, left uninitialised: no
