@@ -7,7 +7,9 @@
 //! & Booth 1990) evaluated on a fixed number of centroid bins per axis
 //! (Wald 2007, "On fast construction of SAH-based bounding volume
 //! hierarchies"), then collapsed into an eight-wide tree (Dammertz et al.
-//! 2008; Wald et al. 2008) whose eight child boxes are tested at once. A
+//! 2008; Wald et al. 2008) whose eight child boxes are tested at once, the
+//! grouping chosen by the heuristic's cost of the wide tree itself (Ylitie,
+//! Karras & Laine 2017). A
 //! shadow segment walks it depth first, nearer children first, and stops at
 //! the first blocker (an any-hit query); through a shadow cache (Haines &
 //! Greenberg 1986) the blocker last met from the segment's origin, when
@@ -18,7 +20,8 @@
 //!
 //! The module is in files, one concern each: the settings and [`Bvh`],
 //! which ties the tree to the scene, here; `build` (the flattened layout,
-//! the build and the conservative box of a surface); `flat` (the binary
+//! the build and the conservative box of a surface); `collapse` (the
+//! binary tree grouped into the wide one); `flat` (the binary
 //! tree as it is built, for walkers of their own: the GPU's); `traverse` (the
 //! segment prepared for the walk, the wide layout and its two walks); and
 //! `validate`. The tree itself
@@ -83,6 +86,7 @@ use super::{
 use crate::scene::Surface;
 
 mod build;
+mod collapse;
 mod flat;
 mod traverse;
 mod validate;
@@ -130,7 +134,8 @@ pub struct BvhSettings {
     /// A node with at most this many surfaces is always a leaf.
     pub leaf_size: usize,
     /// A node with more surfaces than this is always split, even when the
-    /// heuristic prefers a leaf; `leaf_size..=MAX_LEAF_SIZE`.
+    /// heuristic prefers a leaf; `leaf_size..=MAX_LEAF_SIZE`. The wide
+    /// tree's leaves, which may join binary leaves, hold at most as many.
     pub max_leaf_size: usize,
     /// Cost of visiting a node (one box test), for the heuristic.
     pub traversal_cost: f64,
@@ -266,7 +271,7 @@ impl<'a> Bvh<'a> {
             .filter(|c| c.is_finite())
             .fold(0.0, f64::max);
         let (tree, mut stats) = Tree::build(&boxes, settings);
-        let wide = collapse(&tree);
+        let wide = collapse::collapse(&tree, settings.max_leaf_size);
         stats.wide_nodes = wide.len();
         let in_leaf_order: Vec<Surface> = tree
             .primitives

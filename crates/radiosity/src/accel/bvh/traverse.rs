@@ -1,6 +1,6 @@
 //! The BVH's traversal: the segment prepared for the slab test, the
 //! eight-wide layout the binary tree is collapsed into (Dammertz et al.
-//! 2008; Wald et al. 2008), the slab test of a node's eight child boxes in
+//! 2008; Wald et al. 2008; the collapse itself is `collapse`), the slab test of a node's eight child boxes in
 //! two groups of four SIMD lanes (or one group of eight where the
 //! processor has AVX, chosen at run time), the depth-first any-hit walk
 //! for shadow segments and the front-to-back closest-hit walk, which
@@ -126,74 +126,6 @@ impl WideNode {
             [0, 1, 2].map(|a| self.bounds[a][1][k]),
         )
     }
-}
-
-/// The binary tree collapsed into a wide one: each wide node takes the
-/// place of a binary node and holds up to [`WIDTH`] of its descendants,
-/// found by opening the child of largest surface area until there are
-/// [`WIDTH`] (the
-/// usual collapse of a binary SAH tree; the boxes are the binary nodes'
-/// own, so every box still contains what is below it).
-pub(super) fn collapse(tree: &Tree) -> Vec<WideNode> {
-    if tree.nodes.is_empty() {
-        return Vec::new();
-    }
-    let mut wide = Vec::with_capacity(tree.nodes.len() / 2 + 1);
-    collapse_node(tree, 0, &mut wide);
-    wide
-}
-
-pub(super) fn half_area_of(node: &Node) -> f32 {
-    let d = [0, 1, 2].map(|i| node.max[i] - node.min[i]);
-    let area = d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
-    if area.is_nan() { f32::INFINITY } else { area }
-}
-
-/// Collapses the subtree of binary node `at` into wide nodes; returns the
-/// index of its wide node.
-pub(super) fn collapse_node(tree: &Tree, at: u32, wide: &mut Vec<WideNode>) -> u32 {
-    let index = wide.len() as u32;
-    wide.push(WideNode::UNUSED);
-    let node = &tree.nodes[at as usize];
-    let mut children: Vec<u32> = if node.is_leaf() {
-        vec![at]
-    } else {
-        vec![at + 1, node.link]
-    };
-    while children.len() < WIDTH {
-        let open = children
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !tree.nodes[**c as usize].is_leaf())
-            .max_by(|a, b| {
-                half_area_of(&tree.nodes[*a.1 as usize])
-                    .total_cmp(&half_area_of(&tree.nodes[*b.1 as usize]))
-            })
-            .map(|(i, _)| i);
-        let Some(i) = open else { break };
-        let c = children[i];
-        let right = tree.nodes[c as usize].link;
-        children[i] = c + 1;
-        children.insert(i + 1, right);
-    }
-    let mut out = WideNode::UNUSED;
-    for (slot, &c) in children.iter().enumerate() {
-        let child = tree.nodes[c as usize];
-        for axis in 0..3 {
-            out.bounds[axis][0][slot] = child.min[axis];
-            out.bounds[axis][1][slot] = child.max[axis];
-        }
-        if child.is_leaf() {
-            out.link[slot] = child.link;
-            // Leaves hold at most `MAX_LEAF_SIZE` (64) primitives.
-            out.count[slot] = child.kind as u8;
-            out.leaves |= 1 << slot;
-        } else {
-            out.link[slot] = collapse_node(tree, c, wide);
-        }
-    }
-    wide[index as usize] = out;
-    index
 }
 
 /// Asks the processor to start loading a node about to be visited (the
