@@ -386,6 +386,11 @@ pub(super) fn partition(slice: &mut [u32], left: impl Fn(&u32) -> bool) -> usize
 /// scene: about 34 units of `f32` round-off (see the module notes).
 pub(super) const QUERY_MARGIN: f64 = 2e-6;
 
+/// The margin of the `f64` recheck of a leaf child's box
+/// ([`ExactSlabs`](super::traverse::ExactSlabs)), relative to the same
+/// reference: its round-off is under `10 ε ≈ 2.2e-15` of it.
+pub(super) const EXACT_MARGIN: f64 = 1e-12;
+
 /// Above this coordinate magnitude (of the query or the scene) a query
 /// tests every surface instead of using `f32` boxes.
 pub(super) const F32_SAFE_COORDINATE: f64 = 1e30;

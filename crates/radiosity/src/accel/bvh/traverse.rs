@@ -230,6 +230,66 @@ fn slab_test(node: &WideNode, slabs: &Slabs, limit: f32) -> ([f32; WIDTH], u32) 
     (entries, mask)
 }
 
+/// A segment prepared for [`ExactSlabs::meets`]: the slab test of one
+/// child box in `f64`, against the segment itself rather than its `f32`
+/// rounding widened by the walk's margin.
+///
+/// The walk's margin is wide (`QUERY_MARGIN`, about 6e-5 m at Sponza's
+/// coordinates) next to how far the solver's segments stop short of their
+/// end surfaces (a millionth of their length), so the `f32` test enters
+/// every leaf at a segment's ends: the receiver's neighbours around the
+/// vertex, the source's around its centre, which the exact test then
+/// rejects at the cost of loading their planes. The `f64` test of the
+/// leaf's box, whose round-off is some `1e-15` of the coordinates, culls
+/// them first. Its margin covers that round-off, so it never culls a box
+/// the segment meets, and the answers stay the exact test's.
+pub(super) struct ExactSlabs {
+    from: DVec3,
+    inverse: DVec3,
+    margin: f64,
+}
+
+impl ExactSlabs {
+    /// The segment from `from` to `to`, every box widened by `margin`,
+    /// which must cover the test's round-off: `10 ε` of the largest
+    /// coordinate of the segment and of the boxes it could meet.
+    pub(super) fn new(from: DVec3, to: DVec3, margin: f64) -> ExactSlabs {
+        ExactSlabs {
+            from,
+            inverse: (to - from).recip(),
+            margin,
+        }
+    }
+
+    /// Whether the segment meets child `k` of `node`, widened by the
+    /// margin. A NaN parameter (the origin on a widened face while parallel
+    /// to it) leaves its axis unconstrained, as in the `f32` test.
+    #[inline(always)]
+    pub(super) fn meets(&self, node: &WideNode, k: usize) -> bool {
+        let mut enter = 0.0f64;
+        let mut exit = 1.0f64;
+        for axis in 0..3 {
+            let lower = f64::from(node.bounds[axis][0][k]) - self.margin;
+            let upper = f64::from(node.bounds[axis][1][k]) + self.margin;
+            let inverse = self.inverse[axis];
+            let a = (lower - self.from[axis]) * inverse;
+            let b = (upper - self.from[axis]) * inverse;
+            let (near, far) = if inverse.is_sign_negative() {
+                (b, a)
+            } else {
+                (a, b)
+            };
+            if near > enter {
+                enter = near;
+            }
+            if far < exit {
+                exit = far;
+            }
+        }
+        enter <= exit
+    }
+}
+
 /// `x > y ? x : y` lane by lane, so a NaN `x` gives `y` (not glam's `max`,
 /// whose rule for NaN depends on the instruction set): SSE's `maxps` is
 /// exactly this.
@@ -262,13 +322,14 @@ fn earlier(x: Vec4, y: Vec4) -> Vec4 {
 
 /// Walks the wide tree: every child box the segment meets is entered; the
 /// leaf children a node's segment meets are offered to `blocks` first, in
-/// slot order, each whole (its first primitive's position in the leaf
-/// order and its count), then the interior children nearer first. Returns
-/// the answer and the number of child boxes tested.
+/// slot order, each whole (the node and the slot: its first primitive's
+/// position in the leaf order is the slot's link, its count the slot's
+/// count), then the interior children nearer first. Returns the answer and
+/// the number of child boxes tested.
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
     query: &SegmentQuery,
-    blocks: impl FnMut(u32, u32) -> bool,
+    blocks: impl FnMut(&WideNode, usize) -> bool,
 ) -> (bool, u32) {
     if nodes.is_empty() {
         return (false, 0);
@@ -287,7 +348,7 @@ pub(super) fn wide_any_hit(
 fn any_hit_with(
     nodes: &[WideNode],
     boxes: &impl ChildBoxes,
-    mut blocks: impl FnMut(u32, u32) -> bool,
+    mut blocks: impl FnMut(&WideNode, usize) -> bool,
 ) -> (bool, u32) {
     // Each node pushes at most WIDTH - 1 entries above its ancestors'.
     // Left uninitialised: zeroing it cost a `memset` of 1.8 kB per query,
@@ -305,7 +366,7 @@ fn any_hit_with(
         while leaves != 0 {
             let k = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
-            if blocks(node.link[k], u32::from(node.count[k])) {
+            if blocks(node, k) {
                 return (true, tested);
             }
         }
@@ -554,7 +615,7 @@ mod avx {
     pub(super) fn any_hit(
         nodes: &[WideNode],
         slabs: &Slabs,
-        blocks: impl FnMut(u32, u32) -> bool,
+        blocks: impl FnMut(&WideNode, usize) -> bool,
     ) -> (bool, u32) {
         any_hit_with(nodes, &Slabs8::new(slabs), blocks)
     }
