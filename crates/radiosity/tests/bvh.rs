@@ -49,6 +49,7 @@ fn builtin_trees_are_valid_and_shallow() {
                 "depth",
                 "max_leaf_size",
                 "wide_nodes",
+                "wide_max_leaf_size",
                 "bytes"
             ]
         );
@@ -65,7 +66,10 @@ fn a_segment_between_parallel_planes_tests_a_leaf_or_two() {
         NOTHING_SKIPPED,
     );
     assert!(!blocked);
-    assert!(tested <= 2 * bvh.stats().max_leaf_size as u32, "{tested}");
+    assert!(
+        tested <= 2 * bvh.stats().wide_max_leaf_size as u32,
+        "{tested}"
+    );
 }
 
 /// The shadow cache changes no answer: runs of segments from one point to
@@ -230,6 +234,7 @@ fn empty_scene_statistics() {
                 ("depth", 0),
                 ("max_leaf_size", 0),
                 ("wide_nodes", 0),
+                ("wide_max_leaf_size", 0),
                 ("bytes", 0)
             ]
         );

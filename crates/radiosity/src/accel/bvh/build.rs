@@ -388,7 +388,9 @@ pub(super) const QUERY_MARGIN: f64 = 2e-6;
 
 /// The margin of the `f64` recheck of a leaf child's box
 /// ([`ExactSlabs`](super::traverse::ExactSlabs)), relative to the same
-/// reference: its round-off is under `10 ε ≈ 2.2e-15` of it.
+/// reference: its round-off is under `10 ε ≈ 2.2e-15` of it, and
+/// `segment_crosses` accepts crossings within tens of `ε` of it off the
+/// exact segment and plane; the margin covers both about a hundred times.
 pub(super) const EXACT_MARGIN: f64 = 1e-12;
 
 /// Above this coordinate magnitude (of the query or the scene) a query

@@ -28,8 +28,9 @@ const WIDE_NODE_COST: f64 = 1.0;
 const SURFACE_COST: f64 = 1.0;
 
 /// A node's box's half area, finite: an unbounded box (a degenerate
-/// surface's, see `crossing_box`) counts as a very large one, so the costs
-/// stay comparable.
+/// surface's, see `crossing_box`) counts as 1e30, and so does any larger
+/// one (coordinates beyond about 1e15), so the costs stay finite and
+/// comparable; among such boxes the grouping follows the surface counts.
 fn area(node: &Node) -> f64 {
     let d = [0, 1, 2].map(|i| f64::from(node.max[i]) - f64::from(node.min[i]));
     let a = d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
@@ -68,6 +69,7 @@ struct Plan {
 /// The wide tree of `tree`, leaves of at most `max_leaf` surfaces (binary
 /// leaves larger than that stay as they are). Node 0 is the root.
 pub(super) fn collapse(tree: &Tree, max_leaf: usize) -> Vec<WideNode> {
+    debug_assert!(max_leaf <= MAX_LEAF_SIZE, "a leaf's count is a u8");
     if tree.nodes.is_empty() {
         return Vec::new();
     }

@@ -9,8 +9,8 @@
 //! hierarchies"), then collapsed into an eight-wide tree (Dammertz et al.
 //! 2008; Wald et al. 2008) whose eight child boxes are tested at once, the
 //! grouping chosen by the heuristic's cost of the wide tree itself (Ylitie,
-//! Karras & Laine 2017). A
-//! shadow segment walks it depth first, nearer children first, and stops at
+//! Karras & Laine 2017). A shadow segment walks it depth first, nearer
+//! children first, and stops at
 //! the first blocker (an any-hit query); through a shadow cache (Haines &
 //! Greenberg 1986) the blocker last met from the segment's origin, when
 //! the caller names it, and the last two blockers a thread met are tested
@@ -26,8 +26,9 @@
 //! segment prepared for the walk, the wide layout and its two walks);
 //! `validate`; and the unit tests, in `tests`. The tree itself
 //! knows primitive indices, never geometry: the build takes boxes, the
-//! traversals take a closure deciding whether primitive `i` blocks, or
-//! testing it and returning how far the ray still reaches.
+//! any-hit walk takes a closure deciding whether a leaf child (a node and
+//! a slot) holds a blocker, the closest-hit walk one testing primitive `i`
+//! and returning how far the ray still reaches.
 //!
 //! # Agreement with the brute-force oracle
 //!
@@ -58,9 +59,12 @@
 //!   fit `f32` comfortably test every surface instead.
 //! * A shadow segment's walk rechecks each leaf child's box in `f64` before
 //!   testing its surfaces, with a margin (`EXACT_MARGIN`, 1e-12 of the same
-//!   reference) over 400 times that test's round-off. It culls the leaves
-//!   the wide `f32` margin lets in at the segment's ends, never one the
-//!   segment meets.
+//!   reference). It must cover that test's round-off (under `10 ε`, 2.2e-15
+//!   of the reference) and how far off the exact segment and plane
+//!   `segment_crosses`'s own `f64` arithmetic can accept a crossing (tens
+//!   of `ε`): about a hundred times over. It culls the leaves the wide
+//!   `f32` margin lets in at the segment's ends, never one holding a
+//!   surface the exact test accepts.
 //!
 //! # Layout
 //!
@@ -142,7 +146,9 @@ pub struct BvhSettings {
     /// heuristic prefers a leaf; `leaf_size..=MAX_LEAF_SIZE`. The wide
     /// tree's leaves, which may join binary leaves, hold at most as many.
     pub max_leaf_size: usize,
-    /// Cost of visiting a node (one box test), for the heuristic.
+    /// Cost of visiting a node (one box test), for the binary tree's
+    /// heuristic (the wide tree's grouping has its own costs, in
+    /// `collapse`).
     pub traversal_cost: f64,
     /// Cost of testing one surface, in the same units.
     pub primitive_cost: f64,
@@ -221,10 +227,14 @@ pub struct BvhStats {
     pub leaves: usize,
     /// Nodes on the longest root-to-leaf path (0 for an empty tree).
     pub depth: usize,
-    /// Surfaces in the largest leaf.
+    /// Surfaces in the binary tree's largest leaf.
     pub max_leaf_size: usize,
     /// Nodes of the eight-wide tree the queries walk.
     pub wide_nodes: usize,
+    /// Surfaces in the wide tree's largest leaf (which may join binary
+    /// leaves, up to the settings' `max_leaf_size`): the most a leaf
+    /// visit tests.
+    pub wide_max_leaf_size: usize,
 }
 
 // ----------------------------------------------------------------------- Bvh
@@ -278,6 +288,11 @@ impl<'a> Bvh<'a> {
         let (tree, mut stats) = Tree::build(&boxes, settings);
         let wide = collapse::collapse(&tree, settings.max_leaf_size);
         stats.wide_nodes = wide.len();
+        stats.wide_max_leaf_size = wide
+            .iter()
+            .flat_map(|n| n.count)
+            .max()
+            .map_or(0, usize::from);
         let in_leaf_order: Vec<Surface> = tree
             .primitives
             .iter()
@@ -497,6 +512,7 @@ impl Occluder for Bvh<'_> {
             ("depth", s.depth),
             ("max_leaf_size", s.max_leaf_size),
             ("wide_nodes", s.wide_nodes),
+            ("wide_max_leaf_size", s.wide_max_leaf_size),
             ("bytes", self.memory_bytes()),
         ]
     }

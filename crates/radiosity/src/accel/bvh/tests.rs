@@ -32,6 +32,7 @@ fn one_square_is_one_leaf() {
             depth: 1,
             max_leaf_size: 1,
             wide_nodes: 1,
+            wide_max_leaf_size: 1,
         }
     );
     // One wide node: its child boxes (one used) are tested.
@@ -300,9 +301,9 @@ fn boxes_round_outward() {
 
 /// The `f64` recheck of a leaf's box never culls a box the segment meets,
 /// even one it touches only at an end, on a corner, a face or an edge of
-/// the box, at every scale; and it culls the same box moved beyond the
-/// segment's end by a thousand times its margin, which the `f32` test's
-/// margin would still let in.
+/// the box, or one reaching to infinity, at scales from 1e-4 to 1e4; and
+/// it culls the same box moved beyond the segment's end by a thousand
+/// times its margin.
 #[test]
 fn exact_recheck_keeps_every_box_the_segment_meets() {
     let mut rng = crate::accel::test_scenes::uniform(11);
@@ -344,8 +345,19 @@ fn exact_recheck_keeps_every_box_the_segment_meets() {
             node.bounds[axis][0][0] = c.min(c + extent);
             node.bounds[axis][1][0] = c.max(c + extent);
         }
+        // Some boxes reach to infinity on one side of one axis.
+        let unbounded = case % 11 == 0;
+        if unbounded {
+            let axis = (case / 11 % 3) as usize;
+            let side = (case / 33 % 2) as usize;
+            node.bounds[axis][side][0] = if side == 0 {
+                f32::NEG_INFINITY
+            } else {
+                f32::INFINITY
+            };
+        }
         node.link[0] = 0;
-        let reference = [from, to, corner + DVec3::from(far.map(f64::from))]
+        let reference = [from, to, DVec3::from(far.map(f64::from))]
             .iter()
             .map(|p| p.abs().max_element())
             .fold(0.0, f64::max);
@@ -357,7 +369,7 @@ fn exact_recheck_keeps_every_box_the_segment_meets() {
         );
         // Beyond the end along the segment's longest axis, the box
         // reaching further that way: missed.
-        if !starts_there {
+        if !starts_there && !unbounded {
             let axis = d.abs().max_position();
             let gap = (1e-9 * reference) as f32;
             let up = d[axis] > 0.0;

@@ -1,7 +1,7 @@
 //! The BVH's traversal: the segment prepared for the slab test, the
 //! eight-wide layout the binary tree is collapsed into (Dammertz et al.
-//! 2008; Wald et al. 2008; the collapse itself is `collapse`), the slab test of a node's eight child boxes in
-//! two groups of four SIMD lanes (or one group of eight where the
+//! 2008; Wald et al. 2008; the collapse itself is `collapse`), the slab
+//! test of a node's eight child boxes in two groups of four SIMD lanes (or one group of eight where the
 //! processor has AVX, chosen at run time), the depth-first any-hit walk
 //! for shadow segments and the front-to-back closest-hit walk, which
 //! shrinks the segment as hits are found.
@@ -241,8 +241,10 @@ fn slab_test(node: &WideNode, slabs: &Slabs, limit: f32) -> ([f32; WIDTH], u32) 
 /// vertex, the source's around its centre, which the exact test then
 /// rejects at the cost of loading their planes. The `f64` test of the
 /// leaf's box, whose round-off is some `1e-15` of the coordinates, culls
-/// them first. Its margin covers that round-off, so it never culls a box
-/// the segment meets, and the answers stay the exact test's.
+/// them first. Its margin covers that round-off and how far off the
+/// segment the exact test's own arithmetic can accept a crossing, so it
+/// never culls a box holding a surface the exact test accepts, and the
+/// answers stay the exact test's.
 pub(super) struct ExactSlabs {
     from: DVec3,
     inverse: DVec3,
@@ -251,8 +253,9 @@ pub(super) struct ExactSlabs {
 
 impl ExactSlabs {
     /// The segment from `from` to `to`, every box widened by `margin`,
-    /// which must cover the test's round-off: `10 ε` of the largest
-    /// coordinate of the segment and of the boxes it could meet.
+    /// which must cover the test's round-off (under `10 ε` of the largest
+    /// coordinate of the segment and of the boxes it could meet) and the
+    /// exact test's (tens of `ε` of it).
     pub(super) fn new(from: DVec3, to: DVec3, margin: f64) -> ExactSlabs {
         ExactSlabs {
             from,

@@ -116,6 +116,7 @@ impl Tree {
             depth: max_depth,
             max_leaf_size: largest,
             wide_nodes: stats.wide_nodes,
+            wide_max_leaf_size: stats.wide_max_leaf_size,
         };
         if actual != *stats {
             return Err(InvalidTree(format!(
@@ -151,11 +152,15 @@ impl Bvh<'_> {
             let (lower, upper) = outer.child_box(k);
             (0..3).all(|a| lower[a] <= min[a] && upper[a] >= max[a])
         };
+        let mut largest = 0;
         while let Some(i) = todo.pop() {
             if std::mem::replace(&mut reached[i], true) {
                 return Err(InvalidTree(format!("wide node {i} is reached twice")));
             }
             let node = &wide[i];
+            if node.link.iter().all(|&l| l == EMPTY_SLOT) {
+                return Err(InvalidTree(format!("wide node {i} has no child")));
+            }
             for k in 0..WIDTH {
                 let link = node.link[k];
                 let leaf = node.leaves >> k & 1 == 1;
@@ -185,7 +190,15 @@ impl Bvh<'_> {
                     todo.push(c);
                     continue;
                 }
-                let range = link as usize..link as usize + node.count[k] as usize;
+                let count = usize::from(node.count[k]);
+                largest = largest.max(count);
+                if count > self.settings.max_leaf_size.max(self.stats.max_leaf_size) {
+                    return Err(InvalidTree(format!(
+                        "wide node {i}: leaf {k} holds {count} surfaces, over the settings' {}",
+                        self.settings.max_leaf_size
+                    )));
+                }
+                let range = link as usize..link as usize + count;
                 let Some(primitives) = self.tree.primitives.get(range) else {
                     return Err(InvalidTree(format!("wide node {i}: leaf {k} out of range")));
                 };
@@ -201,6 +214,12 @@ impl Bvh<'_> {
                     }
                 }
             }
+        }
+        if largest != self.stats.wide_max_leaf_size {
+            return Err(InvalidTree(format!(
+                "the largest wide leaf holds {largest} surfaces, statistics say {}",
+                self.stats.wide_max_leaf_size
+            )));
         }
         if let Some(i) = reached.iter().position(|r| !r) {
             return Err(InvalidTree(format!("wide node {i} is not reached")));
