@@ -23,7 +23,8 @@
 //! the build and the conservative box of a surface); `collapse` (the
 //! binary tree grouped into the wide one); `flat` (the binary
 //! tree as it is built, for walkers of their own: the GPU's); `traverse` (the
-//! segment prepared for the walk, the wide layout and its two walks);
+//! segment prepared for the walk, the wide layout and its two walks, with
+//! their AVX versions in `traverse/avx.rs`);
 //! `validate`; and the unit tests, in `tests`. The tree itself
 //! knows primitive indices, never geometry: the build takes boxes, the
 //! any-hit walk takes a closure deciding whether a leaf child (a node and
@@ -370,11 +371,8 @@ impl<'a> Bvh<'a> {
         let query = SegmentQuery::new(from, to, QUERY_MARGIN * reference);
         // Each leaf's box rechecked in `f64` before its surfaces' tests.
         let exact = ExactSlabs::new(from, to, EXACT_MARGIN * reference);
-        let leaf = |node: &WideNode, k: usize| {
-            let first = node.link[k];
-            exact.meets(node, k) && (first..first + u32::from(node.count[k])).any(&mut blocks)
-        };
-        let (_, visited) = wide_any_hit(&self.wide, &query, leaf);
+        let leaf = |first, count| (first..first + count).any(&mut blocks);
+        let (_, visited) = wide_any_hit(&self.wide, &query, &exact, leaf);
         (found, tested, visited)
     }
 

@@ -241,7 +241,8 @@ fn slab_test(node: &WideNode, slabs: &Slabs, limit: f32) -> ([f32; WIDTH], u32) 
 /// vertex, the source's around its centre, which the exact test then
 /// rejects at the cost of loading their planes. The `f64` test of the
 /// leaf's box, whose round-off is some `1e-15` of the coordinates, culls
-/// them first. Its margin covers that round-off and how far off the
+/// them first, four children at a time in `f64` lanes where the processor
+/// has AVX (`avx`). Its margin covers that round-off and how far off the
 /// segment the exact test's own arithmetic can accept a crossing, so it
 /// never culls a box holding a surface the exact test accepts, and the
 /// answers stay the exact test's.
@@ -293,6 +294,30 @@ impl ExactSlabs {
     }
 }
 
+/// The `f64` recheck of a node's leaf children ([`ExactSlabs::meets`]):
+/// lane by lane in scalar code, or four lanes at a time with AVX (the same
+/// operations, so the same mask).
+trait LeafBoxes {
+    /// `mask` with the bits of the children the segment misses cleared.
+    fn keep(&self, node: &WideNode, mask: u32) -> u32;
+}
+
+impl LeafBoxes for ExactSlabs {
+    #[inline(always)]
+    fn keep(&self, node: &WideNode, mask: u32) -> u32 {
+        let mut kept = mask;
+        let mut bits = mask;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if !self.meets(node, k) {
+                kept &= !(1 << k);
+            }
+        }
+        kept
+    }
+}
+
 /// `x > y ? x : y` lane by lane, so a NaN `x` gives `y` (not glam's `max`,
 /// whose rule for NaN depends on the instruction set): SSE's `maxps` is
 /// exactly this.
@@ -332,7 +357,8 @@ fn earlier(x: Vec4, y: Vec4) -> Vec4 {
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
     query: &SegmentQuery,
-    blocks: impl FnMut(&WideNode, usize) -> bool,
+    exact: &ExactSlabs,
+    blocks: impl FnMut(u32, u32) -> bool,
 ) -> (bool, u32) {
     if nodes.is_empty() {
         return (false, 0);
@@ -341,9 +367,9 @@ pub(super) fn wide_any_hit(
     #[cfg(target_arch = "x86_64")]
     if eight_lanes() {
         // SAFETY: the processor has AVX, checked by `eight_lanes`.
-        return unsafe { avx::any_hit(nodes, &slabs, blocks) };
+        return unsafe { avx::any_hit(nodes, &slabs, exact, blocks) };
     }
-    any_hit_with(nodes, &slabs, blocks)
+    any_hit_with(nodes, &slabs, exact, blocks)
 }
 
 /// [`wide_any_hit`]'s walk, with the slab test `boxes`.
@@ -351,7 +377,8 @@ pub(super) fn wide_any_hit(
 fn any_hit_with(
     nodes: &[WideNode],
     boxes: &impl ChildBoxes,
-    mut blocks: impl FnMut(&WideNode, usize) -> bool,
+    exact: &impl LeafBoxes,
+    mut blocks: impl FnMut(u32, u32) -> bool,
 ) -> (bool, u32) {
     // Each node pushes at most WIDTH - 1 entries above its ancestors'.
     // Left uninitialised: zeroing it cost a `memset` of 1.8 kB per query,
@@ -366,10 +393,13 @@ fn any_hit_with(
         let (enter, hits) = boxes.test(node, 1.0);
         // Leaf children first: their tests may end the walk.
         let mut leaves = hits & node.leaves;
+        if leaves != 0 {
+            leaves = exact.keep(node, leaves);
+        }
         while leaves != 0 {
             let k = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
-            if blocks(node, k) {
+            if blocks(node.link[k], u32::from(node.count[k])) {
                 return (true, tested);
             }
         }
@@ -530,109 +560,9 @@ fn closest_hit_with(
     }
 }
 
-/// The walks compiled for AVX, with the eight child boxes tested in one
-/// group of eight lanes: half the instructions of two groups of four, the
-/// same operations lane by lane (`vmaxps` and `vminps` keep SSE's rule for
-/// NaN, the comparison is ordered), so the same answers. Chosen at run
-/// time, so one build runs everywhere and uses AVX where it is.
+/// The walks compiled for AVX (`traverse/avx.rs`).
 #[cfg(target_arch = "x86_64")]
-mod avx {
-    use std::arch::x86_64::{
-        __m256, _CMP_LE_OQ, _mm256_cmp_ps, _mm256_load_ps, _mm256_max_ps, _mm256_min_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps,
-        _mm256_sub_ps,
-    };
-
-    use super::{ChildBoxes, Slabs, WIDTH, WideNode, any_hit_with, closest_hit_with};
-
-    /// [`Slabs`] in all eight lanes.
-    pub(super) struct Slabs8 {
-        down: [usize; 3],
-        o_near: [__m256; 3],
-        o_far: [__m256; 3],
-        inv: [__m256; 3],
-    }
-
-    impl Slabs8 {
-        #[target_feature(enable = "avx")]
-        fn new(slabs: &Slabs) -> Slabs8 {
-            let splat = |v: [glam::Vec4; 3]| v.map(|v| _mm256_set1_ps(v.x));
-            Slabs8 {
-                down: slabs.down.map(usize::from),
-                o_near: splat(slabs.o_near),
-                o_far: splat(slabs.o_far),
-                inv: splat(slabs.inv),
-            }
-        }
-    }
-
-    /// [`super::slab_test`] in one group of eight lanes.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    fn slab_test8(node: &WideNode, slabs: &Slabs8, limit: f32) -> ([f32; WIDTH], u32) {
-        let mut enter = _mm256_setzero_ps();
-        let mut exit = _mm256_set1_ps(limit);
-        for axis in 0..3 {
-            let faces = &node.bounds[axis];
-            let down = slabs.down[axis];
-            // SAFETY: each side's eight coordinates are 32 bytes at an
-            // offset of a multiple of 32 in a node aligned to 64.
-            let (near, far) = unsafe {
-                (
-                    _mm256_load_ps(faces[down].as_ptr()),
-                    _mm256_load_ps(faces[1 - down].as_ptr()),
-                )
-            };
-            let t_near = _mm256_mul_ps(_mm256_sub_ps(near, slabs.o_near[axis]), slabs.inv[axis]);
-            let t_far = _mm256_mul_ps(_mm256_sub_ps(far, slabs.o_far[axis]), slabs.inv[axis]);
-            enter = _mm256_max_ps(t_near, enter);
-            exit = _mm256_min_ps(t_far, exit);
-        }
-        let mut entries = [0.0f32; WIDTH];
-        // SAFETY: `entries` holds eight floats.
-        unsafe { _mm256_storeu_ps(entries.as_mut_ptr(), enter) };
-        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit)) as u32;
-        (entries, mask)
-    }
-
-    #[cfg(test)]
-    impl Slabs8 {
-        /// [`Slabs8::new`], where the caller has checked for AVX.
-        pub(super) fn for_tests(slabs: &Slabs) -> Slabs8 {
-            assert!(std::arch::is_x86_feature_detected!("avx"));
-            // SAFETY: the processor has AVX, asserted just above.
-            unsafe { Slabs8::new(slabs) }
-        }
-    }
-
-    impl ChildBoxes for Slabs8 {
-        #[inline(always)]
-        fn test(&self, node: &WideNode, limit: f32) -> ([f32; WIDTH], u32) {
-            // SAFETY: a `Slabs8` is only made where the processor has AVX.
-            unsafe { slab_test8(node, self, limit) }
-        }
-    }
-
-    /// [`super::wide_any_hit`]'s walk with the eight-lane test.
-    #[target_feature(enable = "avx")]
-    pub(super) fn any_hit(
-        nodes: &[WideNode],
-        slabs: &Slabs,
-        blocks: impl FnMut(&WideNode, usize) -> bool,
-    ) -> (bool, u32) {
-        any_hit_with(nodes, &Slabs8::new(slabs), blocks)
-    }
-
-    /// [`super::wide_closest_hit`]'s walk with the eight-lane test.
-    #[target_feature(enable = "avx")]
-    pub(super) fn closest_hit(
-        nodes: &[WideNode],
-        slabs: &Slabs,
-        offer: impl FnMut(u32) -> f64,
-    ) -> u32 {
-        closest_hit_with(nodes, &Slabs8::new(slabs), offer)
-    }
-}
+mod avx;
 
 #[cfg(test)]
 mod tests {
@@ -642,7 +572,9 @@ mod tests {
     /// for bit: random boxes (some empty, some flat, some with a face on
     /// the segment's origin) against random segments (some parallel to an
     /// axis, some with zero or negative-zero components), with limits below,
-    /// at and above 1.
+    /// at and above 1. So does the `f64` recheck of leaf children four lanes
+    /// at a time against the scalar one, with and without a margin (without,
+    /// faces on the origin give the NaN parameters).
     #[test]
     #[cfg(target_arch = "x86_64")]
     fn eight_lanes_test_boxes_as_two_groups_of_four() {
@@ -694,6 +626,17 @@ mod tests {
                     node.bounds[axis][0][k] = a.min(b);
                     node.bounds[axis][1][k] = a.max(b);
                 }
+            }
+            for margin in [0.0, 1e-9] {
+                let exact = ExactSlabs::new(from, to, margin);
+                // SAFETY: the processor has AVX, checked above.
+                let exact8 = unsafe { avx::Exact8::new(&exact) };
+                let mask = (next() % 256) as u32;
+                assert_eq!(
+                    exact.keep(&node, mask),
+                    exact8.keep(&node, mask),
+                    "{node:?} {from} {to} {margin} {mask:b}"
+                );
             }
             for limit in [0.5f32, 1.0, 2.0] {
                 let (entries4, mask4) = slabs.test(&node, limit);
