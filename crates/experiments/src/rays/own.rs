@@ -15,6 +15,7 @@ use radiosity::scene::Scene;
 use radiosity::solver::Settings;
 
 use super::embree::EmbreeRun;
+use super::report::share;
 use super::{
     Clock, Rays, Segment, Timing, brute_budget, record_with, sample, segment_budget, time_queries,
 };
@@ -159,19 +160,13 @@ pub fn report(data: &Rays, report: &mut Report) {
                 measured.name.to_string(),
                 own.recorded.to_string(),
                 own.timed.to_string(),
-                format!(
-                    "{:.1}%",
-                    100.0 * own.blocked as f64 / own.timed.max(1) as f64
-                ),
+                share(own.blocked as f64, own.timed as f64),
                 own.brute_checked.to_string(),
                 format!("{:.1}", own.per_ray[0]),
                 format!("{:.1}", own.per_ray[1]),
                 format!("{bvh:.0}"),
                 format!("{cached:.0}"),
-                format!(
-                    "{:.1}%",
-                    100.0 * own.cache_hits as f64 / own.timed.max(1) as f64
-                ),
+                share(own.cache_hits as f64, own.timed as f64),
                 embree.map_or("-".into(), |e| format!("{e:.0}")),
                 embree.map_or("-".into(), |e| format!("{:.2}", e / bvh)),
                 embree.map_or("-".into(), |e| format!("{:.2}", e / cached)),

@@ -56,10 +56,7 @@ pub fn rays_report(data: &Rays) -> Report {
             measured.surfaces.to_string(),
             measured.recorded.to_string(),
             measured.timed.to_string(),
-            format!(
-                "{:.1}%",
-                100.0 * outcome.blocked as f64 / measured.timed.max(1) as f64
-            ),
+            share(outcome.blocked as f64, measured.timed as f64),
             outcome.brute_checked.to_string(),
             outcome
                 .embree_agreement
@@ -177,10 +174,7 @@ pub fn rays_report(data: &Rays) -> Report {
                     measured.name.to_string(),
                     run.triangles.to_string(),
                     run.segments.to_string(),
-                    format!(
-                        "{:.1}%",
-                        100.0 * run.blocked as f64 / run.segments.max(1) as f64
-                    ),
+                    share(run.blocked as f64, run.segments as f64),
                     format!("{:.3}", run.upload_seconds),
                     format!("{:.1}", per_second / 1e6),
                     run.kernel_segments_per_second()
@@ -217,4 +211,9 @@ pub fn rays_report(data: &Rays) -> Report {
         ));
     }
     report
+}
+
+/// `part` as a percentage of `whole`, one decimal, for the tables.
+pub(super) fn share(part: f64, whole: f64) -> String {
+    format!("{:.1}%", 100.0 * part / whole.max(1.0))
 }

@@ -60,6 +60,9 @@ enum Choice {
 struct Plan {
     cost: [f64; WIDTH],
     choice: [Choice; WIDTH],
+    /// As a wide node of its own: the slots its left subtree takes (the
+    /// right one takes the rest).
+    wide_split: u8,
     /// Surfaces in the subtree.
     surfaces: u32,
     /// Its first surface's position in leaf order.
@@ -88,6 +91,7 @@ fn plan(tree: &Tree, max_leaf: usize) -> Vec<Plan> {
         Plan {
             cost: [0.0; WIDTH],
             choice: [Choice::Leaf; WIDTH],
+            wide_split: 0,
             surfaces: 0,
             first: 0,
         };
@@ -101,6 +105,7 @@ fn plan(tree: &Tree, max_leaf: usize) -> Vec<Plan> {
             plans[at] = Plan {
                 cost: [leaf; WIDTH],
                 choice: [Choice::Leaf; WIDTH],
+                wide_split: 0,
                 surfaces: node.kind,
                 first: node.link,
             };
@@ -116,13 +121,14 @@ fn plan(tree: &Tree, max_leaf: usize) -> Vec<Plan> {
                 .min_by(|x, y| x.0.total_cmp(&y.0))
                 .expect("two slots or more")
         };
+        let (below, wide_split) = distribute(WIDTH);
         let mut plan = Plan {
             cost: [0.0; WIDTH],
             choice: [Choice::Wide; WIDTH],
+            wide_split,
             surfaces,
             first: left.first,
         };
-        let (below, _) = distribute(WIDTH);
         let wide_cost = a * WIDE_NODE_COST + below;
         let leaf_cost = if surfaces as usize <= max_leaf {
             a * SURFACE_COST * f64::from(surfaces)
@@ -157,14 +163,7 @@ fn emit(tree: &Tree, plans: &[Plan], at: u32, wide: &mut Vec<WideNode>) -> u32 {
     if node.is_leaf() {
         slots.push((at, Choice::Leaf));
     } else {
-        let (_, k) = (1..WIDTH)
-            .map(|k| {
-                let left = plans[at as usize + 1].cost[k - 1];
-                let right = plans[node.link as usize].cost[WIDTH - k - 1];
-                (left + right, k)
-            })
-            .min_by(|x, y| x.0.total_cmp(&y.0))
-            .expect("WIDTH >= 2");
+        let k = usize::from(plans[at as usize].wide_split);
         fill(plans, tree, at + 1, k, &mut slots);
         fill(plans, tree, node.link, WIDTH - k, &mut slots);
     }

@@ -10,11 +10,11 @@
 //! 2008; Wald et al. 2008) whose eight child boxes are tested at once, the
 //! grouping chosen by the heuristic's cost of the wide tree itself (Ylitie,
 //! Karras & Laine 2017). A shadow segment walks it depth first, nearer
-//! children first, and stops at
-//! the first blocker (an any-hit query); through a shadow cache (Haines &
-//! Greenberg 1986) the blocker last met from the segment's origin, when
-//! the caller names it, and the last two blockers a thread met are tested
-//! first, and one that blocks spares the walk. A closest-hit ray walks it the
+//! children first, and stops at the first blocker (an any-hit query);
+//! through a shadow cache (Haines & Greenberg 1986) the blocker last met
+//! from the segment's origin, when the caller names it, and the last two
+//! blockers a thread met are tested first, and one that blocks spares the
+//! walk. A closest-hit ray walks it the
 //! same way but to the end, skipping every box entered beyond the nearest
 //! crossing found so far (the ray shrinks as hits are found).
 //!
@@ -27,9 +27,9 @@
 //! their AVX versions in `traverse/avx.rs`);
 //! `validate`; and the unit tests, in `tests`. The tree itself
 //! knows primitive indices, never geometry: the build takes boxes, the
-//! any-hit walk takes a closure deciding whether a leaf child (a node and
-//! a slot) holds a blocker, the closest-hit walk one testing primitive `i`
-//! and returning how far the ray still reaches.
+//! any-hit walk takes a closure deciding whether a leaf (its first
+//! primitive and its count) holds a blocker, the closest-hit walk one
+//! testing primitive `i` and returning how far the ray still reaches.
 //!
 //! # Agreement with the brute-force oracle
 //!

@@ -1,8 +1,9 @@
 //! The BVH's traversal: the segment prepared for the slab test, the
 //! eight-wide layout the binary tree is collapsed into (Dammertz et al.
 //! 2008; Wald et al. 2008; the collapse itself is `collapse`), the slab
-//! test of a node's eight child boxes in two groups of four SIMD lanes (or one group of eight where the
-//! processor has AVX, chosen at run time), the depth-first any-hit walk
+//! test of a node's eight child boxes in two groups of four SIMD lanes (or
+//! one group of eight where the processor has AVX, chosen at run time), the
+//! `f64` recheck of leaf children, the depth-first any-hit walk
 //! for shadow segments and the front-to-back closest-hit walk, which
 //! shrinks the segment as hits are found.
 
@@ -349,11 +350,11 @@ fn earlier(x: Vec4, y: Vec4) -> Vec4 {
 }
 
 /// Walks the wide tree: every child box the segment meets is entered; the
-/// leaf children a node's segment meets are offered to `blocks` first, in
-/// slot order, each whole (the node and the slot: its first primitive's
-/// position in the leaf order is the slot's link, its count the slot's
-/// count), then the interior children nearer first. Returns the answer and
-/// the number of child boxes tested.
+/// leaf children a node's segment meets, and `exact` confirms in `f64`,
+/// are offered to `blocks` first, in slot order, each whole (its first
+/// primitive's position in the leaf order and its count), then the
+/// interior children nearer first. Returns the answer and the number of
+/// child boxes tested.
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
     query: &SegmentQuery,
