@@ -357,20 +357,21 @@ fn earlier(x: Vec4, y: Vec4) -> Vec4 {
 /// child boxes tested.
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
-    query: &SegmentQuery,
-    exact: &ExactSlabs,
+    (from, to): (DVec3, DVec3),
+    (margin, exact_margin): (f64, f64),
     blocks: impl FnMut(u32, u32) -> bool,
 ) -> (bool, u32) {
     if nodes.is_empty() {
         return (false, 0);
     }
-    let slabs = Slabs::new(query);
     #[cfg(target_arch = "x86_64")]
     if eight_lanes() {
         // SAFETY: the processor has AVX, checked by `eight_lanes`.
-        return unsafe { avx::any_hit(nodes, &slabs, exact, blocks) };
+        return unsafe { avx::any_hit(nodes, (from, to), (margin, exact_margin), blocks) };
     }
-    any_hit_with(nodes, &slabs, exact, blocks)
+    let slabs = Slabs::new(&SegmentQuery::new(from, to, margin));
+    let exact = ExactSlabs::new(from, to, exact_margin);
+    any_hit_with(nodes, &slabs, &exact, blocks)
 }
 
 /// [`wide_any_hit`]'s walk, with the slab test `boxes`.
