@@ -353,11 +353,10 @@ impl<'a> Bvh<'a> {
     fn blocker(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (Option<u32>, u32, u32) {
         // The largest magnitude in a balanced tree of plain comparisons:
         // exact for the finite coordinates the walk takes, whatever the
-        // order, and a short chain of dependent instructions (`f64::max`'s
-        // rule for NaN made it a long one, on the way to every walk's start;
-        // with the set-up in vector lanes, `avx::prepare8`, a tenth of a
-        // shadow query's time on Sponza). NaN or huge coordinates go below
-        // to the test of every surface.
+        // order, and a short chain of dependent instructions, paid before
+        // every walk can start (`f64::max`'s rule for NaN made it a long
+        // one). NaN or huge coordinates go below to the test of every
+        // surface.
         let larger = |a: f64, b: f64| if a > b { a } else { b };
         let (a, b) = (from.abs(), to.abs());
         let magnitude = larger(larger(larger(a.x, a.y), larger(a.z, b.x)), larger(b.y, b.z));

@@ -349,16 +349,17 @@ fn earlier(x: Vec4, y: Vec4) -> Vec4 {
     }
 }
 
-/// Walks the wide tree: every child box the segment meets is entered; the
-/// leaf children a node's segment meets, and `exact` confirms in `f64`,
-/// are offered to `blocks` first, in slot order, each whole (its first
-/// primitive's position in the leaf order and its count), then the
-/// interior children nearer first. Returns the answer and the number of
-/// child boxes tested.
+/// Walks the wide tree for the segment between `ends`: every child box the
+/// segment meets, widened by the first of `margins` ([`SegmentQuery`]'s),
+/// is entered; the leaf children a node's segment meets, and the `f64`
+/// recheck with the second ([`ExactSlabs`]') confirms, are offered to
+/// `blocks` first, in slot order, each whole (its first primitive's
+/// position in the leaf order and its count), then the interior children
+/// nearer first. Returns the answer and the number of child boxes tested.
 pub(super) fn wide_any_hit(
     nodes: &[WideNode],
-    (from, to): (DVec3, DVec3),
-    (margin, exact_margin): (f64, f64),
+    ends: (DVec3, DVec3),
+    margins: (f64, f64),
     blocks: impl FnMut(u32, u32) -> bool,
 ) -> (bool, u32) {
     if nodes.is_empty() {
@@ -367,8 +368,9 @@ pub(super) fn wide_any_hit(
     #[cfg(target_arch = "x86_64")]
     if eight_lanes() {
         // SAFETY: the processor has AVX, checked by `eight_lanes`.
-        return unsafe { avx::any_hit(nodes, (from, to), (margin, exact_margin), blocks) };
+        return unsafe { avx::any_hit(nodes, ends, margins, blocks) };
     }
+    let ((from, to), (margin, exact_margin)) = (ends, margins);
     let slabs = Slabs::new(&SegmentQuery::new(from, to, margin));
     let exact = ExactSlabs::new(from, to, exact_margin);
     any_hit_with(nodes, &slabs, &exact, blocks)
