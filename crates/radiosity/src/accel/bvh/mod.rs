@@ -351,15 +351,8 @@ impl<'a> Bvh<'a> {
     /// found the segment blocked, if any, with the surfaces and child
     /// boxes tested.
     fn blocker(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (Option<u32>, u32, u32) {
-        // The largest magnitude in a balanced tree of plain comparisons:
-        // exact for the finite coordinates the walk takes, whatever the
-        // order, and a short chain of dependent instructions, paid before
-        // every walk can start (`f64::max`'s rule for NaN made it a long
-        // one). NaN or huge coordinates go below to the test of every
-        // surface.
-        let larger = |a: f64, b: f64| if a > b { a } else { b };
-        let (a, b) = (from.abs(), to.abs());
-        let magnitude = larger(larger(larger(a.x, a.y), larger(a.z, b.x)), larger(b.y, b.z));
+        // NaN or huge coordinates go below to the test of every surface.
+        let magnitude = largest_magnitude(from, to);
         let mut tested = 0u32;
         let mut found = None;
         // `position` is in leaf order; the skip rule is on surface ids.
@@ -418,11 +411,10 @@ impl<'a> Bvh<'a> {
             }
             nearest.limit()
         };
-        let magnitude = origin.abs().max_element().max(end.abs().max_element());
-        let reference = magnitude.max(self.scale);
+        // `ray_end` has checked that both ends are finite.
+        let reference = larger(largest_magnitude(origin, end), self.scale);
         let visited = if reference < F32_SAFE_COORDINATE {
-            let query = SegmentQuery::new(origin, end, QUERY_MARGIN * reference);
-            wide_closest_hit(&self.wide, &query, offer)
+            wide_closest_hit(&self.wide, (origin, end), QUERY_MARGIN * reference, offer)
         } else {
             // Huge coordinates: the f32 walk could not be trusted.
             for p in 0..self.surfaces.len() as u32 {
@@ -457,6 +449,23 @@ impl<'a> Bvh<'a> {
         self.tree.validate(&boxes, &self.settings, &self.stats)?;
         self.validate_wide(&boxes)
     }
+}
+
+/// `a` if it is greater than `b`, else `b`: `f64::max` for the numbers
+/// other than NaN, one instruction where `f64::max`'s rule for NaN takes
+/// several.
+fn larger(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
+/// The largest magnitude of the coordinates of `a` and `b`, in a balanced
+/// tree of plain comparisons: exact for finite coordinates, whatever the
+/// order, and a short chain of dependent instructions, paid before every
+/// walk can start (with `f64::max` it was a long one). A NaN coordinate
+/// may be ignored or returned: callers check finiteness themselves.
+fn largest_magnitude(a: DVec3, b: DVec3) -> f64 {
+    let (a, b) = (a.abs(), b.abs());
+    larger(larger(larger(a.x, a.y), larger(a.z, b.x)), larger(b.y, b.z))
 }
 
 impl Occluder for Bvh<'_> {

@@ -472,18 +472,19 @@ fn f32_at_least(s: f64) -> f32 {
 /// number of child boxes tested.
 pub(super) fn wide_closest_hit(
     nodes: &[WideNode],
-    query: &SegmentQuery,
+    ends: (DVec3, DVec3),
+    margin: f64,
     offer: impl FnMut(u32) -> f64,
 ) -> u32 {
     if nodes.is_empty() {
         return 0;
     }
-    let slabs = Slabs::new(query);
     #[cfg(target_arch = "x86_64")]
     if eight_lanes() {
         // SAFETY: the processor has AVX, checked by `eight_lanes`.
-        return unsafe { avx::closest_hit(nodes, &slabs, offer) };
+        return unsafe { avx::closest_hit(nodes, ends, margin, offer) };
     }
+    let slabs = Slabs::new(&SegmentQuery::new(ends.0, ends.1, margin));
     closest_hit_with(nodes, &slabs, offer)
 }
 

@@ -19,9 +19,9 @@ use std::arch::x86_64::{
 
 use glam::DVec3;
 
+use super::{ChildBoxes, LeafBoxes, WIDTH, WideNode, any_hit_with, closest_hit_with};
 #[cfg(test)]
-use super::ExactSlabs;
-use super::{ChildBoxes, LeafBoxes, Slabs, WIDTH, WideNode, any_hit_with, closest_hit_with};
+use super::{ExactSlabs, Slabs};
 
 /// [`ExactSlabs`] in four `f64` lanes.
 pub(super) struct Exact8 {
@@ -96,7 +96,10 @@ pub(super) struct Slabs8 {
     inv: [__m256; 3],
 }
 
+#[cfg(test)]
 impl Slabs8 {
+    /// [`Slabs`] spread over the lanes, the reference [`prepare8`] is
+    /// tested against.
     #[target_feature(enable = "avx")]
     fn new(slabs: &Slabs) -> Slabs8 {
         let splat = |v: [glam::Vec4; 3]| v.map(|v| _mm256_set1_ps(v.x));
@@ -170,10 +173,10 @@ pub(super) fn any_hit(
 
 /// The segment between `ends` prepared for the eight-lane walk, its
 /// boxes widened by `margins` (the `f32` test's and the `f64` recheck's):
-/// the values of [`Slabs8::new`] of [`Slabs::new`] of
-/// [`super::SegmentQuery::new`] and of [`Exact8::new`] of
-/// [`ExactSlabs::new`], bit for bit (`prepared_at_once_as_step_by_step`
-/// compares them), computed for the three axes at once in vector lanes.
+/// the values of `Slabs8::new` of `Slabs::new` of `SegmentQuery::new` and
+/// of `Exact8::new` of `ExactSlabs::new`, bit for bit
+/// (`prepared_at_once_as_step_by_step` compares them), computed for the
+/// three axes at once in vector lanes.
 /// A shadow query is short (a few hundred instructions on a real scene),
 /// and its walk cannot start before this is done: building the same
 /// values through those structures, axis by axis, cost a tenth of the
@@ -255,10 +258,18 @@ pub(super) fn prepare8(
     )
 }
 
-/// [`super::wide_closest_hit`]'s walk with the eight-lane test.
+/// [`super::wide_closest_hit`]'s walk with the eight-lane test, its
+/// set-up as the shadow walk's ([`prepare8`], whose `f64` half, unused
+/// here, the compiler drops).
 #[target_feature(enable = "avx")]
-pub(super) fn closest_hit(nodes: &[WideNode], slabs: &Slabs, offer: impl FnMut(u32) -> f64) -> u32 {
-    closest_hit_with(nodes, &Slabs8::new(slabs), offer)
+pub(super) fn closest_hit(
+    nodes: &[WideNode],
+    ends: (DVec3, DVec3),
+    margin: f64,
+    offer: impl FnMut(u32) -> f64,
+) -> u32 {
+    let (slabs, _) = prepare8(ends, (margin, 0.0));
+    closest_hit_with(nodes, &slabs, offer)
 }
 
 #[cfg(test)]
