@@ -86,12 +86,12 @@
 //! surfaces' prepared planes and edges are stored in leaf order, so a
 //! leaf's tests read adjacent memory; the skip rule compares surface ids,
 //! in one closure. Queries use a fixed stack, left uninitialised: no
-//! allocation, no interior mutability, any number of threads. A shadow
-//! query's set-up (the segment in `f32` and `f64`, its inverse direction,
-//! its widened origins, spread over the lanes) is computed for the three
-//! axes at once in vector lanes where the processor has AVX: a query is a
-//! few hundred instructions, and its walk cannot start before its set-up
-//! is done.
+//! allocation, no interior mutability, any number of threads. A query's
+//! set-up (the segment in `f32` and, for shadow segments, `f64`, its
+//! inverse direction, its widened origins, spread over the lanes) is
+//! computed for the three axes at once in vector lanes where the processor
+//! has AVX: a query is a few hundred instructions, and its walk cannot
+//! start before its set-up is done.
 
 use glam::{DVec3, Vec3A};
 
@@ -351,7 +351,6 @@ impl<'a> Bvh<'a> {
     /// found the segment blocked, if any, with the surfaces and child
     /// boxes tested.
     fn blocker(&self, from: DVec3, to: DVec3, skip: [u32; 2]) -> (Option<u32>, u32, u32) {
-        // NaN or huge coordinates go below to the test of every surface.
         let magnitude = largest_magnitude(from, to);
         let mut tested = 0u32;
         let mut found = None;

@@ -96,22 +96,6 @@ pub(super) struct Slabs8 {
     inv: [__m256; 3],
 }
 
-#[cfg(test)]
-impl Slabs8 {
-    /// [`Slabs`] spread over the lanes, the reference [`prepare8`] is
-    /// tested against.
-    #[target_feature(enable = "avx")]
-    fn new(slabs: &Slabs) -> Slabs8 {
-        let splat = |v: [glam::Vec4; 3]| v.map(|v| _mm256_set1_ps(v.x));
-        Slabs8 {
-            down: slabs.down.map(usize::from),
-            o_near: splat(slabs.o_near),
-            o_far: splat(slabs.o_far),
-            inv: splat(slabs.inv),
-        }
-    }
-}
-
 /// [`super::slab_test`] in one group of eight lanes.
 #[target_feature(enable = "avx")]
 #[inline]
@@ -143,6 +127,19 @@ fn slab_test8(node: &WideNode, slabs: &Slabs8, limit: f32) -> ([f32; WIDTH], u32
 
 #[cfg(test)]
 impl Slabs8 {
+    /// [`Slabs`] spread over the lanes: the reference [`prepare8`] is
+    /// tested against, and the eight-lane test's.
+    #[target_feature(enable = "avx")]
+    fn new(slabs: &Slabs) -> Slabs8 {
+        let splat = |v: [glam::Vec4; 3]| v.map(|v| _mm256_set1_ps(v.x));
+        Slabs8 {
+            down: slabs.down.map(usize::from),
+            o_near: splat(slabs.o_near),
+            o_far: splat(slabs.o_far),
+            inv: splat(slabs.inv),
+        }
+    }
+
     /// [`Slabs8::new`], where the caller has checked for AVX.
     pub(super) fn for_tests(slabs: &Slabs) -> Slabs8 {
         assert!(std::arch::is_x86_feature_detected!("avx"));
@@ -206,10 +203,11 @@ pub(super) fn prepare8(
     // down (`Slabs::new`): a blend on the sign bit of the inverse, which
     // is the direction's (zeros included, `1 / -0` being `-inf`), so
     // taken from the direction the blends need not wait for the division.
+    // Rounding to `f32` keeps the sign, so the same bits serve the `f64`
+    // recheck (`ExactSlabs`' inverse in `f64`).
     let o_near = _mm_blendv_ps(for_lower, for_upper, d32);
     let o_far = _mm_blendv_ps(for_upper, for_lower, d32);
     let down = _mm_movemask_ps(d32);
-    let exact_down = _mm256_movemask_pd(d);
     let mut lanes = [[0.0f32; 4]; 3];
     let mut wide = [0.0f64; 4];
     // SAFETY: each array holds four lanes.
@@ -248,11 +246,7 @@ pub(super) fn prepare8(
                 _mm256_set1_pd(wide[1]),
                 _mm256_set1_pd(wide[2]),
             ],
-            down: [
-                exact_down & 1 == 1,
-                exact_down & 2 == 2,
-                exact_down & 4 == 4,
-            ],
+            down: [down & 1 == 1, down & 2 == 2, down & 4 == 4],
             margin: _mm256_set1_pd(exact_margin),
         },
     )
