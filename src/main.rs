@@ -167,11 +167,12 @@ fn render_with(args: &RenderArgs, events: &mut Option<cli::events::Events>) -> R
     warn_unused(&warnings);
     app::validate(&job)?;
     let pool = pool(args.threads)?;
-    let interrupted = interrupt_handler()?;
+    let stops = stop_handlers()?;
     if let Some(path) = &args.stop_file {
-        cli::events::watch_stop_file(path.clone(), Arc::clone(&interrupted))?;
+        cli::events::watch_stop_file(path.clone(), Arc::clone(&stops.interrupted))?;
     }
-    let mut display = ProgressDisplay::new(args.quiet, interrupted).with_events(events.take());
+    let mut display =
+        ProgressDisplay::new(args.quiet, stops.interrupted, stops.abort).with_events(events.take());
     let outcome = pool.install(|| app::run(&job, &mut display));
     display.finish();
     *events = display.take_events();
@@ -184,30 +185,99 @@ fn render_with(args: &RenderArgs, events: &mut Option<cli::events::Events>) -> R
     if !args.quiet && !events_on_stdout {
         print_summary(&outcome);
     }
+    if !outcome.unwritten.is_empty() {
+        let names: Vec<String> = outcome
+            .unwritten
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        return Err(anyhow!(
+            "stopped before the final pass was done: {} not written{}",
+            names.join(", "),
+            if outcome.written.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (written: {})",
+                    outcome
+                        .written
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        ));
+    }
     if let Some(events) = events {
         events.done(&outcome);
     }
     Ok(())
 }
 
+/// The flags a render's stops raise.
+struct Stops {
+    /// Raised by the first Ctrl-C (and `--stop-file`): the solve stops and
+    /// every output is written from the state reached.
+    interrupted: Arc<AtomicBool>,
+    /// Raised by a second Ctrl-C, or SIGTERM or SIGHUP at any stage: the
+    /// run ends at once, writing only the outputs already complete.
+    abort: Arc<AtomicBool>,
+}
+
 /// Ctrl-C once asks the solve to stop after the current shot and write its
-/// outputs from the state reached; a second Ctrl-C aborts at once, writing
-/// nothing. Returns the flag the first one raises.
-fn interrupt_handler() -> Result<Arc<AtomicBool>> {
-    let interrupted = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&interrupted);
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
+/// outputs from the state reached (the final pass included); a second ends
+/// the run at once (the final pass left where it is), writing only the
+/// outputs already complete; a third exits there and then, writing nothing.
+/// SIGTERM and SIGHUP do what the second Ctrl-C does, at any stage; a
+/// second one exits there and then.
+fn stop_handlers() -> Result<Stops> {
+    let stops = Stops {
+        interrupted: Arc::new(AtomicBool::new(false)),
+        abort: Arc::new(AtomicBool::new(false)),
+    };
+    let (interrupted, abort) = (Arc::clone(&stops.interrupted), Arc::clone(&stops.abort));
+    let count = std::sync::atomic::AtomicUsize::new(0);
+    ctrlc::set_handler(move || match count.fetch_add(1, Ordering::SeqCst) {
+        0 => {
+            interrupted.store(true, Ordering::SeqCst);
+            eprintln!(
+                "\nstopping and writing the outputs from the state reached (Ctrl-C again ends \
+                 at once, writing only the outputs complete)"
+            );
+        }
+        1 => {
+            interrupted.store(true, Ordering::SeqCst);
+            abort.store(true, Ordering::SeqCst);
+            eprintln!(
+                "\nending: writing only the outputs complete (Ctrl-C again exits writing \
+                 nothing)"
+            );
+        }
+        _ => {
             eprintln!("\naborted: no output written");
             std::process::exit(130);
         }
-        eprintln!(
-            "\nstopping and writing the outputs from the state reached (Ctrl-C again aborts \
-             without writing)"
-        );
     })
     .context("cannot install the Ctrl-C handler")?;
-    Ok(interrupted)
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGTERM};
+        let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGHUP])
+            .context("cannot install the SIGTERM handler")?;
+        let (interrupted, abort) = (Arc::clone(&stops.interrupted), Arc::clone(&stops.abort));
+        std::thread::spawn(move || {
+            for signal in signals.forever() {
+                if abort.swap(true, Ordering::SeqCst) && signal == SIGTERM {
+                    eprintln!("\naborted: no output written");
+                    std::process::exit(143);
+                }
+                interrupted.store(true, Ordering::SeqCst);
+                eprintln!("\nending: writing only the outputs complete");
+            }
+        });
+    }
+    Ok(stops)
 }
 
 fn view(args: &ViewArgs) -> Result<()> {
@@ -250,6 +320,24 @@ fn serve(args: &ServeArgs) -> Result<()> {
         }
     })
     .context("cannot install the Ctrl-C handler")?;
+    // SIGTERM and SIGHUP as Ctrl-C: the first stops and writes, a second
+    // exits there and then.
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGTERM};
+        let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGHUP])
+            .context("cannot install the SIGTERM handler")?;
+        let handle = server.handle();
+        std::thread::spawn(move || {
+            for (k, _) in signals.forever().enumerate() {
+                if k == 0 {
+                    handle.shutdown();
+                } else {
+                    std::process::exit(143);
+                }
+            }
+        });
+    }
     println!("serving {}", server.url());
     if !args.render.quiet {
         eprintln!("open it in a browser; Ctrl-C stops the solve, writes the outputs and quits");

@@ -67,6 +67,35 @@ fn progress_json_streams_the_run_and_ends_with_done() {
         .map(|e| e["shots"].as_u64().unwrap())
         .collect();
     assert!(shots.windows(2).all(|w| w[0] < w[1]), "{shots:?}");
+    // The solve's last progress comes before the outputs are made, then
+    // the final pass shows its own, to every point.
+    let writing = events
+        .iter()
+        .position(|e| e["stage"] == "writing")
+        .expect("a writing stage");
+    let last_progress = events
+        .iter()
+        .rposition(|e| e["event"] == "progress")
+        .unwrap();
+    assert!(last_progress < writing, "{kinds:?}");
+    let final_stage = events
+        .iter()
+        .position(|e| e["stage"] == "final pass")
+        .expect("a final pass stage");
+    assert!(final_stage > writing);
+    assert_eq!(events[final_stage]["what"], "picture");
+    let passes: Vec<&Value> = events
+        .iter()
+        .filter(|e| e["event"] == "final_pass")
+        .collect();
+    let total = passes.last().unwrap()["total"].as_u64().unwrap();
+    assert!(total > 100_000, "{total} samples shaded");
+    assert_eq!(passes.last().unwrap()["done"].as_u64(), Some(total));
+    let done_counts: Vec<u64> = passes.iter().map(|e| e["done"].as_u64().unwrap()).collect();
+    assert!(
+        done_counts.windows(2).all(|w| w[0] <= w[1]),
+        "{done_counts:?}"
+    );
     let done = events.last().unwrap();
     assert_eq!(done["stop_reason"], "converged");
     assert_eq!(done["shots"].as_u64(), shots.last().copied());
@@ -200,4 +229,93 @@ fn serve_refuses_the_flags_for_programs() {
         assert_eq!(out.status.code(), Some(1), "{flag}");
         assert!(String::from_utf8_lossy(&out.stderr).contains("are for `render`"));
     }
+}
+
+/// SIGTERM during the final pass of a picture that would take minutes to
+/// shade: the process ends within 2 s, having written the outputs that
+/// were complete (the vertices, the statistics) and not the picture, and
+/// says so (a non-zero exit, an `error` event naming the picture).
+#[cfg(unix)]
+#[test]
+fn sigterm_during_the_final_pass_ends_the_run_with_the_outputs_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let (picture, vertices, stats) = (
+        dir.path().join("room.png"),
+        dir.path().join("v.csv"),
+        dir.path().join("s.json"),
+    );
+    let mut child = radiosity()
+        .args([
+            "render",
+            "room",
+            "--max-shots",
+            "3",
+            "--width",
+            "1200",
+            "--height",
+            "900",
+            "--supersampling",
+            "3",
+            "--progress-json",
+            "-",
+            "-o",
+        ])
+        .arg(&picture)
+        .arg("--vertices")
+        .arg(&vertices)
+        .arg("--stats")
+        .arg(&stats)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut last = Value::Null;
+    for line in lines.by_ref() {
+        last = serde_json::from_str(&line.unwrap()).unwrap();
+        if last["event"] == "final_pass" {
+            break;
+        }
+    }
+    assert_eq!(
+        last["event"], "final_pass",
+        "the run reached its final pass"
+    );
+    let total = last["total"].as_u64().unwrap();
+    let sent = std::time::Instant::now();
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    for line in lines {
+        last = serde_json::from_str(&line.unwrap()).unwrap();
+    }
+    let status = child.wait().unwrap();
+    let took = sent.elapsed();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(
+        took < std::time::Duration::from_secs(2),
+        "SIGTERM to exit took {took:?} ({total} samples to shade)"
+    );
+    assert_eq!(status.code(), Some(1), "{stderr}");
+    assert_eq!(last["event"], "error", "{last}");
+    let message = last["message"].as_str().unwrap();
+    assert!(
+        message.contains("room.png") && message.contains("not written"),
+        "{message}"
+    );
+    assert!(stderr.contains("not written"), "{stderr}");
+    assert!(!picture.exists(), "no picture of a cut-short final pass");
+    let rows = std::fs::read_to_string(&vertices).unwrap().lines().count();
+    assert!(rows > 100, "{rows} rows");
+    let stats: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(stats["shots"].as_u64(), Some(3));
+    // Nothing half-written beside them.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
 }

@@ -14,13 +14,21 @@
 //! * `{"event": "progress", "shots", "unshot_fraction", "stop_at",
 //!   "completion", "elapsed_s", "remaining_s", "rays_per_second"}`: after a
 //!   shot, at most ten a second (and the last shot's always);
-//! * `{"event": "stage", "stage": "writing", "message"}`: an output is
-//!   being made;
+//! * `{"event": "stage", "stage": "writing", "message"}`: the solve has
+//!   ended and the outputs are being made (again for an output that takes
+//!   a while, such as a lightmap bake);
+//! * `{"event": "stage", "stage": "final pass", "what"}`: the final pass
+//!   has started on `what` (`picture`, `lightmap` or `sensors`);
+//! * `{"event": "final_pass", "what", "done", "total", "completion",
+//!   "elapsed_s", "remaining_s"}`: its points shaded so far (`total` 0 and
+//!   `completion` null where not known beforehand), at most ten a second
+//!   (and the last always);
 //! * `{"event": "done", "stop_reason", "shots", "unshot_fraction",
 //!   "solve_s", "written", "warnings"}`: the last line of a run that
 //!   succeeded;
 //! * `{"event": "error", "message"}`: the last line of a run that failed
-//!   (also said on standard error).
+//!   (also said on standard error), or that was ended before the final pass
+//!   was done (the message names the outputs written and those not).
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -113,6 +121,33 @@ impl Events {
             "remaining_s": p.remaining.map(|r| r.as_secs_f64()),
             "rays_per_second": finite(p.rays_per_second),
         });
+        self.throttled(value);
+    }
+
+    /// A `final_pass` event, throttled as [`Events::progress`] is.
+    pub fn final_pass(
+        &mut self,
+        what: &str,
+        done: u64,
+        total: u64,
+        elapsed: Duration,
+        remaining: Option<Duration>,
+    ) {
+        let value = json!({
+            "event": "final_pass",
+            "what": what,
+            "done": done,
+            "total": total,
+            "completion": (total > 0).then(|| (done as f64 / total as f64).min(1.0)),
+            "elapsed_s": elapsed.as_secs_f64(),
+            "remaining_s": remaining.map(|r| r.as_secs_f64()),
+        });
+        self.throttled(value);
+    }
+
+    /// Writes `value` now, or with the next event when the last throttled
+    /// one was written less than [`EVENT_INTERVAL`] ago.
+    fn throttled(&mut self, value: Value) {
         let due = self
             .last_progress
             .is_none_or(|t| t.elapsed() >= EVENT_INTERVAL);

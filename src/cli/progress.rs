@@ -31,12 +31,20 @@ pub struct ProgressDisplay {
     /// What is being solved, until it has been said.
     header: Option<String>,
     interrupted: Arc<AtomicBool>,
+    /// Raised to end the run at once ([`app::Observer::abort`]).
+    abort: Arc<AtomicBool>,
     /// `--progress-json`'s stream.
     events: Option<Events>,
+    /// What the final pass is shading, once it has been said.
+    final_pass: Option<String>,
 }
 
 impl ProgressDisplay {
-    pub fn new(quiet: bool, interrupted: Arc<AtomicBool>) -> ProgressDisplay {
+    pub fn new(
+        quiet: bool,
+        interrupted: Arc<AtomicBool>,
+        abort: Arc<AtomicBool>,
+    ) -> ProgressDisplay {
         let terminal = std::io::stderr().is_terminal();
         let bar = (!quiet && terminal).then(|| {
             let bar = ProgressBar::new(1000);
@@ -53,7 +61,9 @@ impl ProgressDisplay {
             last_line: Instant::now(),
             header: None,
             interrupted,
+            abort,
             events: None,
+            final_pass: None,
         }
     }
 
@@ -157,6 +167,51 @@ impl app::Observer for ProgressDisplay {
 
     fn interrupt(&self) -> Option<Arc<AtomicBool>> {
         Some(Arc::clone(&self.interrupted))
+    }
+
+    fn abort(&self) -> Option<Arc<AtomicBool>> {
+        Some(Arc::clone(&self.abort))
+    }
+
+    fn final_pass(&mut self, what: &str, done: u64, total: u64, elapsed: Duration) {
+        let fraction = if total > 0 {
+            (done as f64 / total as f64).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        // The time left, from the rate so far once a second has passed.
+        let remaining = (total > 0 && done > 0 && elapsed >= Duration::from_secs(1))
+            .then(|| elapsed.mul_f64((1.0 - fraction) / fraction.max(1e-9)));
+        let first = self.final_pass.as_deref() != Some(what);
+        if first {
+            self.final_pass = Some(what.to_string());
+            self.last_line = Instant::now();
+            if let Some(events) = &mut self.events {
+                events.stage("final pass", serde_json::json!({ "what": what }));
+            }
+        }
+        if let Some(events) = &mut self.events {
+            events.final_pass(what, done, total, elapsed, remaining);
+        }
+        let message = if total > 0 {
+            format!(
+                "final pass: {what}, {:.0}% ({done} of {total} points), {}",
+                100.0 * fraction,
+                remaining.map_or_else(
+                    || "estimating time left".to_string(),
+                    |r| format!("about {} left", clock(r))
+                )
+            )
+        } else {
+            format!("final pass: {what}, {done} points")
+        };
+        if let Some(bar) = &self.bar {
+            bar.set_position((fraction * 1000.0) as u64);
+            bar.set_message(message);
+        } else if self.lines && self.last_line.elapsed() >= PROGRESS_LINE_INTERVAL {
+            self.last_line = Instant::now();
+            eprintln!("{message}, {} elapsed", clock(elapsed));
+        }
     }
 
     fn writing(&mut self, what: &str) {

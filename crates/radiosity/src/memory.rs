@@ -48,6 +48,9 @@ pub const SHOT_VERTEX: f64 = 64.0;
 pub const DISPLAY_VERTEX: f64 = 24.0;
 /// A picture sample (colour and coverage).
 pub const SAMPLE: f64 = 13.0;
+/// A picture sample's surface point under the final pass, kept from its
+/// rasterising until its shading (a triangle and two weights).
+pub const SHADED_SAMPLE: f64 = 12.0;
 /// A picture pixel (colour and coverage).
 pub const PIXEL: f64 = 16.0;
 /// An element projected for the picture (two screen triangles, with their
@@ -288,6 +291,7 @@ pub fn estimate(sizes: &Sizes, solver: SolverCosts) -> Estimate {
             name: "final pass",
             count: 1,
             each: sizes.vertices as f64 * FINAL_VERTEX
+                + sizes.samples as f64 * SHADED_SAMPLE
                 + if full {
                     sizes.elements as f64 * FINAL_ELEMENT
                 } else {

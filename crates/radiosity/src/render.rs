@@ -137,6 +137,21 @@ pub fn render_shaded(
     settings: &RenderSettings,
     shade: Option<Shade<'_>>,
 ) -> Image {
+    render_planned(scene, mesh, colours, settings, shade, &|_| {})
+}
+
+/// [`render_shaded`], telling `planned` how many samples `shade` will be
+/// given in all once every band is rasterised and before any is shaded
+/// (for a progress display: the samples that see a surface).
+#[must_use]
+pub fn render_planned(
+    scene: &Scene,
+    mesh: &Mesh,
+    colours: &[DVec3],
+    settings: &RenderSettings,
+    shade: Option<Shade<'_>>,
+    planned: &(dyn Fn(u64) + Sync),
+) -> Image {
     let s = settings.supersampling.max(1);
     let (w, h) = (settings.width * s, settings.height * s);
     let (lo, hi) = scene.bounds();
@@ -147,11 +162,13 @@ pub fn render_shaded(
     let band_rows = 16usize;
     let mut samples = vec![BACKGROUND; (w * h) as usize];
     let mut hits = vec![false; (w * h) as usize];
-    samples
+    // Every band rasterised first (the samples' surface points kept when
+    // they are to be shaded), then shaded.
+    let found: Vec<Vec<Found>> = samples
         .par_chunks_mut(band_rows * w as usize)
         .zip(hits.par_chunks_mut(band_rows * w as usize))
         .enumerate()
-        .for_each(|(band, (colour_rows, hit_rows))| {
+        .map(|(band, (colour_rows, hit_rows))| {
             let y0 = band * band_rows;
             let rows = colour_rows.len() / w as usize;
             let mut depth = vec![0.0f32; colour_rows.len()];
@@ -179,18 +196,28 @@ pub fn render_shaded(
                 };
                 rasterise(t, w, y0, rows, &mut target);
             }
-            if let Some(shade) = shade {
+            found
+        })
+        .collect();
+    if let Some(shade) = shade {
+        planned(hits.iter().filter(|h| **h).count() as u64);
+        samples
+            .par_chunks_mut(band_rows * w as usize)
+            .zip(hits.par_chunks(band_rows * w as usize))
+            .zip(&found)
+            .enumerate()
+            .for_each(|(band, ((colour_rows, hit_rows), found))| {
                 shade_band(
                     shade,
                     &triangles,
-                    &found,
+                    found,
                     hit_rows,
                     colour_rows,
-                    (y0, w as usize, s as usize),
+                    (band * band_rows, w as usize, s as usize),
                     settings.width as usize,
                 );
-            }
-        });
+            });
+    }
     downsample(&samples, &hits, settings.width, settings.height, s)
 }
 

@@ -325,3 +325,102 @@ fn a_full_gather_in_the_furnace_gives_the_closed_form() {
         );
     }
 }
+
+/// A ceiling of 400 small emitting tiles over a floor with a black table
+/// between: more sources than a point's budget, so the final pass traces a
+/// cut of its light tree. Each floor point's mean over many seeds is its
+/// value with every tile traced (the brute-force oracle, budgets above the
+/// tile count), within five standard errors, at vertices, texels and
+/// sensors (`sample: None`) and at a picture's samples; and where no tile
+/// is hidden, one seed alone is within 5% of it.
+#[test]
+fn many_emitters_through_the_light_tree_are_unbiased() {
+    let mut surfaces = vec![common::floor(0.5)];
+    let tiles = 20;
+    let pitch = 4.0 / f64::from(tiles);
+    for i in 0..tiles {
+        for j in 0..tiles {
+            let exitance = 20.0 + 30.0 * f64::from((i * 7 + j * 3) % 5);
+            surfaces.push(quad(
+                DVec3::new(
+                    -2.0 + pitch * f64::from(i) + 0.02,
+                    2.5,
+                    -2.0 + pitch * f64::from(j) + 0.02,
+                ),
+                DVec3::X * (pitch - 0.04),
+                DVec3::Z * (pitch - 0.04),
+                0.0,
+                exitance,
+                1 + i * tiles + j,
+            ));
+        }
+    }
+    // A black table top, seen from below and above.
+    let top = |y: f64, flip: bool| {
+        let (u, v) = if flip {
+            (DVec3::X * 1.2, DVec3::Z * 0.8)
+        } else {
+            (DVec3::Z * 0.8, DVec3::X * 1.2)
+        };
+        quad(DVec3::new(-0.6, y, -0.4), u, v, 0.0, 0.0, 1000)
+    };
+    surfaces.push(top(0.75, true));
+    surfaces.push(top(0.76, false));
+    let scene = scene_of(surfaces);
+    let settings = Settings::adaptive();
+    let mut mesh_settings = settings.mesh;
+    mesh_settings.patch_size = 0.5;
+    mesh_settings.element_size = 0.5;
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let solver = Solver::new(&scene, &mesh, settings);
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    assert_eq!(pass.sources(), 400);
+    let oracle = FinalPass::new(&solver, FinalGather::Direct).with_budgets(1000, 1000);
+    // Under the table's edge (a penumbra), under its middle (the tiles
+    // above hidden, the rest seen), and in the open.
+    let places = [
+        DVec3::new(0.6, 0.0, 0.1),
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.5, 0.0, -1.3),
+    ];
+    for (sample, seeds) in [(None, 400u64), (Some((0, 1)), 2000)] {
+        for (p, place) in places.iter().enumerate() {
+            let points: Vec<Point> = (0..seeds)
+                .map(|seed| Point {
+                    surface: 0,
+                    position: *place,
+                    sample,
+                    seed: seed * 7919 + p as u64,
+                })
+                .collect();
+            let estimates = pass.direct(&points);
+            let exact = oracle.direct(&points);
+            let truth = exact.iter().map(|e| e.y).sum::<f64>() / seeds as f64;
+            let n = seeds as f64;
+            let mean = estimates.iter().map(|e| e.y).sum::<f64>() / n;
+            let square = estimates.iter().map(|e| e.y * e.y).sum::<f64>() / n;
+            let oracle_square = exact.iter().map(|e| e.y * e.y).sum::<f64>() / n;
+            // Both are estimates for a picture's sample (its points in the
+            // pieces are random); the oracle's own error counts too.
+            let error =
+                (((square - mean * mean).max(0.0) + (oracle_square - truth * truth).max(0.0)) / n)
+                    .sqrt();
+            println!("{sample:?} at {place}: tree {mean} against {truth} (standard error {error})");
+            assert!(truth > 1.0, "{place} is lit");
+            assert!(
+                (mean - truth).abs() <= 5.0 * error + 1e-9 * truth,
+                "{sample:?} at {place}: tree {mean} against every tile {truth} (standard error \
+                 {error})"
+            );
+            if p == 2 && sample.is_none() {
+                for e in &estimates {
+                    assert!(
+                        (e.y / truth - 1.0).abs() < 0.05,
+                        "one seed: {} against {truth}",
+                        e.y
+                    );
+                }
+            }
+        }
+    }
+}

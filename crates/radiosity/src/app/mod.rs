@@ -12,6 +12,7 @@ mod outcome;
 mod progress;
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 pub use self::bake::{bake_colours, bake_values};
@@ -19,7 +20,7 @@ pub use self::error::Error;
 pub use self::job::{BakeJob, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
 use self::job::{check_output, mesh_error};
 pub use self::outcome::{Counts, Outcome, StatsFile};
-pub use self::progress::{Observer, Progress, ProgressMeter, progress_of};
+pub use self::progress::{FINAL_PASS_INTERVAL, Observer, Progress, ProgressMeter, progress_of};
 use glam::DVec3;
 
 use crate::export::gltf::{Bake, BakeMode, BakeTarget};
@@ -198,6 +199,9 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     observer.finished(&solver, stop);
 
     let write_start = Instant::now();
+    observer.writing("making the outputs");
+    let abort = observer.abort();
+    let mut unwritten: Vec<PathBuf> = Vec::new();
     let mut staged = Vec::new();
     let stage = |path: &Path,
                  write: &mut dyn FnMut(
@@ -238,7 +242,13 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     let final_start = Instant::now();
     let pass = (settings.final_gather != FinalGather::Off
         && (shown || lightmap || job.sensors.is_some()))
-    .then(|| FinalPass::new(&solver, settings.final_gather));
+    .then(|| {
+        let mut pass = FinalPass::new(&solver, settings.final_gather);
+        if let Some(flag) = &abort {
+            pass.stop_on(std::sync::Arc::clone(flag));
+        }
+        pass
+    });
     final_gather_time += final_start.elapsed();
     let mut exposure = None;
     if shown {
@@ -250,19 +260,33 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         };
         let render_start = Instant::now();
         let image = match &pass {
-            Some(pass) => render::render_shaded(
-                &scene,
-                &mesh,
-                &pass.vertex_display(&display, ambient),
-                &settings,
-                Some(&|points: &[Point]| pass.shade(points)),
-            ),
+            Some(pass) => {
+                let planned = AtomicU64::new(0);
+                let colours = pass.vertex_display(&display, ambient);
+                with_progress(observer, "picture", pass, &planned, || {
+                    render::render_planned(
+                        &scene,
+                        &mesh,
+                        &colours,
+                        &settings,
+                        Some(&|points: &[Point]| pass.shade(points)),
+                        &|n| planned.store(n, Ordering::Relaxed),
+                    )
+                })
+            }
             None => render::render(&scene, &mesh, &display, &settings),
         };
         final_gather_time += render_start.elapsed();
         let scale = image.exposure_scale(view.exposure);
-        exposure = Some(scale);
-        if let Some(image_job) = &job.image {
+        // A picture the final pass left incomplete is not written, nor is
+        // what takes its exposure (the bake, the PLY).
+        let complete = pass.as_ref().is_none_or(|p| !p.cut_short());
+        exposure = complete.then_some(scale);
+        if !complete {
+            unwritten.extend(job.image.iter().map(|i| i.path.clone()));
+            unwritten.extend(job.bake.iter().map(|b| b.path.clone()));
+            unwritten.extend(job.ply.iter().cloned());
+        } else if let Some(image_job) = &job.image {
             let extension = image_job
                 .path
                 .extension()
@@ -347,10 +371,22 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
                     aspect_ratio,
                     metadata,
                 };
-                let (files, report) =
-                    export::lightmap::bake(&bake, &bake_job.path).map_err(output)?;
+                let (files, report) = match &pass {
+                    Some(pass) => {
+                        with_progress(observer, "lightmap", pass, &AtomicU64::new(0), || {
+                            export::lightmap::bake(&bake, &bake_job.path)
+                        })
+                    }
+                    None => export::lightmap::bake(&bake, &bake_job.path),
+                }
+                .map_err(output)?;
                 lightmap_report = Some(report);
-                files
+                if pass.as_ref().is_some_and(FinalPass::cut_short) {
+                    unwritten.push(bake_job.path.clone());
+                    Vec::new()
+                } else {
+                    files
+                }
             }
         };
         for (path, bytes) in files {
@@ -369,13 +405,22 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     }
     let sensor_start = Instant::now();
     let sensor_irradiance = match &pass {
+        Some(pass) if settings.final_gather == FinalGather::Full && job.sensors.is_some() => {
+            let count = AtomicU64::new(sensor_receivers.len() as u64);
+            with_progress(observer, "sensors", pass, &count, || pass.sensors(&solver))
+        }
         Some(pass) => pass.sensors(&solver),
         None => solver.sensor_irradiance().to_vec(),
     };
     if pass.is_some() {
         final_gather_time += sensor_start.elapsed();
     }
-    if let Some(sensor_job) = &job.sensors {
+    let sensors_complete = pass.as_ref().is_none_or(|p| !p.cut_short());
+    if let Some(sensor_job) = &job.sensors
+        && !sensors_complete
+    {
+        unwritten.push(sensor_job.out.clone());
+    } else if let Some(sensor_job) = &job.sensors {
         staged.push(stage(&sensor_job.out, &mut |w| {
             export::write_sensors_csv(
                 w,
@@ -420,6 +465,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
         threads,
         accel_statistics: solver.accel_statistics(),
         written: Vec::new(),
+        unwritten,
         warnings: scene
             .warnings
             .iter()
@@ -446,6 +492,42 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     outcome.total_time = start.elapsed();
     outcome.peak_memory_bytes = memory::peak_resident_bytes();
     Ok(outcome)
+}
+
+/// Runs `work` (the final pass shading `what` through `pass`) on this
+/// thread and the pool, while a thread of its own tells `observer` the
+/// points shaded against `total` (read as it is known) every
+/// [`FINAL_PASS_INTERVAL`], and once more when done.
+fn with_progress<R>(
+    observer: &mut dyn Observer,
+    what: &str,
+    pass: &FinalPass<'_>,
+    total: &AtomicU64,
+    work: impl FnOnce() -> R,
+) -> R {
+    let start = Instant::now();
+    let base = pass.shaded();
+    let finished = AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        let teller = scope.spawn(|| {
+            loop {
+                let done = finished.load(Ordering::Acquire);
+                let total = total.load(Ordering::Relaxed);
+                let shaded = pass.shaded() - base;
+                // Points left unshaded by a stop count as done.
+                let shown = if done { total.max(shaded) } else { shaded };
+                observer.final_pass(what, shown, total, start.elapsed());
+                if done {
+                    break;
+                }
+                std::thread::park_timeout(FINAL_PASS_INTERVAL);
+            }
+        });
+        let result = work();
+        finished.store(true, Ordering::Release);
+        teller.thread().unpark();
+        result
+    })
 }
 
 /// A lightmap's values at the mesh's vertices under the final pass: its

@@ -49,6 +49,9 @@ pub struct Outcome {
     pub accel_statistics: Vec<(&'static str, usize)>,
     /// Files written.
     pub written: Vec<PathBuf>,
+    /// Outputs asked for but not written: the run was ended
+    /// ([`super::Observer::abort`]) before the final pass had made them.
+    pub unwritten: Vec<PathBuf>,
     /// Warnings from loading.
     pub warnings: Vec<String>,
     /// The most memory the process held resident, bytes, when the outputs

@@ -108,8 +108,9 @@ impl ProgressMeter {
 /// Watches a run: told when the mesh is ready and after every shot, and
 /// able to stop the solve (the outputs are then written from the state
 /// reached). Progress displays, Ctrl-C handling and the live view are
-/// observers.
-pub trait Observer {
+/// observers. The final pass's progress is told from a thread of its own
+/// while the pool works, hence `Send`.
+pub trait Observer: Send {
     /// The scene is loaded; receiver refinement's coarse pass is about to
     /// start (not called without refinement).
     fn refining(&mut self) {}
@@ -137,13 +138,31 @@ pub trait Observer {
     /// An output that takes a while (a lightmap bake) is being written:
     /// `what` says which.
     fn writing(&mut self, _what: &str) {}
+
+    /// The final pass ([`crate::final_gather`]) is shading `what` (`"picture"`,
+    /// `"lightmap"`, `"sensors"`): `done` of `total` points so far
+    /// (`total` 0 where it is not known beforehand), `elapsed` since it
+    /// began. Told about every [`FINAL_PASS_INTERVAL`], and once when done.
+    fn final_pass(&mut self, _what: &str, _done: u64, _total: u64, _elapsed: Duration) {}
+
+    /// A flag that, once raised, ends the run as soon as it can (a second
+    /// Ctrl-C, SIGTERM): the solve stops as for [`Observer::interrupt`],
+    /// the final pass leaves its remaining points at once, and only the
+    /// outputs that are complete are written, the others named in
+    /// [`super::Outcome::unwritten`].
+    fn abort(&self) -> Option<Arc<AtomicBool>> {
+        None
+    }
 }
+
+/// How often the final pass's progress is told to an [`Observer`].
+pub const FINAL_PASS_INTERVAL: Duration = Duration::from_millis(250);
 
 /// An observer that watches nothing.
 impl Observer for () {}
 
 /// A closure called with each shot's [`Progress`] is an observer.
-impl<F: FnMut(Progress)> Observer for F {
+impl<F: FnMut(Progress) + Send> Observer for F {
     fn shot(&mut self, solver: &Solver<'_>) -> Flow {
         self(progress_of(solver));
         Flow::Continue

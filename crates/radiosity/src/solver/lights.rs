@@ -30,11 +30,12 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::Receiver;
 use super::Stats;
 use super::device::{DeviceError, Segment, Segments};
 use super::method::ShotInputs;
 use super::sky::SkyPlan;
-use crate::accel::{self, ShadowCache};
+use crate::accel::{self, Occluder, ShadowCache};
 use crate::scene::{Light, LightKind, Scene, glass};
 
 /// Receivers gathered between two checks of the shot's abort.
@@ -140,6 +141,42 @@ fn answer(
             }
         })
         .collect())
+}
+
+/// What `light` sends straight to the receiver `r`: its unblocked
+/// irradiance there ([`Light::irradiance`]) if `occluder` finds its shadow
+/// segment clear (asked through `cache`), dimmed by the glass it crosses;
+/// zero for a sky. The answer [`gather`] gives a receiver, for points shown
+/// one at a time.
+#[must_use]
+pub fn direct_at(
+    light: &Light,
+    r: &Receiver,
+    scene: &Scene,
+    occluder: &dyn Occluder,
+    reach: f64,
+    cache: &mut ShadowCache,
+) -> DVec3 {
+    if matches!(light.kind, LightKind::Sky { .. }) {
+        return DVec3::ZERO;
+    }
+    let (unblocked, from) = light.irradiance(r.point, r.normal, reach);
+    if unblocked == DVec3::ZERO {
+        return DVec3::ZERO;
+    }
+    let s = segment(
+        from,
+        r.point,
+        [NO_SURFACE, r.group],
+        light.position().is_none(),
+    );
+    if occluder.occluded_cached(s.from, s.to, s.skip, cache) {
+        DVec3::ZERO
+    } else if scene.panes.is_empty() {
+        unblocked
+    } else {
+        unblocked * glass::transmittance(&scene.panes, s.from, s.to)
+    }
 }
 
 /// The shadow segment from `from` (a light, or for a distant light a point

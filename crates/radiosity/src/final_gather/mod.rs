@@ -27,27 +27,41 @@
 //! at each vertex is evaluated here by the same estimator as at any other
 //! point ([`FinalPass::direct`]).
 //!
-//! **Direct light at a point.** The scene's lights as their shots do
-//! ([`lights::gather`]), but skies: a sky's light changes slowly across a
-//! surface and its estimate at one point takes hundreds of rays (a daylit
-//! room's picture took minutes), so its part stays with the mesh's
-//! ([`Solver::sky_irradiance`]); each emitting surface in pieces (the paper's
-//! subsources of each of its triangles or quads), each piece's share of
-//! the light times what passes along a shadow ray from a point of it,
-//! dimmed by the glass it crosses: exact where nothing blocks, and as many
-//! rays for a sky opening of two hundred patches as for a bulb. A picture's
-//! sample casts [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays per emitting
-//! surface: the samples of an `s x s` pixel take the pieces of a grid
-//! `s SAMPLE_SPLIT` a side in turn from a place of the pixel's own, each
-//! from a point drawn uniformly in it, and a piece's share of the surface's
-//! exact factor (equation (2), [`form_factor::analytic()`], clipped to the
-//! receiver's front) is its point factor's share of theirs, so a pixel
-//! sums the whole factor and a penumbra is smooth noise, not copies of a
-//! shadow; a vertex, texel or sensor casts
-//! [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each piece's
-//! centroid, each piece with its own exact factor.
+//! **Direct light at a point.** The scene's lights as their shots send
+//! it ([`lights::direct_at`]), but skies: a sky's light changes slowly
+//! across a surface and its estimate at one point takes hundreds of rays
+//! (a daylit room's picture took minutes), so its part stays with the
+//! mesh's ([`Solver::sky_irradiance`]); each emitting surface in pieces
+//! (the paper's subsources of each of its triangles or quads), each
+//! piece's share of the light times what passes along a shadow ray from a
+//! point of it, dimmed by the glass it crosses: exact where nothing
+//! blocks, and as many rays for a sky opening of two hundred patches as
+//! for a bulb. A picture's sample casts [`SAMPLE_SPLIT`]` x `
+//! [`SAMPLE_SPLIT`] rays per emitting surface: the samples of an `s x s`
+//! pixel take the pieces of a grid `s SAMPLE_SPLIT` a side in turn from a
+//! place of the pixel's own, each from a point drawn uniformly in it, and
+//! a piece's share of the surface's exact factor (equation (2),
+//! [`form_factor::analytic()`], clipped to the receiver's front) is its
+//! point factor's share of theirs, so a pixel sums the whole factor and a
+//! penumbra is smooth noise, not copies of a shadow; a vertex, texel or
+//! sensor casts [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each
+//! piece's centroid, each piece with its own exact factor.
+//!
+//! **Many sources.** Suns are traced at every point. The emitting
+//! surfaces and the lights with a position are the sources of a light
+//! tree ([`tree`]: Conty Estevez & Kulla 2018's bounds, Yuksel 2019's
+//! stochastic cuts): a point that sees more of them than its budget
+//! ([`SAMPLE_SOURCES`] for a picture's sample, and beyond that its share
+//! of [`PIXEL_SOURCES`], the pixel's samples drawing stratified; and
+//! [`POINT_SOURCES`] for a vertex, texel or sensor) traces the sources of a cut of the tree, each
+//! inner node of the cut standing for one of its sources drawn in
+//! proportion to what it would send; below the budget every source is
+//! traced, as before. The rays a point casts are bounded whatever the
+//! number of emitters, and the estimate stays unbiased.
 
 use std::cell::RefCell;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -58,8 +72,11 @@ use crate::form_factor;
 use crate::geometry;
 use crate::mesh::{self, Mesh};
 use crate::scene::{LightKind, Scene, glass};
-use crate::solver::method::{ShotInputs, Stats};
-use crate::solver::{Abort, Receiver, Settings, Solver, lights, surface_receivers};
+use crate::solver::{Receiver, Solver, lights, surface_receivers};
+
+pub mod tree;
+
+use self::tree::{Bounds, LightTree, Pick};
 
 crate::choice::named_choice! {
     /// What pictures, lightmap texels and sensors show (`--final-gather`).
@@ -135,6 +152,46 @@ struct Emitter {
     pieces: Vec<Vec<Piece>>,
 }
 
+impl Emitter {
+    /// Whether it can send light to `r`: another surface, `r` before its
+    /// front, some of it before `r`'s.
+    fn faces(&self, r: &Receiver) -> bool {
+        r.group != self.group
+            && self.normal.dot(r.point) - self.offset > 0.0
+            && self
+                .polygon
+                .iter()
+                .any(|c| r.normal.dot(*c - r.point) > 0.0)
+    }
+}
+
+/// A source of direct light the tree chooses among.
+#[derive(Clone, Copy, Debug)]
+enum Source {
+    /// An emitting surface (index into the emitters).
+    Emitter(usize),
+    /// A light with a position (index into the scene's lights).
+    Light(usize),
+}
+
+/// A picture's sample traces every source (each emitting surface with
+/// [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays, each light with one) when
+/// there are no more than this many.
+pub const SAMPLE_SOURCES: usize = 16;
+
+/// Beyond [`SAMPLE_SOURCES`], the sources a picture's pixel traces in all,
+/// shared among its samples (each of `n` samples traces
+/// `PIXEL_SOURCES / n`, rounded up, from a cut of the light tree).
+pub const PIXEL_SOURCES: usize = 64;
+
+/// Sources a vertex, texel or sensor traces at most (each emitting surface
+/// with [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, each light with one).
+pub const POINT_SOURCES: usize = 64;
+
+/// The first stream of a point's random numbers that draw in the light
+/// tree (below it, the emitters' pieces draw theirs).
+const TREE_STREAM: u64 = 1 << 40;
+
 /// A piece of an emitting surface.
 struct Piece {
     polygon: Vec<DVec3>,
@@ -154,10 +211,26 @@ pub const SAMPLE_SPLIT: u32 = 2;
 pub struct FinalPass<'a> {
     scene: &'a Scene,
     mesh: &'a Mesh,
-    settings: &'a Settings,
     occluder: &'a dyn Occluder,
     mode: FinalGather,
     emitters: Vec<Emitter>,
+    /// The emitting surfaces (first) and the scene's lights with a
+    /// position, as the tree's sources.
+    sources: Vec<Source>,
+    /// The tree over `sources`, for points that see more of them than
+    /// their budget.
+    tree: LightTree,
+    /// The scene's distant lights but skies (suns): traced at every point.
+    suns: Vec<usize>,
+    /// Sources a picture's pixel (beyond [`SAMPLE_SOURCES`]) and any
+    /// other point trace at most.
+    budgets: (usize, usize),
+    /// Once raised, points are left unshaded (zero) and the pass says so.
+    stop: Option<Arc<AtomicBool>>,
+    /// Points shaded so far.
+    shaded: AtomicU64,
+    /// Whether a point was left unshaded for the stop.
+    cut_short: AtomicBool,
     /// Per vertex: the irradiance that is not direct (a sky's counts as
     /// not direct here).
     indirect: Vec<DVec3>,
@@ -181,13 +254,24 @@ impl<'a> FinalPass<'a> {
         } else {
             emitters(scene)
         };
+        let (sources, bounds, suns) = if mode == FinalGather::Off {
+            (Vec::new(), Vec::new(), Vec::new())
+        } else {
+            sources(scene, &emitters)
+        };
         let mut pass = FinalPass {
             scene,
             mesh,
-            settings: solver.settings(),
             occluder: solver.occluder(),
             mode,
             emitters,
+            sources,
+            tree: LightTree::new(&bounds),
+            suns,
+            budgets: (PIXEL_SOURCES, POINT_SOURCES),
+            stop: None,
+            shaded: AtomicU64::new(0),
+            cut_short: AtomicBool::new(false),
             indirect: Vec::new(),
             sky: Vec::new(),
             reflected: Vec::new(),
@@ -217,7 +301,7 @@ impl<'a> FinalPass<'a> {
             // A device's failure left the emitting surfaces' part
             // incomplete: their part at each vertex is evaluated here.
             let receivers = &solver.receivers()[..vertices];
-            let from_emitters = pass.emitted(receivers, None);
+            let from_emitters = pass.direct_light(receivers, None, true);
             solver
                 .irradiance()
                 .iter()
@@ -242,6 +326,58 @@ impl<'a> FinalPass<'a> {
         pass
     }
 
+    /// The same pass with other budgets of sources traced: at most
+    /// `pixel` over a picture's pixel (beyond [`SAMPLE_SOURCES`]) and
+    /// `point` at any other point ([`PIXEL_SOURCES`] and [`POINT_SOURCES`]
+    /// by default). A budget at least the number of sources traces every
+    /// one: the brute-force oracle the light tree is measured against.
+    #[must_use]
+    pub fn with_budgets(mut self, pixel: usize, point: usize) -> FinalPass<'a> {
+        self.budgets = (pixel.max(1), point.max(1));
+        self
+    }
+
+    /// Stops the pass once `flag` is raised: the points not yet shaded are
+    /// then left at zero at once, and [`FinalPass::cut_short`] says so
+    /// (a run being ended writes only the outputs that were complete).
+    pub fn stop_on(&mut self, flag: Arc<AtomicBool>) {
+        self.stop = Some(flag);
+    }
+
+    /// Whether the stop left points unshaded: what was drawn since is
+    /// incomplete.
+    #[must_use]
+    pub fn cut_short(&self) -> bool {
+        self.cut_short.load(Ordering::Relaxed)
+    }
+
+    /// The points shaded so far (each call's points counted as they are
+    /// done, for a progress display).
+    #[must_use]
+    pub fn shaded(&self) -> u64 {
+        self.shaded.load(Ordering::Relaxed)
+    }
+
+    /// Whether the stop has been raised (and notes that a point is left
+    /// unshaded for it).
+    fn stopping(&self) -> bool {
+        let stop = self
+            .stop
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed));
+        if stop {
+            self.cut_short.store(true, Ordering::Relaxed);
+        }
+        stop
+    }
+
+    /// The emitting surfaces and lights with a position the pass chooses
+    /// among (suns and skies are not counted).
+    #[must_use]
+    pub fn sources(&self) -> usize {
+        self.sources.len()
+    }
+
     /// The mode in force.
     #[must_use]
     pub fn mode(&self) -> FinalGather {
@@ -261,29 +397,7 @@ impl<'a> FinalPass<'a> {
     #[must_use]
     pub fn direct(&self, points: &[Point]) -> Vec<DVec3> {
         let receivers = self.receivers(points);
-        let mut out = self.emitted(&receivers, Some(points));
-        for light in &self.scene.lights {
-            if matches!(light.kind, LightKind::Sky { .. }) {
-                continue;
-            }
-            let inputs = ShotInputs {
-                scene: self.scene,
-                mesh: self.mesh,
-                settings: self.settings,
-                occluder: self.occluder,
-                receivers: &receivers,
-                irradiance: &[],
-                direct: &[],
-                abort: &Abort::default(),
-            };
-            let mut stats = Stats::default();
-            if let Ok(Some(e)) = lights::gather(light, &inputs, None, &mut stats) {
-                for (o, e) in out.iter_mut().zip(e) {
-                    *o += e;
-                }
-            }
-        }
-        out
+        self.direct_light(&receivers, Some(points), false)
     }
 
     /// The indirect irradiance at each point gathered over its hemisphere
@@ -307,6 +421,9 @@ impl<'a> FinalPass<'a> {
     }
 
     fn gather_one(&self, locator: &Locator, point: &Point, hint: DVec3) -> DVec3 {
+        if self.stopping() {
+            return DVec3::ZERO;
+        }
         let surface = &self.scene.surfaces[point.surface as usize];
         let normal = surface.normal;
         let origin = point.position;
@@ -397,31 +514,222 @@ impl<'a> FinalPass<'a> {
         )
     }
 
-    /// The emitting patches' direct irradiance at each receiver; `points`
-    /// says which sample each one is (all rays at once when `None`).
-    fn emitted(&self, receivers: &[Receiver], points: Option<&[Point]>) -> Vec<DVec3> {
-        if self.emitters.is_empty() {
+    /// The direct irradiance at each receiver from the emitting surfaces
+    /// and the lights (but skies; with `emitters_only`, the emitting
+    /// surfaces alone); `points` says which sample each one is (all rays
+    /// at once when `None`). A point that sees no more sources than its
+    /// budget ([`SAMPLE_SOURCES`] for a picture's sample, its share of
+    /// [`PIXEL_SOURCES`] beyond; [`POINT_SOURCES`] otherwise) traces every
+    /// one; beyond, it traces
+    /// the sources of a cut of the light tree ([`tree`]), each drawn
+    /// source's light divided by the probability of its draw: unbiased,
+    /// with rays bounded whatever the number of emitters.
+    fn direct_light(
+        &self,
+        receivers: &[Receiver],
+        points: Option<&[Point]>,
+        emitters_only: bool,
+    ) -> Vec<DVec3> {
+        if self.sources.is_empty() && self.suns.is_empty() {
+            self.shaded
+                .fetch_add(receivers.len() as u64, Ordering::Relaxed);
             return vec![DVec3::ZERO; receivers.len()];
         }
         receivers
             .par_iter()
             .enumerate()
             .map_init(
-                || RefCell::new(ShadowCache::default()),
-                |cache, (i, r)| {
+                || (RefCell::new(ShadowCache::default()), Vec::new()),
+                |(cache, picks), (i, r)| {
+                    if self.stopping() {
+                        return DVec3::ZERO;
+                    }
+                    self.shaded.fetch_add(1, Ordering::Relaxed);
                     let sample = points.and_then(|p| p[i].sample);
                     let seed = points.map_or(i as u64, |p| p[i].seed);
-                    self.emitters
-                        .iter()
-                        .enumerate()
-                        .map(|(k, e)| {
-                            cache.borrow_mut().from_origin(k as u32);
-                            self.emitter_light(e, r, sample, seed, cache)
-                        })
-                        .sum()
+                    let mut sum = DVec3::ZERO;
+                    if !emitters_only {
+                        for &sun in &self.suns {
+                            cache.borrow_mut().from_origin(u32::MAX);
+                            sum += lights::direct_at(
+                                &self.scene.lights[sun],
+                                r,
+                                self.scene,
+                                self.occluder,
+                                self.reach,
+                                &mut cache.borrow_mut(),
+                            );
+                        }
+                    }
+                    let budget = match sample {
+                        Some((_, n)) => {
+                            let share = self.budgets.0.div_ceil(n.max(1) as usize);
+                            if self.sources.len() <= SAMPLE_SOURCES {
+                                SAMPLE_SOURCES
+                            } else {
+                                share
+                            }
+                        }
+                        None => self.budgets.1,
+                    };
+                    let wanted = |k: u32| {
+                        !emitters_only || matches!(self.sources[k as usize], Source::Emitter(_))
+                    };
+                    if self.sources.len() <= budget {
+                        for k in 0..self.sources.len() as u32 {
+                            if wanted(k) {
+                                sum += self.source_light(k, r, sample, seed, cache);
+                            }
+                        }
+                        return sum;
+                    }
+                    let importance = |k: u32| {
+                        if wanted(k) {
+                            self.source_importance(k, r)
+                        } else {
+                            0.0
+                        }
+                    };
+                    // One uniform number a node of the cut; a pixel's
+                    // samples take them stratified.
+                    let draw = |j: usize| match sample {
+                        Some((k, n)) => {
+                            (f64::from(k) + unit(seed, TREE_STREAM + j as u64))
+                                / f64::from(n.max(1))
+                        }
+                        None => unit(seed, TREE_STREAM + j as u64),
+                    };
+                    self.tree
+                        .cut(r.point, r.normal, budget, &importance, &draw, picks);
+                    for (j, pick) in picks.iter().enumerate() {
+                        let light = match sample {
+                            // A drawn source at a picture's sample: one
+                            // ray, the pixel's samples drawing many.
+                            Some((k, _)) => {
+                                let stream =
+                                    TREE_STREAM + (1 << 20) + u64::from(k) * 4096 + j as u64 * 2;
+                                self.source_light_once(pick, r, seed, stream, cache)
+                            }
+                            None => self.source_light(pick.source, r, sample, seed, cache),
+                        };
+                        sum += light * pick.weight;
+                    }
+                    sum
                 },
             )
             .collect()
+    }
+
+    /// What source `k` sends to `r` (its shadow rays through `cache`).
+    fn source_light(
+        &self,
+        k: u32,
+        r: &Receiver,
+        sample: Option<(u32, u32)>,
+        seed: u64,
+        cache: &RefCell<ShadowCache>,
+    ) -> DVec3 {
+        cache.borrow_mut().from_origin(k);
+        match self.sources[k as usize] {
+            Source::Emitter(e) => self.emitter_light(&self.emitters[e], r, sample, seed, cache),
+            Source::Light(l) => lights::direct_at(
+                &self.scene.lights[l],
+                r,
+                self.scene,
+                self.occluder,
+                self.reach,
+                &mut cache.borrow_mut(),
+            ),
+        }
+    }
+
+    /// What the drawn source sends to `r` estimated with one shadow ray: a light
+    /// as [`FinalPass::source_light`]; an emitting surface's exact factor
+    /// (clipped to `r`'s front) times what passes from one point of it
+    /// drawn uniformly by area (with the random numbers of `stream` and
+    /// the next), an unbiased estimate of its light.
+    fn source_light_once(
+        &self,
+        pick: &Pick,
+        r: &Receiver,
+        seed: u64,
+        stream: u64,
+        cache: &RefCell<ShadowCache>,
+    ) -> DVec3 {
+        let k = pick.source;
+        let Source::Emitter(e) = self.sources[k as usize] else {
+            return self.source_light(k, r, None, seed, cache);
+        };
+        cache.borrow_mut().from_origin(k);
+        let e = &self.emitters[e];
+        // The importance was the exact factor times the exitance's
+        // luminance ([`FinalPass::source_importance`]).
+        let whole = pick.importance / crate::luminance(e.emission);
+        if whole.is_nan() || whole <= 0.0 {
+            return DVec3::ZERO;
+        }
+        let pieces = &e.pieces[0];
+        let (u, v) = (unit(seed, stream), unit(seed, stream + 1));
+        // A triangle of the polygon by area, then a point in it.
+        let total: f64 = pieces.iter().map(|p| p.area).sum();
+        let mut pick = u * total;
+        let mut chosen = &pieces[pieces.len() - 1];
+        let mut rest = u;
+        for piece in pieces {
+            if pick < piece.area {
+                chosen = piece;
+                rest = pick / piece.area;
+                break;
+            }
+            pick -= piece.area;
+        }
+        let at = point_in(&chosen.polygon, rest.clamp(0.0, 1.0 - f64::EPSILON), v);
+        if r.normal.dot(at - r.point) <= 0.0 {
+            // Behind the receiver's tangent plane, where the clipped factor
+            // counts none of it: seen from the front part's centroid.
+            let front = clip_front(&e.polygon, r);
+            if front.len() < 3 {
+                return DVec3::ZERO;
+            }
+            return e.emission * whole * self.passed(e, r, geometry::centroid(&front), cache);
+        }
+        e.emission * whole * self.passed(e, r, at, cache)
+    }
+
+    /// What passes from `at` (a point of emitter `e`) to `r`: 0 where a
+    /// surface blocks, else the glass's transmittance.
+    fn passed(&self, e: &Emitter, r: &Receiver, at: DVec3, cache: &RefCell<ShadowCache>) -> DVec3 {
+        let (a, b) = accel::shorten(at, r.point);
+        if self
+            .occluder
+            .occluded_cached(a, b, [e.group, r.group], &mut cache.borrow_mut())
+        {
+            DVec3::ZERO
+        } else if self.scene.panes.is_empty() {
+            DVec3::ONE
+        } else {
+            glass::transmittance(&self.scene.panes, at, r.point)
+        }
+    }
+
+    /// Source `k`'s importance at `r` for the light tree: what it would
+    /// send if nothing were in the way, in luminance (an emitting
+    /// surface's exact factor times its exitance).
+    fn source_importance(&self, k: u32, r: &Receiver) -> f64 {
+        match self.sources[k as usize] {
+            Source::Emitter(e) => {
+                let e = &self.emitters[e];
+                if !e.faces(r) {
+                    return 0.0;
+                }
+                crate::luminance(e.emission) * form_factor::analytic(r.point, r.normal, &e.polygon)
+            }
+            Source::Light(l) => crate::luminance(
+                self.scene.lights[l]
+                    .irradiance(r.point, r.normal, self.reach)
+                    .0,
+            ),
+        }
     }
 
     fn emitter_light(
@@ -432,10 +740,7 @@ impl<'a> FinalPass<'a> {
         seed: u64,
         cache: &RefCell<ShadowCache>,
     ) -> DVec3 {
-        if r.group == e.group || e.normal.dot(r.point) - e.offset <= 0.0 {
-            return DVec3::ZERO;
-        }
-        if e.polygon.iter().all(|c| r.normal.dot(*c - r.point) <= 0.0) {
+        if !e.faces(r) {
             return DVec3::ZERO;
         }
         // What passes from `at` (a point of `piece`, or its centroid when
@@ -559,6 +864,76 @@ fn emitters(scene: &Scene) -> Vec<Emitter> {
         .collect()
 }
 
+/// The tree's sources: the emitting surfaces, then the lights with a
+/// position, with their bounds; and the suns (traced at every point).
+fn sources(scene: &Scene, emitters: &[Emitter]) -> (Vec<Source>, Vec<Bounds>, Vec<usize>) {
+    let mut sources = Vec::new();
+    let mut bounds = Vec::new();
+    let mut suns = Vec::new();
+    for (i, e) in emitters.iter().enumerate() {
+        let (lo, hi) = e
+            .polygon
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(*c), hi.max(*c))
+            });
+        let area = geometry::area(&e.polygon);
+        sources.push(Source::Emitter(i));
+        bounds.push(Bounds {
+            lo,
+            hi,
+            power: crate::luminance(e.emission) * area / std::f64::consts::PI,
+            axis: e.normal,
+            theta_o: 0.0,
+            theta_e: std::f64::consts::FRAC_PI_2,
+        });
+    }
+    for (i, light) in scene.lights.iter().enumerate() {
+        let (power, axis, theta_o, theta_e) = match &light.kind {
+            LightKind::Sky { .. } => continue,
+            LightKind::Sun { .. } => {
+                suns.push(i);
+                continue;
+            }
+            LightKind::Point { .. } => (
+                crate::luminance(light.radiometric()),
+                DVec3::Y,
+                std::f64::consts::PI,
+                std::f64::consts::FRAC_PI_2,
+            ),
+            LightKind::Spot {
+                direction, outer, ..
+            } => (
+                crate::luminance(light.radiometric()),
+                *direction,
+                *outer,
+                0.0,
+            ),
+            LightKind::Luminaire { .. } => (
+                light
+                    .flux()
+                    .map_or(0.0, |f| crate::luminance(f) / (4.0 * std::f64::consts::PI)),
+                DVec3::Y,
+                std::f64::consts::PI,
+                std::f64::consts::FRAC_PI_2,
+            ),
+        };
+        let Some(position) = light.position() else {
+            continue;
+        };
+        sources.push(Source::Light(i));
+        bounds.push(Bounds {
+            lo: position,
+            hi: position,
+            power,
+            axis,
+            theta_o,
+            theta_e,
+        });
+    }
+    (sources, bounds, suns)
+}
+
 /// `polygon` in pieces: a triangle's or quad's `side x side` subsources
 /// (the paper's), a larger polygon's triangles' each.
 fn pieces(polygon: &[DVec3], side: u32) -> Vec<Piece> {
@@ -590,6 +965,13 @@ fn pieces(polygon: &[DVec3], side: u32) -> Vec<Piece> {
         .iter()
         .flat_map(|t| split(&t.map(|i| polygon[i])))
         .collect()
+}
+
+/// The part of `polygon` before `r`'s tangent plane.
+fn clip_front(polygon: &[DVec3], r: &Receiver) -> Vec<DVec3> {
+    let mut clipped = Vec::with_capacity(polygon.len() + 2);
+    geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut clipped);
+    clipped
 }
 
 /// The point at `(u, v)` in `[0, 1)^2` of a triangle (uniform by area) or
