@@ -220,7 +220,9 @@ impl app::Observer for ProgressDisplay {
         }
         if let Some(bar) = &self.bar {
             bar.set_message(what.to_string());
-        } else if self.lines {
+        } else if self.lines && self.header.is_none() {
+            // Only in a log that shows progress already: a short run's log
+            // holds only its summary.
             eprintln!("{what}");
         }
     }

@@ -36,6 +36,7 @@ pub mod charts;
 pub mod early;
 pub mod error_picture;
 pub mod form_factor_accuracy;
+pub mod grain;
 pub mod plot;
 pub mod points;
 pub mod reference;

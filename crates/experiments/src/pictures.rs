@@ -15,13 +15,16 @@
 //! shared harness, as `--sensors` are scored) against the linear pixel
 //! values. Reported: the mean absolute relative error over the bright
 //! points (`score.py`'s: reference above 2% of its 95th percentile), L1, the
-//! bias, the reference's noise floor, and the final pass's seconds.
+//! bias, the reference's noise floor, the picture's grain ([`grain`]: the
+//! noise left in its smooth parts, 8-bit levels) and the final pass's
+//! seconds.
 
 use std::fmt::Write as _;
 use std::time::Instant;
 
 use glam::DVec3;
 
+use super::grain;
 use super::reference::{self, Harness};
 use super::validate::{SCENES, SceneCase, camera_of, scene_file, uniform, write_rows};
 use super::{Context, Error, Report, table};
@@ -121,6 +124,7 @@ struct Scored {
     bias: f64,
     noise: f64,
     points: usize,
+    grain: Option<grain::Grain>,
     seconds: f64,
 }
 
@@ -227,9 +231,15 @@ pub fn pictures(context: &Context) -> Result<Report, Error> {
             let ours: Vec<DVec3> = answer.rows.iter().map(|&r| b[r]).collect();
             let score = reference::score(&ours, &answer.reference);
             score.check_against(&answer, &stem)?;
+            let rgb = image.to_srgb8(image.exposure_scale(render::Exposure::Auto { ev: 0.0 }));
+            let grain = grain::grain(
+                &grain::luma(&rgb),
+                image.width as usize,
+                image.height as usize,
+                &|i| image.coverage[i] >= 1.0,
+            );
             if mode != FinalGather::Off {
                 let png = context.path(&format!("{stem}.png"));
-                let rgb = image.to_srgb8(image.exposure_scale(render::Exposure::Auto { ev: 0.0 }));
                 let mut bytes = Vec::new();
                 radiosity::export::write_png(&mut bytes, image.width, image.height, &rgb).map_err(
                     |source| Error::Output {
@@ -247,6 +257,7 @@ pub fn pictures(context: &Context) -> Result<Report, Error> {
                 bias: score.bias,
                 noise: answer.noise,
                 points: score.points,
+                grain,
                 seconds,
             });
         }
@@ -259,6 +270,10 @@ pub fn pictures(context: &Context) -> Result<Report, Error> {
                 format!("{:+.2}%", 100.0 * s.bias),
                 format!("{:.2}%", 100.0 * s.noise),
                 s.points.to_string(),
+                s.grain.map_or_else(
+                    || "-".to_string(),
+                    |g| format!("{:.2} ({:.2})", g.p95, g.worst),
+                ),
                 format!("{:.2}", s.seconds),
             ]);
         }
@@ -272,6 +287,7 @@ pub fn pictures(context: &Context) -> Result<Report, Error> {
             "bias",
             "reference noise",
             "points",
+            "grain p95 (worst)",
             "picture s",
         ],
         &rows,
@@ -284,7 +300,9 @@ pub fn pictures(context: &Context) -> Result<Report, Error> {
          four neighbours see the same surface), emitters left out; linear pixel values against \
          the Radiance reference at the centres' surface points. Mean absolute relative error \
          over the bright points (reference above 2% of its 95th percentile); L1 = sum |B - Bref| \
-         / sum Bref; reference noise: score.py's rough floor. 'picture s': drawing the picture, \
+         / sum Bref; reference noise: score.py's rough floor. Grain: the rms of the picture's \
+         luma less its 5 x 5 median over 16 x 16 tiles away from edges, 8-bit levels, the 95th \
+         percentile of tiles (the worst). 'picture s': drawing the picture, \
          final pass included, {} threads.",
         rayon::current_num_threads()
     );
