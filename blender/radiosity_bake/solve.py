@@ -119,6 +119,14 @@ class Solve:
                 self.stage = event.get("stage", self.stage)
                 if kind == "stage" and event.get("message"):
                     self.stage = event["message"]
+            elif kind == "final_pass":
+                done, total = event.get("done", 0), event.get("total", 0)
+                what = event.get("what", "")
+                self.stage = (
+                    f"final pass: {what} {100 * done / total:.0f}%"
+                    if total
+                    else f"final pass: {what}"
+                )
             elif kind == "done":
                 self.done = event
             elif kind == "error":
@@ -143,7 +151,7 @@ class Solve:
         p = self.progress
         if self.stopping:
             prefix = "Radiosity: stopping, writing the light reached (Esc again abandons)"
-        elif p is None:
+        elif p is None or self.stage.startswith("final pass"):
             return f"Radiosity: {self.stage}"
         else:
             prefix = "Radiosity"

@@ -535,16 +535,25 @@ impl<'a> FinalPass<'a> {
                 .fetch_add(receivers.len() as u64, Ordering::Relaxed);
             return vec![DVec3::ZERO; receivers.len()];
         }
-        receivers
+        // Points are counted a batch at a time (a shared counter touched at
+        // every point slows the pass by half), the rest once all are done.
+        const COUNTED: u64 = 1024;
+        let counted = AtomicU64::new(0);
+        let light: Vec<DVec3> = receivers
             .par_iter()
             .enumerate()
             .map_init(
-                || (RefCell::new(ShadowCache::default()), Vec::new()),
-                |(cache, picks), (i, r)| {
+                || (RefCell::new(ShadowCache::default()), Vec::new(), 0u64),
+                |(cache, picks, count), (i, r)| {
                     if self.stopping() {
                         return DVec3::ZERO;
                     }
-                    self.shaded.fetch_add(1, Ordering::Relaxed);
+                    *count += 1;
+                    if *count == COUNTED {
+                        *count = 0;
+                        self.shaded.fetch_add(COUNTED, Ordering::Relaxed);
+                        counted.fetch_add(COUNTED, Ordering::Relaxed);
+                    }
                     let sample = points.and_then(|p| p[i].sample);
                     let seed = points.map_or(i as u64, |p| p[i].seed);
                     let mut sum = DVec3::ZERO;
@@ -617,7 +626,12 @@ impl<'a> FinalPass<'a> {
                     sum
                 },
             )
-            .collect()
+            .collect();
+        self.shaded.fetch_add(
+            receivers.len() as u64 - counted.load(Ordering::Relaxed),
+            Ordering::Relaxed,
+        );
+        light
     }
 
     /// What source `k` sends to `r` (its shadow rays through `cache`).

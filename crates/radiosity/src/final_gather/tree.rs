@@ -81,6 +81,8 @@ impl Bounds {
 #[derive(Clone, Copy, Debug)]
 struct Bound {
     centre: DVec3,
+    /// The box's half-extents.
+    half: DVec3,
     radius: f64,
     power: f64,
     axis: DVec3,
@@ -112,6 +114,7 @@ impl Bound {
     fn of(b: &Bounds) -> Bound {
         Bound {
             centre: 0.5 * (b.lo + b.hi),
+            half: 0.5 * (b.hi - b.lo),
             radius: 0.5 * (b.hi - b.lo).length(),
             power: b.power,
             axis: b.axis,
@@ -131,6 +134,19 @@ impl Bound {
             return 0.0;
         }
         let to_point = point - self.centre;
+        // The box wholly behind the receiver's tangent plane, or (sources
+        // that all face one way) the point behind every source's plane:
+        // nothing arrives, wherever the point is (the sphere's bounds below
+        // cannot tell from inside it).
+        let reach = |direction: DVec3| direction.abs().dot(self.half);
+        if normal.dot(-to_point) + reach(normal) <= 0.0
+            || (self.sin_o == 0.0
+                && self.cos_o > 0.0
+                && self.cos_e <= 0.0
+                && self.axis.dot(to_point) + reach(self.axis) <= 0.0)
+        {
+            return 0.0;
+        }
         let d2 = to_point.length_squared();
         let r2 = self.radius * self.radius;
         if d2 <= r2 {
@@ -498,8 +514,22 @@ mod tests {
     fn importance_is_zero_only_where_nothing_arrives() {
         // A node's importance is zero only if every source in it is, for
         // points around and inside the sources.
-        let sources = grid(64, 11);
-        let tree = LightTree::new(&sources);
+        // Sources facing every way, and sources all facing down (a
+        // ceiling of panels: their nodes' cones are one direction).
+        let facing_down: Vec<Bounds> = grid(64, 13)
+            .into_iter()
+            .map(|b| Bounds {
+                axis: -DVec3::Y,
+                ..b
+            })
+            .collect();
+        for sources in [grid(64, 11), facing_down] {
+            zero_only_where_nothing_arrives(&sources);
+        }
+    }
+
+    fn zero_only_where_nothing_arrives(sources: &[Bounds]) {
+        let tree = LightTree::new(sources);
         let mut state = 5u64;
         for _ in 0..2000 {
             let point = DVec3::new(
