@@ -62,7 +62,9 @@
 //! `rays_per_second`, `unshot_fraction`, `elapsed_seconds` (pauses
 //! excluded), `pause_requested`, `stop_requested`, `stop_reason`,
 //! `written`, `device`, `device_shots`, `frame`: the final picture's
-//! `[width, height]` once drawn, else null), followed at once by a binary colour frame when its `seq`
+//! `[width, height]` once drawn, else null; `final_pass`: while the
+//! outputs are made, `{what, done, total}` of the final pass (`total` 0
+//! where not known beforehand), else null), followed at once by a binary colour frame when its `seq`
 //! is not that of the client's previous frame (`seq` 0: nothing to show
 //! yet).
 //! All binary numbers are little-endian; every array starts on a multiple

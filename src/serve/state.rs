@@ -89,6 +89,21 @@ pub struct Status {
     /// has ended (converged, stopped or out of time); `None` before, or
     /// when the final pass is off.
     pub frame: Option<[u32; 2]>,
+    /// While the outputs are made: what the final pass is shading
+    /// (`picture`, `lightmap`, `sensors`) and its points shaded of the
+    /// total (0 where not known beforehand).
+    pub final_pass: Option<FinalPassStatus>,
+}
+
+/// The final pass's progress, as the page shows it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct FinalPassStatus {
+    /// What it is shading.
+    pub what: String,
+    /// Points shaded.
+    pub done: u64,
+    /// Points to shade (0: not known beforehand).
+    pub total: u64,
 }
 
 /// The solution at one moment.
@@ -211,6 +226,7 @@ impl Shared {
                     device: "cpu".to_string(),
                     device_shots: 0,
                     frame: None,
+                    final_pass: None,
                 },
                 paused: false,
                 holds,
@@ -322,6 +338,7 @@ impl Shared {
     pub fn finished(&self, outcome: &Outcome) {
         let mut inner = self.lock();
         inner.status.phase = Phase::Finished;
+        inner.status.final_pass = None;
         inner.status.stop_reason = Some(outcome.stop.describe());
         inner.status.written = outcome
             .written
@@ -457,6 +474,17 @@ impl Shared {
         }));
         inner.status.seq = seq;
         update(&mut inner.status);
+        drop(inner);
+        self.notify();
+    }
+
+    /// The final pass's progress, told to the page.
+    fn set_final_pass(&self, progress: FinalPassStatus) {
+        let mut inner = self.lock();
+        if inner.status.final_pass.as_ref() == Some(&progress) {
+            return;
+        }
+        inner.status.final_pass = Some(progress);
         drop(inner);
         self.notify();
     }
@@ -662,6 +690,14 @@ impl Observer for LiveObserver {
         Flow::Continue
     }
 
+    fn final_pass(&mut self, what: &str, done: u64, total: u64, _elapsed: Duration) {
+        self.shared.set_final_pass(FinalPassStatus {
+            what: what.to_string(),
+            done,
+            total,
+        });
+    }
+
     fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
         self.publish(solver, Phase::Writing, Some(stop));
         if solver.settings().final_gather != FinalGather::Off {
@@ -725,6 +761,34 @@ mod tests {
         shared.hold_at(13);
         assert!(!paused(&shared), "every hold used up");
         assert!(shared.lock().holds.is_empty());
+    }
+
+    /// The final pass's progress reaches the page's status (and its JSON),
+    /// the newest each time.
+    #[test]
+    fn the_final_pass_progress_is_in_the_status() {
+        let display = Display {
+            camera: None,
+            ambient: true,
+            exposure: 0.0,
+        };
+        let shared = Arc::new(Shared::new(display, &[]));
+        assert_eq!(shared.current().0.final_pass, None);
+        let mut observer = LiveObserver::new(Arc::clone(&shared));
+        observer.final_pass("picture", 10, 40, Duration::ZERO);
+        observer.final_pass("picture", 25, 40, Duration::from_secs(1));
+        let status = shared.current().0;
+        assert_eq!(
+            status.final_pass,
+            Some(FinalPassStatus {
+                what: "picture".into(),
+                done: 25,
+                total: 40,
+            })
+        );
+        let json = serde_json::to_value(&status).unwrap();
+        assert_eq!(json["final_pass"]["done"], 25);
+        assert_eq!(json["final_pass"]["what"], "picture");
     }
 
     /// A pause right after a resume, before the solve thread has woken,

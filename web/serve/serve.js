@@ -247,6 +247,12 @@ function onStatus(s) {
   if (s.phase === 'finished' && s.stop_reason) phase = `finished (${s.stop_reason})`;
   else if (s.stop_requested && s.phase !== 'finished') phase = 'stopping';
   else if (s.pause_requested) phase = 'pausing';
+  else if (s.phase === 'writing' && s.final_pass) {
+    const f = s.final_pass;
+    phase = f.total > 0
+      ? `final pass: ${f.what} ${Math.floor((100 * f.done) / f.total)}%`
+      : `final pass: ${f.what}`;
+  }
   $('phase').textContent = phase;
   $('shots').textContent = s.shots.toLocaleString();
   $('subsources').textContent = s.subsources.toLocaleString();
