@@ -17,6 +17,19 @@ fn events(text: &str) -> Vec<Value> {
         .collect()
 }
 
+/// Reads events from `lines` up to the first of kind `event`, which it
+/// returns, or to the end, returning the last.
+fn read_until(lines: &mut impl Iterator<Item = std::io::Result<String>>, event: &str) -> Value {
+    let mut last = Value::Null;
+    for line in lines {
+        last = serde_json::from_str(&line.unwrap()).unwrap();
+        if last["event"] == event {
+            break;
+        }
+    }
+    last
+}
+
 #[test]
 fn progress_json_streams_the_run_and_ends_with_done() {
     let dir = tempfile::tempdir().unwrap();
@@ -174,17 +187,9 @@ fn the_stop_file_stops_the_solve_and_writes_the_state_reached() {
         .spawn()
         .unwrap();
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    let mut last = Value::Null;
-    for line in lines.by_ref() {
-        last = serde_json::from_str(&line.unwrap()).unwrap();
-        if last["event"] == "progress" {
-            std::fs::write(&stop, "stop").unwrap();
-            break;
-        }
-    }
-    for line in lines {
-        last = serde_json::from_str(&line.unwrap()).unwrap();
-    }
+    assert_eq!(read_until(&mut lines, "progress")["event"], "progress");
+    std::fs::write(&stop, "stop").unwrap();
+    let last = read_until(&mut lines, "none");
     assert!(child.wait().unwrap().success());
     assert_eq!(last["event"], "done");
     assert_eq!(last["stop_reason"], "stopped");
@@ -270,13 +275,7 @@ fn sigterm_during_the_final_pass_ends_the_run_with_the_outputs_complete() {
         .spawn()
         .unwrap();
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    let mut last = Value::Null;
-    for line in lines.by_ref() {
-        last = serde_json::from_str(&line.unwrap()).unwrap();
-        if last["event"] == "final_pass" {
-            break;
-        }
-    }
+    let last = read_until(&mut lines, "final_pass");
     assert_eq!(
         last["event"], "final_pass",
         "the run reached its final pass"
@@ -288,9 +287,7 @@ fn sigterm_during_the_final_pass_ends_the_run_with_the_outputs_complete() {
         .status()
         .unwrap();
     assert!(killed.success());
-    for line in lines {
-        last = serde_json::from_str(&line.unwrap()).unwrap();
-    }
+    let last = read_until(&mut lines, "none");
     let status = child.wait().unwrap();
     let took = sent.elapsed();
     let mut stderr = String::new();
