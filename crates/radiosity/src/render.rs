@@ -159,7 +159,9 @@ pub fn render_planned(
     let view = View::new(&settings.camera, w, h, near);
     let triangles = project(scene, mesh, colours, &view);
 
-    let band_rows = 16usize;
+    // Whole pixels a band (16 rows or the next multiple of the
+    // supersampling), so a pixel's samples are shaded together.
+    let band_rows = 16usize.next_multiple_of(s as usize);
     let mut samples = vec![BACKGROUND; (w * h) as usize];
     let mut hits = vec![false; (w * h) as usize];
     // Every band rasterised first (the samples' surface points kept when
@@ -321,6 +323,11 @@ fn shade_band(
     if points.is_empty() {
         return;
     }
+    // A pixel's samples one after another, in their order.
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by_key(|&i| (points[i].seed, points[i].sample.map_or(0, |(k, _)| k)));
+    let points: Vec<Point> = order.iter().map(|&i| points[i]).collect();
+    let at: Vec<usize> = order.iter().map(|&i| at[i]).collect();
     for (i, added) in at.into_iter().zip(shade(&points)) {
         colour[i] += added.as_vec3();
     }

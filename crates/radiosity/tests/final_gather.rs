@@ -424,3 +424,81 @@ fn many_emitters_through_the_light_tree_are_unbiased() {
         }
     }
 }
+
+/// A pixel's samples shade together: under a lamp wholly in view, each of
+/// its 9 samples reads the lamp's closed form (the probes agree, so the
+/// exact factor stands: no noise); where a board hides half the lamp (a
+/// penumbra), each sample's value is the one it takes shaded alone, with
+/// its own four rays.
+#[test]
+fn a_pixel_in_full_view_is_exact_and_one_in_a_penumbra_takes_every_ray() {
+    let (side, height, exitance) = (0.5, 1.5, 40.0);
+    let surfaces = common::lamp_over_floor(0.5, side, height, exitance);
+    let settings = Settings::adaptive();
+    let mut mesh_settings = settings.mesh;
+    mesh_settings.patch_size = 0.25;
+    mesh_settings.element_size = 0.25;
+    let pixel = |centre: DVec3, seed: u64| -> Vec<Point> {
+        (0..9u32)
+            .map(|k| Point {
+                surface: 0,
+                position: centre
+                    + DVec3::new(f64::from(k % 3) * 1e-3, 0.0, f64::from(k / 3) * 1e-3),
+                sample: Some((k, 9)),
+                seed,
+            })
+            .collect()
+    };
+
+    let scene = scene_of(surfaces.clone());
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let solver = Solver::new(&scene, &mesh, settings.clone());
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    let lamp = scene.surfaces.iter().find(|s| s.is_emitter()).unwrap();
+    let (lo, hi) = lamp
+        .polygon
+        .iter()
+        .fold((DVec3::MAX, DVec3::MIN), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let points = pixel(DVec3::new(0.3, 0.0, -0.2), 11);
+    for (p, e) in points.iter().zip(pass.direct(&points)) {
+        let factor = closed_form::parallel_rectangle(
+            lo.x - p.position.x,
+            hi.x - p.position.x,
+            lo.z - p.position.z,
+            hi.z - p.position.z,
+            height,
+        );
+        let expected = lamp.emission * factor;
+        assert!(
+            (e - expected).abs().max_element() <= 1e-6 * expected.max_element(),
+            "{p:?}: {e} against {expected}"
+        );
+    }
+
+    // A black board at mid-height over x < 0: from x = 0 below, it hides
+    // the lamp's half x < 0.
+    let mut blocked = surfaces;
+    blocked.push(quad(
+        DVec3::new(-2.0, 0.75, -2.0),
+        DVec3::Z * 4.0,
+        DVec3::X * 2.0,
+        0.0,
+        0.0,
+        7,
+    ));
+    let scene = scene_of(blocked);
+    let mesh = Mesh::build(&scene, &mesh_settings).unwrap();
+    let solver = Solver::new(&scene, &mesh, settings);
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    let points = pixel(DVec3::new(0.0005, 0.0, 0.0), 23);
+    let together = pass.direct(&points);
+    let unblocked =
+        lamp.emission.y * closed_form::parallel_rectangle(lo.x, hi.x, lo.z, hi.z, height);
+    for (p, e) in points.iter().zip(together) {
+        let alone = pass.direct(std::slice::from_ref(p))[0];
+        assert_eq!(e, alone, "{p:?}");
+        assert!(e.y > 0.0 && e.y < unblocked, "{p:?}: {e} of {unblocked}");
+    }
+}

@@ -535,6 +535,12 @@ impl<'a> FinalPass<'a> {
                 .fetch_add(receivers.len() as u64, Ordering::Relaxed);
             return vec![DVec3::ZERO; receivers.len()];
         }
+        if let Some(points) = points
+            && self.sources.len() <= SAMPLE_SOURCES
+            && points.iter().any(|p| p.sample.is_some_and(|(_, n)| n > 1))
+        {
+            return self.pixels_light(receivers, points, emitters_only);
+        }
         // Points are counted a batch at a time (a shared counter touched at
         // every point slows the pass by half), the rest once all are done.
         const COUNTED: u64 = 1024;
@@ -632,6 +638,105 @@ impl<'a> FinalPass<'a> {
             Ordering::Relaxed,
         );
         light
+    }
+
+    /// [`FinalPass::direct_light`] of picture samples when every source is
+    /// traced, a pixel's samples together (consecutive points with one
+    /// seed): each emitting surface is first probed with one ray a sample,
+    /// the pixel's samples taking the cells of an `s x s` grid over it; if
+    /// every probe of the pixel lets the same through (the surface wholly
+    /// in view, or wholly hidden), each sample takes the surface's exact
+    /// factor times that (no noise); otherwise (a penumbra) each sample
+    /// takes its [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays as alone. Most
+    /// pixels cost one ray a sample, those in penumbrae five. A surface
+    /// partly hidden from a pixel by something that no probe meets is
+    /// taken as wholly in view: the probes are a grid of `s^2` cells over
+    /// it, a point drawn in each.
+    fn pixels_light(
+        &self,
+        receivers: &[Receiver],
+        points: &[Point],
+        emitters_only: bool,
+    ) -> Vec<DVec3> {
+        let mut starts = vec![0];
+        for i in 1..points.len() {
+            if points[i].seed != points[i - 1].seed {
+                starts.push(i);
+            }
+        }
+        starts.push(points.len());
+        let light: Vec<Vec<DVec3>> = starts
+            .par_windows(2)
+            .map_init(
+                || RefCell::new(ShadowCache::default()),
+                |cache, range| {
+                    let (rs, ps) = (&receivers[range[0]..range[1]], &points[range[0]..range[1]]);
+                    let mut out = vec![DVec3::ZERO; rs.len()];
+                    if self.stopping() {
+                        return out;
+                    }
+                    for (o, r) in out.iter_mut().zip(rs) {
+                        for &sun in self.suns.iter().filter(|_| !emitters_only) {
+                            cache.borrow_mut().from_origin(u32::MAX);
+                            *o += lights::direct_at(
+                                &self.scene.lights[sun],
+                                r,
+                                self.scene,
+                                self.occluder,
+                                self.reach,
+                                &mut cache.borrow_mut(),
+                            );
+                        }
+                    }
+                    let mut probes = Vec::with_capacity(rs.len());
+                    for k in 0..self.sources.len() as u32 {
+                        let Source::Emitter(e) = self.sources[k as usize] else {
+                            if !emitters_only {
+                                for ((o, r), p) in out.iter_mut().zip(rs).zip(ps) {
+                                    *o += self.source_light(k, r, p.sample, p.seed, cache);
+                                }
+                            }
+                            continue;
+                        };
+                        let e = &self.emitters[e];
+                        probes.clear();
+                        let mut seen = Seen::Nothing;
+                        for (r, p) in rs.iter().zip(ps) {
+                            cache.borrow_mut().from_origin(k);
+                            let probe = self.emitter_light_split(e, r, p.sample, p.seed, cache, 1);
+                            seen = seen.join(probe.1);
+                            probes.push(probe.2);
+                        }
+                        // A lone sample's probe says nothing of the rest
+                        // of the surface: it takes its own rays.
+                        if rs.len() < 2 && seen != Seen::Nothing {
+                            seen = Seen::Mixed;
+                        }
+                        match seen {
+                            Seen::Nothing => {}
+                            // Wholly in view (or hidden, or behind the
+                            // same glass): the exact factor at each sample
+                            // times what passes.
+                            Seen::All(passed) => {
+                                for (o, whole) in out.iter_mut().zip(&probes) {
+                                    *o += e.emission * passed * *whole;
+                                }
+                            }
+                            Seen::Mixed => {
+                                for ((o, r), p) in out.iter_mut().zip(rs).zip(ps) {
+                                    cache.borrow_mut().from_origin(k);
+                                    *o += self.emitter_light(e, r, p.sample, p.seed, cache);
+                                }
+                            }
+                        }
+                    }
+                    out
+                },
+            )
+            .collect();
+        self.shaded
+            .fetch_add(receivers.len() as u64, Ordering::Relaxed);
+        light.into_iter().flatten().collect()
     }
 
     /// What source `k` sends to `r` (its shadow rays through `cache`).
@@ -754,9 +859,27 @@ impl<'a> FinalPass<'a> {
         seed: u64,
         cache: &RefCell<ShadowCache>,
     ) -> DVec3 {
+        self.emitter_light_split(e, r, sample, seed, cache, SAMPLE_SPLIT)
+            .0
+    }
+
+    /// [`FinalPass::emitter_light`] with `split^2` rays a picture's sample,
+    /// what its rays saw, and the surface's exact factor at the sample
+    /// (0 where none was taken).
+    fn emitter_light_split(
+        &self,
+        e: &Emitter,
+        r: &Receiver,
+        sample: Option<(u32, u32)>,
+        seed: u64,
+        cache: &RefCell<ShadowCache>,
+        split: u32,
+    ) -> (DVec3, Seen, f64) {
         if !e.faces(r) {
-            return DVec3::ZERO;
+            return (DVec3::ZERO, Seen::Nothing, 0.0);
         }
+        let whole_taken = std::cell::Cell::new(0.0);
+        let seen = std::cell::Cell::new(Seen::Nothing);
         // What passes from `at` (a point of `piece`, or its centroid when
         // `None`): a piece crossing the receiver's tangent plane is seen
         // from its clipped part's centroid when `at` lies behind.
@@ -778,13 +901,15 @@ impl<'a> FinalPass<'a> {
             let blocked =
                 self.occluder
                     .occluded_cached(a, b, [e.group, r.group], &mut cache.borrow_mut());
-            if blocked {
+            let passed = if blocked {
                 DVec3::ZERO
             } else if self.scene.panes.is_empty() {
                 DVec3::ONE
             } else {
                 glass::transmittance(&self.scene.panes, c, r.point)
-            }
+            };
+            seen.set(seen.get().and(passed));
+            passed
         };
         // A piece's exact factor (equation (2), clipped to the receiver's
         // front) times what passes from its centroid.
@@ -800,7 +925,7 @@ impl<'a> FinalPass<'a> {
             // pixel's samples taking them in turn from a place of the
             // pixel's own, seen from a point drawn uniformly in it.
             Some((k, n)) => {
-                let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1) * SAMPLE_SPLIT;
+                let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1) * split;
                 let own;
                 let pieces = match e.pieces.get(side as usize - 1) {
                     Some(pieces) => pieces,
@@ -811,7 +936,7 @@ impl<'a> FinalPass<'a> {
                 };
                 let count = pieces.len() as u64;
                 if count == 0 {
-                    return DVec3::ZERO;
+                    return (DVec3::ZERO, Seen::Nothing, 0.0);
                 }
                 // `SAMPLE_SPLIT^2` pieces a sample, `n` apart: the pixel's
                 // samples take every piece of the grid once (when there are
@@ -822,8 +947,9 @@ impl<'a> FinalPass<'a> {
                 // exact factor a sample, not one a piece).
                 let whole = form_factor::analytic(r.point, r.normal, &e.polygon);
                 if whole <= 0.0 {
-                    return DVec3::ZERO;
+                    return (DVec3::ZERO, Seen::Nothing, 0.0);
                 }
+                whole_taken.set(whole);
                 let weight = |piece: &Piece| {
                     let d = piece.centroid - r.point;
                     let d2 = d.length_squared();
@@ -832,9 +958,9 @@ impl<'a> FinalPass<'a> {
                 };
                 let total: f64 = pieces.iter().map(&weight).sum();
                 if total <= 0.0 {
-                    return DVec3::ZERO;
+                    return (DVec3::ZERO, Seen::Nothing, 0.0);
                 }
-                let rays = u64::from(SAMPLE_SPLIT * SAMPLE_SPLIT);
+                let rays = u64::from(split * split);
                 let mut sum = DVec3::ZERO;
                 for j in 0..rays {
                     let index = (u64::from(k) + j * u64::from(n) + seed % count) % count;
@@ -855,7 +981,38 @@ impl<'a> FinalPass<'a> {
                 .map(|piece| through(&piece.polygon))
                 .sum(),
         };
-        e.emission * passed
+        (e.emission * passed, seen.get(), whole_taken.get())
+    }
+}
+
+/// What the shadow rays of one estimate saw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Seen {
+    /// No ray was cast (nothing of the source in front).
+    Nothing,
+    /// Every ray let the same through.
+    All(DVec3),
+    /// Rays let different amounts through: a penumbra.
+    Mixed,
+}
+
+impl Seen {
+    /// Both: one ray's `passed` after these.
+    fn and(self, passed: DVec3) -> Seen {
+        match self {
+            Seen::Nothing => Seen::All(passed),
+            Seen::All(v) if v == passed => self,
+            _ => Seen::Mixed,
+        }
+    }
+
+    /// Both estimates' rays together.
+    fn join(self, other: Seen) -> Seen {
+        match (self, other) {
+            (Seen::Nothing, x) | (x, Seen::Nothing) => x,
+            (Seen::All(a), Seen::All(b)) if a == b => self,
+            _ => Seen::Mixed,
+        }
     }
 }
 
