@@ -230,8 +230,6 @@ pub struct Pick {
 #[derive(Clone, Debug)]
 pub struct LightTree {
     nodes: Vec<Node>,
-    /// Each source's leaf.
-    leaves: Vec<u32>,
 }
 
 impl LightTree {
@@ -240,10 +238,7 @@ impl LightTree {
     /// the median of their boxes' centres along its box's longest side.
     #[must_use]
     pub fn new(sources: &[Bounds]) -> LightTree {
-        let mut tree = LightTree {
-            nodes: Vec::new(),
-            leaves: vec![0; sources.len()],
-        };
+        let mut tree = LightTree { nodes: Vec::new() };
         if sources.is_empty() {
             return tree;
         }
@@ -255,21 +250,7 @@ impl LightTree {
             leaf: true,
         });
         tree.build(0, &mut order, sources);
-        for (at, node) in tree.nodes.iter().enumerate() {
-            if node.leaf {
-                tree.leaves[node.index as usize] = at as u32;
-            }
-        }
         tree
-    }
-
-    /// Source `source`'s importance at `point` by its bounds
-    /// ([`Bounds::importance`], ready computed).
-    #[must_use]
-    pub fn importance(&self, source: u32, point: DVec3, normal: DVec3) -> f64 {
-        self.nodes[self.leaves[source as usize] as usize]
-            .bound
-            .importance(point, normal)
     }
 
     /// Fills node `at` with the sources `order` lists.
@@ -326,12 +307,6 @@ impl LightTree {
     #[must_use]
     pub fn sources(&self) -> usize {
         self.nodes.len().div_ceil(2)
-    }
-
-    /// The bounds of all the sources (`None` for an empty tree).
-    #[must_use]
-    pub fn root(&self) -> Option<&Bounds> {
-        self.nodes.first().map(|n| &n.bounds)
     }
 
     /// The sources to trace at `point` (its surface's front along
