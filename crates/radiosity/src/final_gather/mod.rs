@@ -43,7 +43,11 @@
 //! a piece's share of the surface's exact factor (equation (2),
 //! [`form_factor::analytic()`], clipped to the receiver's front) is its
 //! point factor's share of theirs, so a pixel sums the whole factor and a
-//! penumbra is smooth noise, not copies of a shadow; a vertex, texel or
+//! penumbra is smooth noise, not copies of a shadow. A pixel's samples are
+//! shaded together: each surface is first probed with one ray a sample,
+//! and only where the probes disagree (a penumbra) do the samples take
+//! those rays; elsewhere each takes the exact factor times what the probes
+//! let through, with no noise ([`FinalPass::direct`]). A vertex, texel or
 //! sensor casts [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each
 //! piece's centroid, each piece with its own exact factor.
 //!
@@ -393,7 +397,9 @@ impl<'a> FinalPass<'a> {
 
     /// The direct irradiance at each point (W/m^2 per channel): the scene's
     /// lights' (but skies', which the mesh carries: see
-    /// [`Solver::sky_irradiance`]) and the emitting surfaces'.
+    /// [`Solver::sky_irradiance`]) and the emitting surfaces'. Consecutive
+    /// picture samples with one seed are one pixel's, shaded together (the
+    /// renderer gives a pixel's samples in a row).
     #[must_use]
     pub fn direct(&self, points: &[Point]) -> Vec<DVec3> {
         let receivers = self.receivers(points);
