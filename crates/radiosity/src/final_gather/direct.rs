@@ -1,0 +1,717 @@
+//! The final pass's direct light at a point: the emitting surfaces in
+//! pieces (the paper's subsources) and the lights with a position, every
+//! one traced or, beyond a point's budget, a cut of the light tree
+//! ([`super::tree`]: Conty Estevez & Kulla 2018, Yuksel 2019); a picture's
+//! pixel shading its samples together, probing each surface before
+//! tracing its penumbrae (Wallace, Elmquist & Haines 1989's ray-traced
+//! final display, its shadow rays spent where visibility is partial).
+
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::tree::{Bounds, Pick};
+use super::{EMITTER_SIDE, FinalPass, Point, SAMPLE_SOURCES, SAMPLE_SPLIT, unit};
+use crate::accel::{self, ShadowCache};
+use crate::form_factor;
+use crate::geometry;
+use crate::mesh;
+use crate::scene::{LightKind, Scene, glass};
+use crate::solver::{Receiver, lights};
+
+/// An emitting surface, set up for points.
+pub(super) struct Emitter {
+    polygon: Vec<DVec3>,
+    normal: DVec3,
+    offset: f64,
+    emission: DVec3,
+    group: u32,
+    /// Its pieces at 1 to [`PRESPLIT`] per side (index `side - 1`).
+    pieces: Vec<Vec<Piece>>,
+}
+
+impl Emitter {
+    /// Whether it can send light to `r`: another surface, `r` before its
+    /// front, some of it before `r`'s.
+    fn faces(&self, r: &Receiver) -> bool {
+        r.group != self.group
+            && self.normal.dot(r.point) - self.offset > 0.0
+            && self
+                .polygon
+                .iter()
+                .any(|c| r.normal.dot(*c - r.point) > 0.0)
+    }
+}
+
+/// A source of direct light the tree chooses among.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Source {
+    /// An emitting surface (index into the emitters).
+    Emitter(usize),
+    /// A light with a position (index into the scene's lights).
+    Light(usize),
+}
+
+/// The first stream of a point's random numbers that draw in the light
+/// tree (below it, the emitters' pieces draw theirs).
+const TREE_STREAM: u64 = 1 << 40;
+
+/// A piece of an emitting surface.
+struct Piece {
+    polygon: Vec<DVec3>,
+    centroid: DVec3,
+    area: f64,
+}
+
+/// Grids of pieces set up beforehand per emitter: up to this many per side.
+const PRESPLIT: u32 = 6;
+
+impl FinalPass<'_> {
+    /// The direct irradiance at each receiver from the emitting surfaces
+    /// and the lights (but skies; with `emitters_only`, the emitting
+    /// surfaces alone); `points` says which sample each one is (all rays
+    /// at once when `None`). A point that sees no more sources than its
+    /// budget ([`SAMPLE_SOURCES`] for a picture's sample, its share of
+    /// [`PIXEL_SOURCES`] beyond; [`POINT_SOURCES`] otherwise) traces every
+    /// one; beyond, it traces
+    /// the sources of a cut of the light tree ([`tree`]), each drawn
+    /// source's light divided by the probability of its draw: unbiased,
+    /// with rays bounded whatever the number of emitters.
+    pub(super) fn direct_light(
+        &self,
+        receivers: &[Receiver],
+        points: Option<&[Point]>,
+        emitters_only: bool,
+    ) -> Vec<DVec3> {
+        if self.sources.is_empty() && self.suns.is_empty() {
+            self.shaded
+                .fetch_add(receivers.len() as u64, Ordering::Relaxed);
+            return vec![DVec3::ZERO; receivers.len()];
+        }
+        if let Some(points) = points
+            && self.sources.len() <= SAMPLE_SOURCES
+            && points.iter().any(|p| p.sample.is_some_and(|(_, n)| n > 1))
+        {
+            return self.pixels_light(receivers, points, emitters_only);
+        }
+        // Points are counted a batch at a time (a shared counter touched at
+        // every point slows the pass by half), the rest once all are done.
+        const COUNTED: u64 = 1024;
+        let counted = AtomicU64::new(0);
+        let light: Vec<DVec3> = receivers
+            .par_iter()
+            .enumerate()
+            .map_init(
+                || (RefCell::new(ShadowCache::default()), Vec::new(), 0u64),
+                |(cache, picks, count), (i, r)| {
+                    if self.stopping() {
+                        return DVec3::ZERO;
+                    }
+                    *count += 1;
+                    if *count == COUNTED {
+                        *count = 0;
+                        self.shaded.fetch_add(COUNTED, Ordering::Relaxed);
+                        counted.fetch_add(COUNTED, Ordering::Relaxed);
+                    }
+                    let sample = points.and_then(|p| p[i].sample);
+                    let seed = points.map_or(i as u64, |p| p[i].seed);
+                    let mut sum = DVec3::ZERO;
+                    if !emitters_only {
+                        for &sun in &self.suns {
+                            cache.borrow_mut().from_origin(u32::MAX);
+                            sum += lights::direct_at(
+                                &self.scene.lights[sun],
+                                r,
+                                self.scene,
+                                self.occluder,
+                                self.reach,
+                                &mut cache.borrow_mut(),
+                            );
+                        }
+                    }
+                    let budget = match sample {
+                        Some((_, n)) => {
+                            let share = self.budgets.0.div_ceil(n.max(1) as usize);
+                            if self.sources.len() <= SAMPLE_SOURCES {
+                                SAMPLE_SOURCES
+                            } else {
+                                share
+                            }
+                        }
+                        None => self.budgets.1,
+                    };
+                    let wanted = |k: u32| {
+                        !emitters_only || matches!(self.sources[k as usize], Source::Emitter(_))
+                    };
+                    if self.sources.len() <= budget {
+                        for k in 0..self.sources.len() as u32 {
+                            if wanted(k) {
+                                sum += self.source_light(k, r, sample, seed, cache);
+                            }
+                        }
+                        return sum;
+                    }
+                    let importance = |k: u32| {
+                        if wanted(k) {
+                            self.source_importance(k, r)
+                        } else {
+                            0.0
+                        }
+                    };
+                    // One uniform number a node of the cut; a pixel's
+                    // samples take them stratified.
+                    let draw = |j: usize| match sample {
+                        Some((k, n)) => {
+                            (f64::from(k) + unit(seed, TREE_STREAM + j as u64))
+                                / f64::from(n.max(1))
+                        }
+                        None => unit(seed, TREE_STREAM + j as u64),
+                    };
+                    self.tree
+                        .cut(r.point, r.normal, budget, &importance, &draw, picks);
+                    for (j, pick) in picks.iter().enumerate() {
+                        let light = match sample {
+                            // A drawn source at a picture's sample: one
+                            // ray, the pixel's samples drawing many.
+                            Some((k, _)) => {
+                                let stream =
+                                    TREE_STREAM + (1 << 20) + u64::from(k) * 4096 + j as u64 * 2;
+                                self.source_light_once(pick, r, seed, stream, cache)
+                            }
+                            None => self.source_light(pick.source, r, sample, seed, cache),
+                        };
+                        sum += light * pick.weight;
+                    }
+                    sum
+                },
+            )
+            .collect();
+        self.shaded.fetch_add(
+            receivers.len() as u64 - counted.load(Ordering::Relaxed),
+            Ordering::Relaxed,
+        );
+        light
+    }
+
+    /// [`FinalPass::direct_light`] of picture samples when every source is
+    /// traced, a pixel's samples together (consecutive points with one
+    /// seed): each emitting surface is first probed with one ray a sample,
+    /// the pixel's samples taking the cells of an `s x s` grid over it; if
+    /// every probe of the pixel lets the same through (the surface wholly
+    /// in view, or wholly hidden), each sample takes the surface's exact
+    /// factor times that (no noise); otherwise (a penumbra) each sample
+    /// takes its [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays as alone. Most
+    /// pixels cost one ray a sample, those in penumbrae five. A surface
+    /// partly hidden from a pixel by something that no probe meets is
+    /// taken as wholly in view: the probes are a grid of `s^2` cells over
+    /// it, a point drawn in each.
+    fn pixels_light(
+        &self,
+        receivers: &[Receiver],
+        points: &[Point],
+        emitters_only: bool,
+    ) -> Vec<DVec3> {
+        let mut starts = vec![0];
+        for i in 1..points.len() {
+            if points[i].seed != points[i - 1].seed {
+                starts.push(i);
+            }
+        }
+        starts.push(points.len());
+        let light: Vec<Vec<DVec3>> = starts
+            .par_windows(2)
+            .map_init(
+                || RefCell::new(ShadowCache::default()),
+                |cache, range| {
+                    let (rs, ps) = (&receivers[range[0]..range[1]], &points[range[0]..range[1]]);
+                    let mut out = vec![DVec3::ZERO; rs.len()];
+                    if self.stopping() {
+                        return out;
+                    }
+                    for (o, r) in out.iter_mut().zip(rs) {
+                        for &sun in self.suns.iter().filter(|_| !emitters_only) {
+                            cache.borrow_mut().from_origin(u32::MAX);
+                            *o += lights::direct_at(
+                                &self.scene.lights[sun],
+                                r,
+                                self.scene,
+                                self.occluder,
+                                self.reach,
+                                &mut cache.borrow_mut(),
+                            );
+                        }
+                    }
+                    let mut probes = Vec::with_capacity(rs.len());
+                    for k in 0..self.sources.len() as u32 {
+                        let Source::Emitter(e) = self.sources[k as usize] else {
+                            if !emitters_only {
+                                for ((o, r), p) in out.iter_mut().zip(rs).zip(ps) {
+                                    *o += self.source_light(k, r, p.sample, p.seed, cache);
+                                }
+                            }
+                            continue;
+                        };
+                        let e = &self.emitters[e];
+                        probes.clear();
+                        let mut seen = Seen::Nothing;
+                        for (r, p) in rs.iter().zip(ps) {
+                            cache.borrow_mut().from_origin(k);
+                            let probe = self.emitter_light_split(e, r, p.sample, p.seed, cache, 1);
+                            seen = seen.join(probe.1);
+                            probes.push(probe.2);
+                        }
+                        // A lone sample's probe says nothing of the rest
+                        // of the surface: it takes its own rays.
+                        if rs.len() < 2 && seen != Seen::Nothing {
+                            seen = Seen::Mixed;
+                        }
+                        match seen {
+                            Seen::Nothing => {}
+                            // Wholly in view (or hidden, or behind the
+                            // same glass): the exact factor at each sample
+                            // times what passes.
+                            Seen::All(passed) => {
+                                for (o, whole) in out.iter_mut().zip(&probes) {
+                                    *o += e.emission * passed * *whole;
+                                }
+                            }
+                            Seen::Mixed => {
+                                for ((o, r), p) in out.iter_mut().zip(rs).zip(ps) {
+                                    cache.borrow_mut().from_origin(k);
+                                    *o += self.emitter_light(e, r, p.sample, p.seed, cache);
+                                }
+                            }
+                        }
+                    }
+                    out
+                },
+            )
+            .collect();
+        self.shaded
+            .fetch_add(receivers.len() as u64, Ordering::Relaxed);
+        light.into_iter().flatten().collect()
+    }
+
+    /// What source `k` sends to `r` (its shadow rays through `cache`).
+    fn source_light(
+        &self,
+        k: u32,
+        r: &Receiver,
+        sample: Option<(u32, u32)>,
+        seed: u64,
+        cache: &RefCell<ShadowCache>,
+    ) -> DVec3 {
+        cache.borrow_mut().from_origin(k);
+        match self.sources[k as usize] {
+            Source::Emitter(e) => self.emitter_light(&self.emitters[e], r, sample, seed, cache),
+            Source::Light(l) => lights::direct_at(
+                &self.scene.lights[l],
+                r,
+                self.scene,
+                self.occluder,
+                self.reach,
+                &mut cache.borrow_mut(),
+            ),
+        }
+    }
+
+    /// What the drawn source sends to `r` estimated with one shadow ray: a light
+    /// as [`FinalPass::source_light`]; an emitting surface's exact factor
+    /// (clipped to `r`'s front) times what passes from one point of it
+    /// drawn uniformly by area (with the random numbers of `stream` and
+    /// the next), an unbiased estimate of its light.
+    fn source_light_once(
+        &self,
+        pick: &Pick,
+        r: &Receiver,
+        seed: u64,
+        stream: u64,
+        cache: &RefCell<ShadowCache>,
+    ) -> DVec3 {
+        let k = pick.source;
+        let Source::Emitter(e) = self.sources[k as usize] else {
+            return self.source_light(k, r, None, seed, cache);
+        };
+        cache.borrow_mut().from_origin(k);
+        let e = &self.emitters[e];
+        // The importance was the exact factor times the exitance's
+        // luminance ([`FinalPass::source_importance`]).
+        let whole = pick.importance / crate::luminance(e.emission);
+        if whole.is_nan() || whole <= 0.0 {
+            return DVec3::ZERO;
+        }
+        let pieces = &e.pieces[0];
+        let (u, v) = (unit(seed, stream), unit(seed, stream + 1));
+        // A triangle of the polygon by area, then a point in it.
+        let total: f64 = pieces.iter().map(|p| p.area).sum();
+        let mut pick = u * total;
+        let mut chosen = &pieces[pieces.len() - 1];
+        let mut rest = u;
+        for piece in pieces {
+            if pick < piece.area {
+                chosen = piece;
+                rest = pick / piece.area;
+                break;
+            }
+            pick -= piece.area;
+        }
+        let at = point_in(&chosen.polygon, rest.clamp(0.0, 1.0 - f64::EPSILON), v);
+        if r.normal.dot(at - r.point) <= 0.0 {
+            // Behind the receiver's tangent plane, where the clipped factor
+            // counts none of it: seen from the front part's centroid.
+            let front = clip_front(&e.polygon, r);
+            if front.len() < 3 {
+                return DVec3::ZERO;
+            }
+            return e.emission * whole * self.passed(e, r, geometry::centroid(&front), cache);
+        }
+        e.emission * whole * self.passed(e, r, at, cache)
+    }
+
+    /// What passes from `at` (a point of emitter `e`) to `r`: 0 where a
+    /// surface blocks, else the glass's transmittance.
+    fn passed(&self, e: &Emitter, r: &Receiver, at: DVec3, cache: &RefCell<ShadowCache>) -> DVec3 {
+        let (a, b) = accel::shorten(at, r.point);
+        if self
+            .occluder
+            .occluded_cached(a, b, [e.group, r.group], &mut cache.borrow_mut())
+        {
+            DVec3::ZERO
+        } else if self.scene.panes.is_empty() {
+            DVec3::ONE
+        } else {
+            glass::transmittance(&self.scene.panes, at, r.point)
+        }
+    }
+
+    /// Source `k`'s importance at `r` for the light tree: what it would
+    /// send if nothing were in the way, in luminance (an emitting
+    /// surface's exact factor times its exitance).
+    fn source_importance(&self, k: u32, r: &Receiver) -> f64 {
+        match self.sources[k as usize] {
+            Source::Emitter(e) => {
+                let e = &self.emitters[e];
+                if !e.faces(r) {
+                    return 0.0;
+                }
+                crate::luminance(e.emission) * form_factor::analytic(r.point, r.normal, &e.polygon)
+            }
+            Source::Light(l) => crate::luminance(
+                self.scene.lights[l]
+                    .irradiance(r.point, r.normal, self.reach)
+                    .0,
+            ),
+        }
+    }
+
+    fn emitter_light(
+        &self,
+        e: &Emitter,
+        r: &Receiver,
+        sample: Option<(u32, u32)>,
+        seed: u64,
+        cache: &RefCell<ShadowCache>,
+    ) -> DVec3 {
+        self.emitter_light_split(e, r, sample, seed, cache, SAMPLE_SPLIT)
+            .0
+    }
+
+    /// [`FinalPass::emitter_light`] with `split^2` rays a picture's sample,
+    /// what its rays saw, and the surface's exact factor at the sample
+    /// (0 where none was taken).
+    fn emitter_light_split(
+        &self,
+        e: &Emitter,
+        r: &Receiver,
+        sample: Option<(u32, u32)>,
+        seed: u64,
+        cache: &RefCell<ShadowCache>,
+        split: u32,
+    ) -> (DVec3, Seen, f64) {
+        if !e.faces(r) {
+            return (DVec3::ZERO, Seen::Nothing, 0.0);
+        }
+        let whole_taken = std::cell::Cell::new(0.0);
+        let seen = std::cell::Cell::new(Seen::Nothing);
+        // What passes from `at` (a point of `piece`, or its centroid when
+        // `None`): a piece crossing the receiver's tangent plane is seen
+        // from its clipped part's centroid when `at` lies behind.
+        let seen_from = |piece: &[DVec3], at: Option<DVec3>| -> DVec3 {
+            let front = |c: DVec3| r.normal.dot(c - r.point) > 0.0;
+            let c = match at {
+                Some(c) if front(c) => c,
+                _ if piece.iter().all(|c| front(*c)) => geometry::centroid(piece),
+                _ => {
+                    let mut clipped = Vec::with_capacity(piece.len() + 2);
+                    geometry::clip_to_half_space(piece, r.point, r.normal, 0.0, &mut clipped);
+                    if clipped.len() < 3 {
+                        return DVec3::ZERO;
+                    }
+                    geometry::centroid(&clipped)
+                }
+            };
+            let (a, b) = accel::shorten(c, r.point);
+            let blocked =
+                self.occluder
+                    .occluded_cached(a, b, [e.group, r.group], &mut cache.borrow_mut());
+            let passed = if blocked {
+                DVec3::ZERO
+            } else if self.scene.panes.is_empty() {
+                DVec3::ONE
+            } else {
+                glass::transmittance(&self.scene.panes, c, r.point)
+            };
+            seen.set(seen.get().and(passed));
+            passed
+        };
+        // A piece's exact factor (equation (2), clipped to the receiver's
+        // front) times what passes from its centroid.
+        let through = |piece: &[DVec3]| -> DVec3 {
+            let factor = form_factor::analytic(r.point, r.normal, piece);
+            if factor <= 0.0 {
+                return DVec3::ZERO;
+            }
+            seen_from(piece, None) * factor
+        };
+        let passed = match sample {
+            // One piece of an `s x s` grid (`s^2 >= n`) a sample, the
+            // pixel's samples taking them in turn from a place of the
+            // pixel's own, seen from a point drawn uniformly in it.
+            Some((k, n)) => {
+                let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1) * split;
+                let own;
+                let pieces = match e.pieces.get(side as usize - 1) {
+                    Some(pieces) => pieces,
+                    None => {
+                        own = pieces(&e.polygon, side);
+                        &own
+                    }
+                };
+                let count = pieces.len() as u64;
+                if count == 0 {
+                    return (DVec3::ZERO, Seen::Nothing, 0.0);
+                }
+                // `SAMPLE_SPLIT^2` pieces a sample, `n` apart: the pixel's
+                // samples take every piece of the grid once (when there are
+                // no more than that: a triangle or a quad), from a place of
+                // the pixel's own. Each piece's share of the surface's
+                // exact factor is its point factor's share of theirs (the
+                // surface's factor is then exact where nothing blocks; one
+                // exact factor a sample, not one a piece).
+                let whole = form_factor::analytic(r.point, r.normal, &e.polygon);
+                if whole <= 0.0 {
+                    return (DVec3::ZERO, Seen::Nothing, 0.0);
+                }
+                whole_taken.set(whole);
+                let weight = |piece: &Piece| {
+                    let d = piece.centroid - r.point;
+                    let d2 = d.length_squared();
+                    let cosines = (r.normal.dot(d) * -e.normal.dot(d)).max(0.0);
+                    piece.area * cosines / (d2 * d2)
+                };
+                let total: f64 = pieces.iter().map(&weight).sum();
+                if total <= 0.0 {
+                    return (DVec3::ZERO, Seen::Nothing, 0.0);
+                }
+                let rays = u64::from(split * split);
+                let mut sum = DVec3::ZERO;
+                for j in 0..rays {
+                    let index = (u64::from(k) + j * u64::from(n) + seed % count) % count;
+                    let piece = &pieces[index as usize];
+                    let share = weight(piece) / total;
+                    if share <= 0.0 {
+                        continue;
+                    }
+                    let stream = (u64::from(k) * rays + j) * 2 + 2;
+                    let at = point_in(&piece.polygon, unit(seed, stream), unit(seed, stream + 1));
+                    sum += seen_from(&piece.polygon, Some(at)) * share;
+                }
+                // Each piece drawn stands for `count / rays` of them.
+                sum * (whole * count as f64 / rays as f64)
+            }
+            None => e.pieces[EMITTER_SIDE as usize - 1]
+                .iter()
+                .map(|piece| through(&piece.polygon))
+                .sum(),
+        };
+        (e.emission * passed, seen.get(), whole_taken.get())
+    }
+}
+
+/// What the shadow rays of one estimate saw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Seen {
+    /// No ray was cast (nothing of the source in front).
+    Nothing,
+    /// Every ray let the same through.
+    All(DVec3),
+    /// Rays let different amounts through: a penumbra.
+    Mixed,
+}
+
+impl Seen {
+    /// Both: one ray's `passed` after these.
+    fn and(self, passed: DVec3) -> Seen {
+        match self {
+            Seen::Nothing => Seen::All(passed),
+            Seen::All(v) if v == passed => self,
+            _ => Seen::Mixed,
+        }
+    }
+
+    /// Both estimates' rays together.
+    fn join(self, other: Seen) -> Seen {
+        match (self, other) {
+            (Seen::Nothing, x) | (x, Seen::Nothing) => x,
+            (Seen::All(a), Seen::All(b)) if a == b => self,
+            _ => Seen::Mixed,
+        }
+    }
+}
+
+/// The scene's emitting surfaces.
+pub(super) fn emitters(scene: &Scene) -> Vec<Emitter> {
+    scene
+        .surfaces
+        .iter()
+        .filter(|s| s.is_emitter())
+        .map(|s| Emitter {
+            polygon: s.polygon.clone(),
+            normal: s.normal,
+            offset: s.offset,
+            emission: s.emission,
+            group: s.group,
+            pieces: (1..=PRESPLIT.max(EMITTER_SIDE))
+                .map(|side| pieces(&s.polygon, side))
+                .collect(),
+        })
+        .collect()
+}
+
+/// The tree's sources: the emitting surfaces, then the lights with a
+/// position, with their bounds; and the suns (traced at every point).
+pub(super) fn sources(
+    scene: &Scene,
+    emitters: &[Emitter],
+) -> (Vec<Source>, Vec<Bounds>, Vec<usize>) {
+    let mut sources = Vec::new();
+    let mut bounds = Vec::new();
+    let mut suns = Vec::new();
+    for (i, e) in emitters.iter().enumerate() {
+        let (lo, hi) = e
+            .polygon
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(*c), hi.max(*c))
+            });
+        let area = geometry::area(&e.polygon);
+        sources.push(Source::Emitter(i));
+        bounds.push(Bounds {
+            lo,
+            hi,
+            power: crate::luminance(e.emission) * area / std::f64::consts::PI,
+            axis: e.normal,
+            theta_o: 0.0,
+            theta_e: std::f64::consts::FRAC_PI_2,
+        });
+    }
+    for (i, light) in scene.lights.iter().enumerate() {
+        let (power, axis, theta_o, theta_e) = match &light.kind {
+            LightKind::Sky { .. } => continue,
+            LightKind::Sun { .. } => {
+                suns.push(i);
+                continue;
+            }
+            LightKind::Point { .. } => (
+                crate::luminance(light.radiometric()),
+                DVec3::Y,
+                std::f64::consts::PI,
+                std::f64::consts::FRAC_PI_2,
+            ),
+            LightKind::Spot {
+                direction, outer, ..
+            } => (
+                crate::luminance(light.radiometric()),
+                *direction,
+                *outer,
+                0.0,
+            ),
+            LightKind::Luminaire { .. } => (
+                light
+                    .flux()
+                    .map_or(0.0, |f| crate::luminance(f) / (4.0 * std::f64::consts::PI)),
+                DVec3::Y,
+                std::f64::consts::PI,
+                std::f64::consts::FRAC_PI_2,
+            ),
+        };
+        let Some(position) = light.position() else {
+            continue;
+        };
+        sources.push(Source::Light(i));
+        bounds.push(Bounds {
+            lo: position,
+            hi: position,
+            power,
+            axis,
+            theta_o,
+            theta_e,
+        });
+    }
+    (sources, bounds, suns)
+}
+
+/// `polygon` in pieces: a triangle's or quad's `side x side` subsources
+/// (the paper's), a larger polygon's triangles' each.
+fn pieces(polygon: &[DVec3], side: u32) -> Vec<Piece> {
+    let split = |p: &[DVec3]| -> Vec<Piece> {
+        mesh::subsources(p, side)
+            .into_iter()
+            .map(|k| Piece {
+                polygon: k.polygon,
+                centroid: k.centroid,
+                area: k.area,
+            })
+            .collect()
+    };
+    if polygon.len() <= 4 {
+        return split(polygon);
+    }
+    let Some(normal) = geometry::normal(polygon) else {
+        return Vec::new();
+    };
+    let u = (polygon[1] - polygon[0]).normalize_or_zero();
+    let v = normal.cross(u);
+    let flat: Vec<glam::DVec2> = polygon
+        .iter()
+        .map(|p| glam::DVec2::new((*p - polygon[0]).dot(u), (*p - polygon[0]).dot(v)))
+        .collect();
+    let triangles = geometry::triangulate::triangulate(&flat)
+        .unwrap_or_else(|| (1..polygon.len() - 1).map(|i| [0, i, i + 1]).collect());
+    triangles
+        .iter()
+        .flat_map(|t| split(&t.map(|i| polygon[i])))
+        .collect()
+}
+
+/// The part of `polygon` before `r`'s tangent plane.
+fn clip_front(polygon: &[DVec3], r: &Receiver) -> Vec<DVec3> {
+    let mut clipped = Vec::with_capacity(polygon.len() + 2);
+    geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut clipped);
+    clipped
+}
+
+/// The point at `(u, v)` in `[0, 1)^2` of a triangle (uniform by area) or
+/// a quad (bilinear: uniform by area on a parallelogram).
+fn point_in(piece: &[DVec3], u: f64, v: f64) -> DVec3 {
+    if piece.len() == 4 {
+        let bottom = piece[0].lerp(piece[1], u);
+        let top = piece[3].lerp(piece[2], u);
+        bottom.lerp(top, v)
+    } else {
+        let r = u.sqrt();
+        piece[0] * (1.0 - r) + piece[1] * (r * (1.0 - v)) + piece[2] * (r * v)
+    }
+}
