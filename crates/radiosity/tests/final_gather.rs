@@ -202,6 +202,26 @@ fn direct_and_indirect_add_up_to_the_total_at_every_vertex() {
     );
 }
 
+/// What the lamp (an emitting axis-aligned rectangle facing down,
+/// `height` above the floor) sends to the floor point `at` with nothing
+/// between: its exitance times the closed form of a parallel rectangle.
+fn lamp_closed_form(lamp: &radiosity::scene::Surface, at: DVec3, height: f64) -> DVec3 {
+    let (lo, hi) = lamp
+        .polygon
+        .iter()
+        .fold((DVec3::MAX, DVec3::MIN), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    lamp.emission
+        * closed_form::parallel_rectangle(
+            lo.x - at.x,
+            hi.x - at.x,
+            lo.z - at.z,
+            hi.z - at.z,
+            height,
+        )
+}
+
 /// An emitting square over a floor point, nothing between: the direct
 /// part is its exitance times the exact factor (the closed form of a
 /// parallel rectangle), to 1e-6 (the point gathers a millionth of the way
@@ -233,20 +253,7 @@ fn an_emitting_patch_gives_its_closed_form() {
         sample: None,
         seed: 0,
     }])[0];
-    let (lo, hi) = lamp
-        .polygon
-        .iter()
-        .fold((DVec3::MAX, DVec3::MIN), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
-    let factor = closed_form::parallel_rectangle(
-        lo.x - below.x,
-        hi.x - below.x,
-        lo.z - below.z,
-        hi.z - below.z,
-        height,
-    );
-    let expected = lamp.emission * factor;
+    let expected = lamp_closed_form(lamp, below, height);
     assert!(
         (e - expected).abs().max_element() <= 1e-6 * expected.max_element(),
         "{e} against {expected}"
@@ -455,22 +462,9 @@ fn a_pixel_in_full_view_is_exact_and_one_in_a_penumbra_takes_every_ray() {
     let solver = Solver::new(&scene, &mesh, settings.clone());
     let pass = FinalPass::new(&solver, FinalGather::Direct);
     let lamp = scene.surfaces.iter().find(|s| s.is_emitter()).unwrap();
-    let (lo, hi) = lamp
-        .polygon
-        .iter()
-        .fold((DVec3::MAX, DVec3::MIN), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
     let points = pixel(DVec3::new(0.3, 0.0, -0.2), 11);
     for (p, e) in points.iter().zip(pass.direct(&points)) {
-        let factor = closed_form::parallel_rectangle(
-            lo.x - p.position.x,
-            hi.x - p.position.x,
-            lo.z - p.position.z,
-            hi.z - p.position.z,
-            height,
-        );
-        let expected = lamp.emission * factor;
+        let expected = lamp_closed_form(lamp, p.position, height);
         assert!(
             (e - expected).abs().max_element() <= 1e-6 * expected.max_element(),
             "{p:?}: {e} against {expected}"
@@ -494,8 +488,7 @@ fn a_pixel_in_full_view_is_exact_and_one_in_a_penumbra_takes_every_ray() {
     let pass = FinalPass::new(&solver, FinalGather::Direct);
     let points = pixel(DVec3::new(0.0005, 0.0, 0.0), 23);
     let together = pass.direct(&points);
-    let unblocked =
-        lamp.emission.y * closed_form::parallel_rectangle(lo.x, hi.x, lo.z, hi.z, height);
+    let unblocked = lamp_closed_form(lamp, DVec3::ZERO, height).y;
     for (p, e) in points.iter().zip(together) {
         let alone = pass.direct(std::slice::from_ref(p))[0];
         assert_eq!(e, alone, "{p:?}");
