@@ -46,6 +46,7 @@
 pub mod brute;
 pub mod bsp;
 pub mod bvh;
+pub mod shaft;
 
 use glam::{DVec2, DVec3};
 
@@ -118,6 +119,9 @@ pub struct ShadowCache {
     /// The blocker last found from each origin, by slot
     /// ([`ShadowCache::slot`]); `u32::MAX` for none.
     pub(crate) by_origin: [u32; ORIGIN_SLOTS],
+    /// The surface that last met a shaft from each origin, by slot;
+    /// `u32::MAX` for none.
+    pub(crate) by_shaft: [u32; ORIGIN_SLOTS],
     /// The origin of the next segment, `u32::MAX` for none named.
     origin: u32,
     /// Segments answered by the cached blocker.
@@ -134,6 +138,7 @@ impl Default for ShadowCache {
         ShadowCache {
             last: [u32::MAX; 2],
             by_origin: [u32::MAX; ORIGIN_SLOTS],
+            by_shaft: [u32::MAX; ORIGIN_SLOTS],
             origin: u32::MAX,
             hits: 0,
         }
@@ -199,6 +204,17 @@ pub trait Occluder: Sync {
     ) -> bool {
         let _ = cache;
         self.occluded(from, to, skip)
+    }
+
+    /// True when no surface whose [`Surface::group`] is neither `skip[0]`
+    /// nor `skip[1]` meets `shaft` (Haines & Wallace 1991): then no segment
+    /// between the shaft's ball and polygon is blocked. False where one
+    /// may meet it, and by default (an accelerator that cannot tell).
+    /// The surface that last met a shaft from the cache's origin is tested
+    /// first; how the cache is used never changes an answer.
+    fn shaft_clear(&self, shaft: &shaft::Shaft, skip: [u32; 2], cache: &mut ShadowCache) -> bool {
+        let _ = (shaft, skip, cache);
+        false
     }
 
     /// The nearest surface whose [`Surface::group`] is neither `skip[0]`

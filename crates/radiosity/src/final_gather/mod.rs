@@ -44,11 +44,19 @@
 //! [`crate::form_factor::analytic()`], clipped to the receiver's front) is its
 //! point factor's share of theirs, so a pixel sums the whole factor and a
 //! penumbra is smooth noise, not copies of a shadow. A pixel's samples are
-//! shaded together: each surface is first probed with one ray a sample,
-//! and only where the probes disagree (a penumbra) do the samples take
-//! those rays; elsewhere each takes the exact factor times what the probes
-//! let through, with no noise ([`FinalPass::direct`]). A vertex, texel or
-//! sensor casts [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each
+//! shaded together, in groups of pixels along a row. First a shaft
+//! (Haines & Wallace 1991, [`crate::accel::shaft`]) from the ball holding
+//! the group's samples, then each pixel's, to the surface: where no other
+//! surface meets it, nothing can block any of their rays and none is cast.
+//! Otherwise each sample probes the surface with one ray; where every probe
+//! lets the same through (wholly hidden, or behind the same glass), that
+//! is what passes, and only where they disagree (a penumbra) do the
+//! samples cast their rays. Where nothing blocks, the exact factor
+//! stands, with no noise: one for the pixel, at its samples' centroid,
+//! where they lie on one surface close together beside their distance to
+//! the emitter ([`PIXEL_SHARE`]; the pixel's mean is then exact
+//! to the second order of their spread), else one a sample. A vertex,
+//! texel or sensor casts [`EMITTER_SIDE`]` x `[`EMITTER_SIDE`] rays, one to each
 //! piece's centroid, each piece with its own exact factor.
 //!
 //! **Many sources.** Suns are traced at every point. The emitting
@@ -79,6 +87,7 @@ use crate::solver::{Receiver, Solver, lights, surface_receivers};
 mod direct;
 pub mod tree;
 
+pub use self::direct::PIXEL_SHARE;
 use self::direct::{Emitter, Source, emitters, sources};
 use self::tree::LightTree;
 

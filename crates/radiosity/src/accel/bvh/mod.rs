@@ -512,6 +512,75 @@ impl Occluder for Bvh<'_> {
         blocker.is_some()
     }
 
+    /// The eight-wide tree walked with the shaft's box and plane tests,
+    /// each surface in a box that meets it tested by its corners.
+    fn shaft_clear(
+        &self,
+        shaft: &super::shaft::Shaft,
+        skip: [u32; 2],
+        cache: &mut ShadowCache,
+    ) -> bool {
+        if self.wide.is_empty() {
+            return true;
+        }
+        let shaft = shaft.widened(self.scale);
+        let meets = |position: u32| {
+            !self.prepared.skips(position, skip)
+                && !shaft.misses_polygon(
+                    &self.surfaces[self.tree.primitives[position as usize] as usize].polygon,
+                )
+        };
+        let slot = cache.slot();
+        if let Some(s) = slot {
+            let last = cache.by_shaft[s];
+            if (last as usize) < self.prepared.len() && meets(last) {
+                cache.hits += 1;
+                return false;
+            }
+        }
+        // Each node pushes at most WIDTH - 1 entries above its ancestors';
+        // a deeper tree than the stack holds is taken as meeting it.
+        let mut stack = [0u32; 8 * WIDTH];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = &self.wide[stack[top] as usize];
+            for k in 0..WIDTH {
+                if node.link[k] == EMPTY_SLOT {
+                    continue;
+                }
+                let corner = |side: usize| {
+                    DVec3::new(
+                        f64::from(node.bounds[0][side][k]),
+                        f64::from(node.bounds[1][side][k]),
+                        f64::from(node.bounds[2][side][k]),
+                    )
+                };
+                if shaft.misses_box(corner(0), corner(1)) {
+                    continue;
+                }
+                if node.leaves & (1 << k) == 0 {
+                    if top == stack.len() {
+                        return false;
+                    }
+                    stack[top] = node.link[k];
+                    top += 1;
+                    continue;
+                }
+                let first = node.link[k];
+                for position in first..first + u32::from(node.count[k]) {
+                    if meets(position) {
+                        if let Some(s) = slot {
+                            cache.by_shaft[s] = position;
+                        }
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
     fn closest_hit(
         &self,
         origin: DVec3,
