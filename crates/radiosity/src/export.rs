@@ -189,7 +189,7 @@ pub const DAYLIGHT_FACTOR_COLUMN: &str = "daylight_factor";
 /// Writes one row per sensor point, in input order: the position and unit
 /// normal as given, the irradiance `E` (W/m^2), the radiosity `B = Ke + Kd
 /// E` of the surface the point lies on (W/m^2) and the illuminance in lux
-/// as Radiance computes it ([`crate::sensors::lux`]). Like the vertex CSV,
+/// as Radiance computes it ([`crate::photometry::lux`]). Like the vertex CSV,
 /// `E` and `B` hold the light shot so far (no ambient term). With
 /// `daylight` (the overcast sky's unobstructed horizontal illuminance, lux),
 /// a last column [`DAYLIGHT_FACTOR_COLUMN`]: the illuminance as a
@@ -224,10 +224,12 @@ pub fn write_sensors_csv(
             b.x,
             b.y,
             b.z,
-            crate::sensors::lux(*e)
+            crate::photometry::lux(*e)
         )?;
         match daylight {
-            Some(horizontal) => writeln!(out, ",{}", 100.0 * crate::sensors::lux(*e) / horizontal)?,
+            Some(horizontal) => {
+                writeln!(out, ",{}", 100.0 * crate::photometry::lux(*e) / horizontal)?
+            }
             None => writeln!(out)?,
         }
     }

@@ -17,17 +17,11 @@ pub mod geometry;
 pub mod hemicube;
 pub mod memory;
 pub mod mesh;
+pub mod photometry;
 pub mod render;
 pub mod scene;
 pub mod sensors;
 pub mod solver;
 pub mod view;
 
-use glam::DVec3;
-
-/// Luminance of a linear Rec. 709 / sRGB colour: the weight that ranks
-/// patches by unshot power and measures convergence.
-#[must_use]
-pub fn luminance(rgb: DVec3) -> f64 {
-    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
-}
+pub use photometry::luminance;

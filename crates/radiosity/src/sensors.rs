@@ -58,19 +58,7 @@ pub const RELATIVE_TOLERANCE: f64 = 1e-4;
 /// Default `--max-sensors`.
 pub const DEFAULT_MAX_SENSORS: usize = 1_000_000;
 
-/// Radiance's luminous efficacy of white light, lm/W.
-pub const LUMINOUS_EFFICACY: f64 = 179.0;
-
-/// Radiance's weights of R, G and B in luminance.
-pub const RADIANCE_RGB_WEIGHTS: [f64; 3] = [0.265, 0.670, 0.065];
-
-/// Illuminance in lux from irradiance in W/m^2, as Radiance computes it
-/// (`rcalc -e '$1=179*(.265*$1+.67*$2+.065*$3)'` on `rtrace -I` output).
-#[must_use]
-pub fn lux(irradiance: DVec3) -> f64 {
-    let [r, g, b] = RADIANCE_RGB_WEIGHTS;
-    LUMINOUS_EFFICACY * (r * irradiance.x + g * irradiance.y + b * irradiance.z)
-}
+pub use crate::photometry::{LUMINOUS_EFFICACY, RADIANCE_RGB_WEIGHTS, lux};
 
 /// One line of a points file.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -96,7 +96,7 @@ impl LightPower {
                 name: light.name.clone(),
                 kind: light.kind.name(),
                 power_watts: p.to_array(),
-                lumens: crate::sensors::lux(*p),
+                lumens: crate::photometry::lux(*p),
             })
             .collect()
     }

@@ -15,7 +15,7 @@
 //! and spot lights in candela, the sun in lux on a plane facing it. The
 //! solver is radiometric (`Ke` and glTF emission in W/m^2) and reports
 //! illuminance as Radiance does, `179 lm/W x (0.265 R + 0.670 G + 0.065 B)`
-//! ([`crate::sensors::lux`]). A light's radiant intensity per channel is
+//! ([`crate::photometry::lux`]). A light's radiant intensity per channel is
 //! therefore `colour x candela / 179` W/sr: a white light of `I` candela
 //! gives exactly `I cos(theta) / d^2` lux in the sensors' lux column, and a
 //! coloured one that times its colour's luminance (as three.js and Blender
@@ -36,7 +36,7 @@ use glam::DVec3;
 
 use super::ies::Profile;
 use super::sky::Sky;
-use crate::sensors::LUMINOUS_EFFICACY;
+use crate::photometry::LUMINOUS_EFFICACY;
 
 /// Where a light is and how its intensity is spread.
 #[derive(Clone, Debug, PartialEq)]
@@ -579,12 +579,12 @@ mod tests {
         let light = point(100.0);
         // 2 m below, straight down: 100 / 4 = 25 lux.
         let (e, to) = light.irradiance(DVec3::ZERO, DVec3::Y, 10.0);
-        assert_relative_eq!(crate::sensors::lux(e), 25.0, max_relative = 1e-12);
+        assert_relative_eq!(crate::photometry::lux(e), 25.0, max_relative = 1e-12);
         assert_eq!(to, DVec3::new(0.0, 2.0, 0.0));
         // 2 m across as well: d^2 = 8, cos = 1/sqrt 2.
         let (e, _) = light.irradiance(DVec3::new(2.0, 0.0, 0.0), DVec3::Y, 10.0);
         assert_relative_eq!(
-            crate::sensors::lux(e),
+            crate::photometry::lux(e),
             100.0 / 8.0 / 2f64.sqrt(),
             max_relative = 1e-12
         );
