@@ -535,8 +535,7 @@ fn miss_message(scene: &Scene, point: &SensorPoint, miss: &Miss, tolerance: f64)
 /// Radiosity `B = Ke + Kd E` of the surface a receiver lies on.
 #[must_use]
 pub fn radiosity(scene: &Scene, receiver: &Receiver, irradiance: DVec3) -> DVec3 {
-    let s = &scene.surfaces[receiver.surface as usize];
-    s.emission + s.rho * irradiance
+    scene.surfaces[receiver.surface as usize].radiosity(irradiance)
 }
 
 #[cfg(test)]

@@ -66,6 +66,13 @@ pub struct Surface {
 }
 
 impl Surface {
+    /// Its radiosity `B = Ke + Kd E` under irradiance `irradiance`
+    /// (equation (1)'s left side at a point of it).
+    #[must_use]
+    pub fn radiosity(&self, irradiance: DVec3) -> DVec3 {
+        self.emission + self.rho * irradiance
+    }
+
     /// Builds a surface from a planar convex polygon. Returns `None` if the
     /// polygon has no area.
     #[must_use]

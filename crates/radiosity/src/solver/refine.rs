@@ -28,7 +28,6 @@ use glam::DVec3;
 use super::{Flow, Receiver, Settings, Solver};
 use crate::mesh::{self, Mesh, MeshError};
 use crate::scene::Scene;
-use crate::sensors;
 
 /// The coarse pass stops once its unshot power is below this fraction of
 /// the emitted power.
@@ -175,7 +174,7 @@ pub fn refine_base(
     let centre_radiosity: Vec<DVec3> = centres
         .iter()
         .zip(solver.sensor_irradiance())
-        .map(|(r, e)| sensors::radiosity(scene, r, *e))
+        .map(|(r, e)| scene.surfaces[r.surface as usize].radiosity(*e))
         .collect();
     let mut depths = mesh::split_depths(
         &base,
