@@ -337,7 +337,7 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
         .collect();
     let primitives_kept = primitives.get(..input_primitives.len()) == Some(&input_primitives[..]);
     let (lo, hi) = solved.scene.bounds();
-    let locator = lightmap::texels::Locator::new(
+    let locator = radiosity::mesh::locator::Locator::new(
         &solved.mesh,
         sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
     );

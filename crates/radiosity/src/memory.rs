@@ -25,6 +25,8 @@
 
 use std::fmt;
 
+pub use crate::solver::costs::{Part, SolverCosts};
+
 /// The process before any scene: binary, libraries, thread stacks, the
 /// allocator's arenas. Measured on the release binary (Linux, 2 threads):
 /// the peak of the smallest jobs less the rest of their estimate is
@@ -77,20 +79,6 @@ pub const BAKE_ELEMENT: f64 = 48.0;
 /// and EXR (about 10).
 pub const LIGHTMAP_TEXEL: f64 = 90.0;
 
-/// A solving method's own memory: per item, added to the shared parts of
-/// those items, and lumps of its own.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SolverCosts {
-    /// Per vertex.
-    pub vertex: f64,
-    /// Per element.
-    pub element: f64,
-    /// Per surface.
-    pub surface: f64,
-    /// Parts of its own that live until the outputs are written.
-    pub parts: Vec<Part>,
-}
-
 /// What a run holds, for the estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Sizes {
@@ -136,27 +124,6 @@ pub struct GoingOn {
 
 /// A light's shot kept for its replay, per vertex and per element.
 pub const KEPT_LIGHT_ITEM: f64 = 24.0;
-
-/// One part of an estimate.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Part {
-    /// What it is, e.g. `elements`.
-    pub name: &'static str,
-    /// How many items (1 for a lump).
-    pub count: u64,
-    /// Bytes each.
-    pub each: f64,
-    /// The setting that changes it, for messages.
-    pub remedy: &'static str,
-}
-
-impl Part {
-    /// The part's bytes.
-    #[must_use]
-    pub fn bytes(&self) -> f64 {
-        self.count as f64 * self.each
-    }
-}
 
 /// An estimate of a run's peak resident memory.
 #[derive(Clone, Debug, PartialEq)]

@@ -46,14 +46,7 @@ use crate::scene::text::{length, quoted};
 use crate::scene::{Limits, Location, Scene, SceneError, Surface};
 use crate::solver::{GATHER_NUDGE, Receiver};
 
-/// A point belongs to a surface only if their unit normals' dot product is
-/// above this (about 26 degrees apart at most), as in the reference
-/// harness.
-pub const NORMAL_AGREEMENT: f64 = 0.9;
-
-/// How far a point may be from its surface, as a fraction of the scene's
-/// bounding-box diagonal (the reference harness's tolerance).
-pub const RELATIVE_TOLERANCE: f64 = 1e-4;
+pub use crate::mesh::locator::{NORMAL_AGREEMENT, RELATIVE_TOLERANCE};
 
 /// Default `--max-sensors`.
 pub const DEFAULT_MAX_SENSORS: usize = 1_000_000;

@@ -584,7 +584,7 @@ fn a_portal_marked_in_a_thick_walls_window_is_sampled_without_bias() {
     use radiosity::solver::sky::SkyPlan;
     let (surfaces, opening) = thick_window();
     let occluder = radiosity::accel::Accel::Bvh.build(&surfaces);
-    let found = radiosity::scene::portal::openings(&surfaces, occluder.as_ref());
+    let found = radiosity::solver::portals::openings(&surfaces, occluder.as_ref());
     assert!(found.is_empty(), "{found:?}");
     drop(occluder);
     for model in [SkyModel::Uniform, SkyModel::Overcast, SkyModel::Clear] {
@@ -659,7 +659,7 @@ fn portal_directives_are_read_and_misplaced_ones_named() {
     assert_eq!(scene.portals[0].location.line, Some(18));
     sky(&mut scene);
     let occluder = radiosity::accel::Accel::Bvh.build(&scene.surfaces);
-    radiosity::scene::portal::check_marked(&scene.portals, occluder.as_ref(), 100.0).unwrap();
+    radiosity::solver::portals::check_marked(&scene.portals, occluder.as_ref(), 100.0).unwrap();
     // A portal inside the closed box sees no sky: misplaced.
     let inside = format!(
         "mtllib m.mtl\n#@portal hole\n{box_faces}usemtl hole\nv 1 1 1\nv 2 1 1\nv 2 1 2\nv 1 1 2\n\
@@ -667,7 +667,7 @@ fn portal_directives_are_read_and_misplaced_ones_named() {
     );
     let scene = load_obj(&inside, mtl).unwrap();
     let occluder = radiosity::accel::Accel::Bvh.build(&scene.surfaces);
-    let error = radiosity::scene::portal::check_marked(&scene.portals, occluder.as_ref(), 100.0)
+    let error = radiosity::solver::portals::check_marked(&scene.portals, occluder.as_ref(), 100.0)
         .unwrap_err()
         .to_string();
     assert!(

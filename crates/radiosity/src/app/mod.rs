@@ -69,6 +69,7 @@ pub fn run(job: &Job, observer: &mut dyn Observer) -> Result<Outcome, Error> {
     };
     let load_start = Instant::now();
     let loaded = scene::load_with(&job.scene, &job.load)?;
+    solver::portals::check_scene(&loaded.scene)?;
     // What a lightmap bake cannot rewrite is said before the solve.
     if let (Some(bake), Some(appearance)) = (&job.bake, &loaded.appearance)
         && bake.target == BakeTarget::Lightmap
@@ -608,6 +609,7 @@ pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<P
     load.validate()?;
     check_output(out, &["glb", "gltf"], "export-scene")?;
     let loaded = scene::load_with(scene, load)?;
+    solver::portals::check_scene(&loaded.scene)?;
     let files = export::gltf::export_scene(&loaded.scene, out).map_err(|source| Error::Output {
         path: out.to_path_buf(),
         source,

@@ -78,7 +78,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::Occluder;
-use crate::export::lightmap::texels::Locator;
+use crate::mesh::locator::{Locator, RELATIVE_TOLERANCE};
 
 use crate::mesh::Mesh;
 use crate::scene::{Scene, glass};
@@ -91,18 +91,7 @@ pub use self::direct::PIXEL_SHARE;
 use self::direct::{Emitter, Source, emitters, sources};
 use self::tree::LightTree;
 
-crate::choice::named_choice! {
-    /// What pictures, lightmap texels and sensors show (`--final-gather`).
-    pub enum FinalGather: "final gather" {
-        /// The mesh's values (the paper's display).
-        Off = "off",
-        /// Direct light at the point shown, the mesh's indirect part.
-        Direct = "direct",
-        /// Direct light at the point shown, the mesh's reflected light
-        /// gathered over its hemisphere.
-        Full = "full",
-    }
-}
+pub use crate::solver::FinalGather;
 
 /// Rays per side of the stratified grid over an emitting surface for a
 /// point that casts all its rays at once (a vertex, a texel, a sensor).
@@ -284,10 +273,7 @@ impl<'a> FinalPass<'a> {
                 .map(|(v, e)| scene.surfaces[v.surface as usize].rho * *e)
                 .collect();
             let (lo, hi) = scene.bounds();
-            pass.locator = Some(Locator::new(
-                mesh,
-                crate::sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
-            ));
+            pass.locator = Some(Locator::new(mesh, RELATIVE_TOLERANCE * (hi - lo).length()));
         }
         pass
     }

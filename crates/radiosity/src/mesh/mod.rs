@@ -20,6 +20,7 @@
 //! [`Surface::group`]: crate::scene::Surface::group
 
 mod conform;
+pub mod locator;
 mod refine;
 mod subsources;
 

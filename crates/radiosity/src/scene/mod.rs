@@ -519,23 +519,18 @@ pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, Sc
             message,
         })?;
     scene.lights.extend(daylight);
-    if !scene.portals.is_empty() {
-        if scene
-            .lights
-            .iter()
-            .any(|l| matches!(l.kind, LightKind::Sky { .. }))
-        {
-            let occluder = crate::accel::Accel::Bvh.build(&scene.surfaces);
-            let (lo, hi) = bounds_of(&scene.surfaces);
-            let reach = 2.0 * (hi - lo).length() + 1.0;
-            portal::check_marked(&scene.portals, occluder.as_ref(), reach)?;
-        } else {
-            scene.warnings.push(format!(
-                "{}: {} portal face(s): portals serve the sky (--sky), and there is none",
-                path.display(),
-                scene.portals.len()
-            ));
-        }
+    // Whether the marked portals see the sky is checked where rays are
+    // traced ([`crate::solver::portals::check_scene`]).
+    let has_sky = scene
+        .lights
+        .iter()
+        .any(|l| matches!(l.kind, LightKind::Sky { .. }));
+    if !scene.portals.is_empty() && !has_sky {
+        scene.warnings.push(format!(
+            "{}: {} portal face(s): portals serve the sky (--sky), and there is none",
+            path.display(),
+            scene.portals.len()
+        ));
     }
     if !scene.panes.is_empty() {
         let mut materials: Vec<&str> = scene.panes.iter().map(|p| p.material.as_str()).collect();

@@ -26,9 +26,9 @@ use glam::DVec3;
 
 use super::{Abort, Receiver, Settings};
 use crate::accel::Occluder;
-use crate::memory;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::solver::costs;
 
 /// A way of solving, as its settings: what the registry lists and a
 /// [`Settings`] carries.
@@ -54,9 +54,9 @@ pub trait Method: std::fmt::Debug + Send + Sync {
     /// method's counters.
     fn zero_counters(&self) -> Vec<(&'static str, Counter)>;
 
-    /// Its own memory, measured per item and in lumps ([`memory::estimate`]
+    /// Its own memory, measured per item and in lumps ([`crate::memory::estimate`]
     /// adds the shared parts).
-    fn memory(&self) -> memory::SolverCosts;
+    fn memory(&self) -> costs::SolverCosts;
 
     /// Starts a solve of `scene` meshed as `mesh`, gathering at `receivers`
     /// (the mesh's vertices, then any sensors): unshot radiosity is the

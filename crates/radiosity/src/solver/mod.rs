@@ -30,12 +30,14 @@
 
 mod abort;
 pub mod adaptive;
+pub mod costs;
 pub mod cuts;
 pub mod device;
 pub mod hierarchy;
 pub mod lights;
 pub mod method;
 pub mod patches;
+pub mod portals;
 mod receiver;
 pub mod refine;
 pub mod registry;
@@ -55,7 +57,9 @@ pub use self::method::{Counter, Method, Shooter, Stats, Visibility};
 pub use self::receiver::{GATHER_NUDGE, Receiver, surface_receivers, vertex_receivers};
 pub use self::registry::{MethodSettings, Shooting};
 pub use self::resume::Start;
-pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, SettingsError};
+pub use self::settings::{
+    ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, FinalGather, Preset, Settings, SettingsError,
+};
 use crate::accel::Occluder;
 use crate::luminance;
 use crate::mesh::Mesh;

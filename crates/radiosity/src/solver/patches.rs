@@ -24,9 +24,9 @@ use crate::form_factor::{self, FormFactor, Source};
 use crate::geometry;
 use crate::hemicube::{self, ItemBuffer, Pretest};
 use crate::luminance;
-use crate::memory;
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
+use crate::solver::costs;
 
 /// The paper's method's own parameters.
 #[derive(Clone, Debug, PartialEq)]
@@ -169,10 +169,10 @@ impl Method for PatchSettings {
         PatchCounters::default().list()
     }
 
-    fn memory(&self) -> memory::SolverCosts {
+    fn memory(&self) -> costs::SolverCosts {
         let mut parts = Vec::new();
         if self.visibility == Visibility::HemicubePretest {
-            parts.push(memory::Part {
+            parts.push(costs::Part {
                 name: "item buffers",
                 count: 1,
                 each: item_buffer_bytes(self.subsources, self.hemicube_resolution) as f64,
@@ -180,7 +180,7 @@ impl Method for PatchSettings {
             });
         }
         // Measured on the shared scenes (EXPERIMENTS.md, "Memory").
-        memory::SolverCosts {
+        costs::SolverCosts {
             vertex: 264.0,
             element: 0.0,
             surface: 260.0,

@@ -13,9 +13,23 @@ use super::method::{self, MethodError, SetError, Value, Visibility};
 use super::patches::PatchSettings;
 use super::registry::{MethodSettings, Shooting};
 use crate::accel::Accel;
-use crate::final_gather::FinalGather;
 use crate::form_factor::FormFactor;
 use crate::mesh::{MeshSettings, RefineSettings};
+
+crate::choice::named_choice! {
+    /// What pictures, lightmap texels and sensors show (`--final-gather`;
+    /// the final pass, [`crate::final_gather`], is above the solver, and a
+    /// preset names its own: defined here, where both read it).
+    pub enum FinalGather: "final gather" {
+        /// The mesh's values (the paper's display).
+        Off = "off",
+        /// Direct light at the point shown, the mesh's indirect part.
+        Direct = "direct",
+        /// Direct light at the point shown, the mesh's reflected light
+        /// gathered over its hemisphere.
+        Full = "full",
+    }
+}
 
 /// Every setting of a solve, apart from run state. Presets are named
 /// constructors; each field can be overridden on its own. Serialised as

@@ -1,5 +1,5 @@
 //! The sky's irradiance at a receiver: what a sky ([`crate::scene::sky`])
-//! sends through openings ([`crate::scene::portal`]) and over the rest of
+//! sends through openings ([`super::portals`]) and over the rest of
 //! its dome and the ground, as unblocked irradiances each with the far end
 //! of its shadow segment. Beyond the paper, whose sources are surfaces.
 //!
@@ -29,9 +29,9 @@
 
 use glam::DVec3;
 
+use super::portals::{self, Portal};
 use crate::accel::Occluder;
 use crate::geometry::{self, spherical};
-use crate::scene::portal::{self, Portal};
 use crate::scene::sky::{self, Patch};
 use crate::scene::{Light, LightKind, Scene};
 
@@ -134,7 +134,7 @@ impl SkyPlan {
         // The openings, those marked, and the glass (a pane in an opening
         // found from the geometry overlaps it: each direction is counted by
         // the nearer, or the first listed).
-        let mut portals: Vec<Prepared> = portal::openings(&scene.surfaces, occluder)
+        let mut portals: Vec<Prepared> = portals::openings(&scene.surfaces, occluder)
             .iter()
             .map(prepare)
             .collect();

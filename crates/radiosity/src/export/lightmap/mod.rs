@@ -250,9 +250,9 @@ fn texel_values(bake: &LightmapBake<'_>, layout: &Layout) -> (Vec<Vec3>, usize, 
         .collect();
     let claims = texels::claims(width, height, &uv);
     let (lo, hi) = bake.scene.bounds();
-    let locator = texels::Locator::new(
+    let locator = crate::mesh::locator::Locator::new(
         bake.mesh,
-        crate::sensors::RELATIVE_TOLERANCE * (hi - lo).length(),
+        crate::mesh::locator::RELATIVE_TOLERANCE * (hi - lo).length(),
     );
     // The value at a point facing along `n` and the surface it lies on;
     // NaN where no element is found.

@@ -67,9 +67,9 @@ use super::method::{
 };
 use super::{Receiver, Settings};
 use crate::luminance;
-use crate::memory;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::solver::costs;
 
 /// Adaptive shooting's own parameters.
 #[derive(Clone, Debug, PartialEq)]
@@ -192,10 +192,10 @@ impl Method for AdaptiveSettings {
         Counters::default().list()
     }
 
-    fn memory(&self) -> memory::SolverCosts {
+    fn memory(&self) -> costs::SolverCosts {
         // Measured on the shared scenes (EXPERIMENTS.md, "Memory"), plus
         // 24 bytes an element for the buffer each pass sends from.
-        memory::SolverCosts {
+        costs::SolverCosts {
             vertex: 104.0,
             element: 294.0,
             surface: 400.0,

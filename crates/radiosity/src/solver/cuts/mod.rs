@@ -42,9 +42,9 @@ use super::method::{
 };
 use super::{Receiver, Settings};
 use crate::luminance;
-use crate::memory;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::solver::costs;
 
 /// The method's own parameters.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,8 +117,8 @@ impl Method for CutSettings {
         Counters::default().list()
     }
 
-    fn memory(&self) -> memory::SolverCosts {
-        memory::SolverCosts {
+    fn memory(&self) -> costs::SolverCosts {
+        costs::SolverCosts {
             vertex: 104.0 + 8.0 * 400.0,
             element: 270.0,
             surface: 400.0,
