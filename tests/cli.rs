@@ -1130,6 +1130,41 @@ fn limit_defaults_in_the_help_are_the_library_defaults() {
     }
 }
 
+/// `render --help` groups its flags under headings, as cargo's and
+/// ripgrep's do: each flag under its own.
+#[test]
+fn the_help_groups_flags_under_headings() {
+    let out = run(&["render", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    let heading_of = |flag: &str| -> String {
+        let mut heading = String::new();
+        for line in help.lines() {
+            if !line.starts_with(' ') && line.ends_with(':') {
+                heading = line.trim_end_matches(':').to_string();
+            }
+            if line.trim_start().starts_with(flag) || line.contains(&format!(" {flag} ")) {
+                return heading;
+            }
+        }
+        panic!("{flag} not in the help");
+    };
+    for (flag, heading) in [
+        ("--bake <", "Outputs"),
+        ("--sensors-out", "Outputs"),
+        ("--emission-scale", "Scene and lights"),
+        ("--sky <", "Daylight"),
+        ("--preset", "Solver"),
+        ("--converge", "Solver"),
+        ("--supersampling", "Picture"),
+        ("--device", "Device"),
+        ("--progress-json", "Progress and stopping"),
+        ("--tolerance", "Solver"),
+        ("--max-memory", "Limits (each error says which to raise)"),
+    ] {
+        assert_eq!(heading_of(flag), heading, "{flag}");
+    }
+}
+
 /// A lightmap bake from the command line: the `.glb`, the `.lightmap.exr`
 /// beside it and the lightmap's figures in `--stats`.
 #[test]

@@ -107,7 +107,7 @@ pub struct LoadArgs {
     /// glTF input: largest reflectance per channel; brighter base colours
     /// (white is common) are clamped to it with a warning, since a closed
     /// scene with reflectance 1 never converges. Must be below 1.
-    #[arg(long, value_name = "RHO", default_value_t = DEFAULT_REFLECTANCE_CAP)]
+    #[arg(help_heading = "Scene and lights", long, value_name = "RHO", default_value_t = DEFAULT_REFLECTANCE_CAP)]
     pub reflectance_cap: f64,
 
     /// glTF input: exitance (W/m^2) = pi x SCALE x emissiveFactor x
@@ -115,26 +115,31 @@ pub struct LoadArgs {
     /// W/(m^2 sr): a Blender Emission strength S (colour C) gives exitance
     /// pi S C W/m^2 at scale 1. To make a lamp of area A emit P watts, set
     /// its strength to P / (pi A), or scale all emitters with this flag.
-    #[arg(long, value_name = "SCALE", default_value_t = 1.0)]
+    #[arg(
+        help_heading = "Scene and lights",
+        long,
+        value_name = "SCALE",
+        default_value_t = 1.0
+    )]
     pub emission_scale: f64,
 
     /// Add the sun: ALTITUDE degrees above the horizon, AZIMUTH degrees
     /// from north (-z) towards east (+x), LUX on a plane facing it. Its
     /// light reaches every surface facing it that nothing shades.
-    #[arg(long, num_args = 3, value_names = ["ALTITUDE", "AZIMUTH", "LUX"], allow_negative_numbers = true)]
+    #[arg(help_heading = "Daylight", long, num_args = 3, value_names = ["ALTITUDE", "AZIMUTH", "LUX"], allow_negative_numbers = true)]
     pub sun: Option<Vec<f64>>,
 
     /// Add a sky: uniform, overcast (CIE standard overcast, zenith three
     /// times the horizon) or clear (CIE clear sky around the --sun
     /// position). Its light arrives from above the horizon wherever
     /// nothing blocks it: through windows, skylights, open courtyards.
-    #[arg(long, value_name = "MODEL", value_parser = ["uniform", "overcast", "clear"], requires = "sky_illuminance")]
+    #[arg(help_heading = "Daylight", long, value_name = "MODEL", value_parser = ["uniform", "overcast", "clear"], requires = "sky_illuminance")]
     pub sky: Option<String>,
 
     /// The sky's unobstructed horizontal illuminance (the sky alone,
     /// without the sun), lux: about 10,000 on an overcast day, 20,000 on a
     /// clear one.
-    #[arg(long, value_name = "LUX", requires = "sky")]
+    #[arg(help_heading = "Daylight", long, value_name = "LUX", requires = "sky")]
     pub sky_illuminance: Option<f64>,
 
     /// Sky patches: Tregenza's 145 divided N x N each (Reinhart's scheme):
@@ -142,13 +147,13 @@ pub struct LoadArgs {
     /// One direction is drawn in each patch per receiver, apart from the
     /// directions through the scene's openings, which are sampled where
     /// they are.
-    #[arg(long, value_name = "N", default_value_t = radiosity::scene::sky::DEFAULT_SUBDIVISION)]
+    #[arg(help_heading = "Daylight", long, value_name = "N", default_value_t = radiosity::scene::sky::DEFAULT_SUBDIVISION)]
     pub sky_subdivision: usize,
 
     /// Reflectance of the ground below the sky's horizon, from 0 to below
     /// 1: lit by the sky and the sun, it lights what sees below the
     /// horizon (through a window, from a roof), as Radiance's gensky does.
-    #[arg(long, value_name = "RHO", default_value_t = radiosity::scene::sky::DEFAULT_GROUND_REFLECTANCE, requires = "sky")]
+    #[arg(help_heading = "Daylight", long, value_name = "RHO", default_value_t = radiosity::scene::sky::DEFAULT_GROUND_REFLECTANCE, requires = "sky")]
     pub ground_reflectance: f64,
 }
 
@@ -255,55 +260,60 @@ pub struct RenderArgs {
 
     /// The picture: .png (tone-mapped sRGB), .pfm or .exr (linear
     /// radiosity). Default: SCENE-NAME.png in the current folder.
-    #[arg(short, long, value_name = "FILE")]
+    #[arg(help_heading = "Outputs", short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
     /// Write one CSV row per vertex: x,y,z,nx,ny,nz,surface,r,g,b.
-    #[arg(long, value_name = "FILE.csv")]
+    #[arg(help_heading = "Outputs", long, value_name = "FILE.csv")]
     pub vertices: Option<PathBuf>,
 
     /// Write the run's counters and settings as JSON.
-    #[arg(long, value_name = "FILE.json")]
+    #[arg(help_heading = "Outputs", long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
 
     /// Write the element mesh as glTF 2.0 (.glb, or .gltf with a .bin) with
     /// per-vertex baked colours (COLOR_0), normals and the view's camera.
-    #[arg(long, value_name = "FILE.glb")]
+    #[arg(help_heading = "Outputs", long, value_name = "FILE.glb")]
     pub bake: Option<PathBuf>,
 
     /// What the bake's COLOR_0 holds: lit (the picture's radiance, exposure
     /// and ambient term included, under an unlit material: opens lit in any
     /// viewer) or irradiance (E/pi, scaled, with the input's materials and
     /// UVs kept, for engines that multiply it with their own base colour).
-    #[arg(long, value_name = "MODE", default_value_t = BakeMode::Lit)]
+    #[arg(help_heading = "Outputs", long, value_name = "MODE", default_value_t = BakeMode::Lit)]
     pub bake_mode: BakeMode,
 
     /// Where the bake puts the light: vertices (the element mesh with
     /// COLOR_0) or lightmap (the input's own nodes, meshes and materials,
     /// a second UV set TEXCOORD_1, the input's or generated, and a lightmap
     /// texture inside the file, plus NAME.lightmap.exr beside it).
-    #[arg(long, value_name = "TARGET", default_value_t = BakeTarget::Vertices)]
+    #[arg(help_heading = "Outputs", long, value_name = "TARGET", default_value_t = BakeTarget::Vertices)]
     pub bake_target: BakeTarget,
 
     /// Lightmap texels per metre of surface (lowered, with a note, when the
     /// lightmap would exceed --lightmap-max-size).
-    #[arg(long, value_name = "TEXELS_PER_METRE", default_value_t = lightmap::DEFAULT_DENSITY)]
+    #[arg(help_heading = "Outputs", long, value_name = "TEXELS_PER_METRE", default_value_t = lightmap::DEFAULT_DENSITY)]
     pub lightmap_density: f64,
 
     /// Largest lightmap width or height, texels.
-    #[arg(long, value_name = "TEXELS", default_value_t = lightmap::DEFAULT_MAX_SIZE)]
+    #[arg(help_heading = "Outputs", long, value_name = "TEXELS", default_value_t = lightmap::DEFAULT_MAX_SIZE)]
     pub lightmap_max_size: u32,
 
     /// Write the element mesh as binary PLY: positions, normals, the
     /// picture's 8-bit sRGB colours and float radiosity (W/m^2).
-    #[arg(long, value_name = "FILE.ply")]
+    #[arg(help_heading = "Outputs", long, value_name = "FILE.ply")]
     pub ply: Option<PathBuf>,
 
     /// Sensor points, in Radiance's `rtrace -I` input format: one point a
     /// line, `x y z nx ny nz` (metres; the normal says which side of the
     /// surface to measure), `#` comments. Each point must lie on a surface
     /// (within 1e-4 of the scene's size). Needs --sensors-out.
-    #[arg(long, value_name = "POINTS.txt", requires = "sensors_out")]
+    #[arg(
+        help_heading = "Outputs",
+        long,
+        value_name = "POINTS.txt",
+        requires = "sensors_out"
+    )]
     pub sensors: Option<PathBuf>,
 
     /// Write the values at the --sensors points as CSV, one row a point in
@@ -313,13 +323,18 @@ pub struct RenderArgs {
     /// 0.065 B) of E); under an overcast sky alone, a last column
     /// daylight_factor (lux over the sky's unobstructed horizontal
     /// illuminance, percent).
-    #[arg(long, value_name = "FILE.csv", requires = "sensors")]
+    #[arg(
+        help_heading = "Outputs",
+        long,
+        value_name = "FILE.csv",
+        requires = "sensors"
+    )]
     pub sensors_out: Option<PathBuf>,
 
     /// Require the daylight_factor column of --sensors-out: an error unless
     /// the scene is lit by an overcast sky alone (no sun, no lights, no
     /// emitting faces), where the daylight factor is defined.
-    #[arg(long, requires = "sensors_out")]
+    #[arg(help_heading = "Outputs", long, requires = "sensors_out")]
     pub daylight_factor: bool,
 
     #[command(flatten)]
@@ -331,7 +346,7 @@ pub struct RenderArgs {
     /// an error without one; cpu: the CPU. The GPU runs the default method
     /// only: the paper's presets, --shooting cuts|patches, --accel bsp|brute
     /// and the other form factors stay on the CPU
-    #[arg(long, value_enum, default_value_t = DeviceArg::Auto, env = "RADIOSITY_DEVICE",
+    #[arg(help_heading = "Device", long, value_enum, default_value_t = DeviceArg::Auto, env = "RADIOSITY_DEVICE",
           hide_possible_values = true)]
     pub device: DeviceArg,
 
@@ -342,12 +357,12 @@ pub struct RenderArgs {
     /// hemicube pre-test, BSP shadow rays, analytic factor). wallace89: the
     /// 1989 baseline (patches, a ray per pair against every surface,
     /// Wallace's disk formula, eq. 1).
-    #[arg(long, default_value_t = Preset::Adaptive)]
+    #[arg(help_heading = "Solver", long, default_value_t = Preset::Adaptive)]
     pub preset: Preset,
 
     /// How shooters send their unshot radiosity (each method's summary).
     /// Overrides the preset.
-    #[arg(long, value_name = "NAME", help = shooting_help())]
+    #[arg(help_heading = "Solver", long, value_name = "NAME", help = shooting_help())]
     pub shooting: Option<Shooting>,
 
     /// The methods' own parameters (`--tolerance`, `--subsources`, ...).
@@ -356,16 +371,16 @@ pub struct RenderArgs {
 
     /// Give adjacent coplanar faces of one material one surface id (on in
     /// the adaptive preset, off in the paper's). Overrides the preset.
-    #[arg(long, value_name = "on|off")]
+    #[arg(help_heading = "Scene and lights", long, value_name = "on|off")]
     pub merge_coplanar: Option<OnOff>,
 
     /// Point-to-polygon form factor: wallace (eq. 1), disk (eq. 3) or
     /// analytic (eq. 2). Overrides the preset.
-    #[arg(long, value_name = "NAME")]
+    #[arg(help_heading = "Solver", long, value_name = "NAME")]
     pub form_factor: Option<FormFactor>,
 
     /// Shadow-ray accelerator. Overrides the preset.
-    #[arg(long, value_name = "NAME")]
+    #[arg(help_heading = "Solver", long, value_name = "NAME")]
     pub accel: Option<Accel>,
 
     /// What pictures, lightmap texels and sensors show: off, the mesh's
@@ -375,18 +390,18 @@ pub struct RenderArgs {
     /// hemisphere from the mesh. Vertex bakes, --vertices and the PLY keep
     /// the mesh's values (default: the preset's; adaptive direct, the
     /// paper's presets off)
-    #[arg(long, value_name = "MODE")]
+    #[arg(help_heading = "Solver", long, value_name = "MODE")]
     pub final_gather: Option<FinalGather>,
 
     /// Longest patch edge, metres (default: the scene's #@mesh suggestion,
     /// else a third of the scene's bounding-box diagonal).
-    #[arg(long, value_name = "METRES", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "METRES", allow_negative_numbers = true,
           value_parser = metres())]
     pub patch_size: Option<f64>,
 
     /// Longest element edge, metres (default: the scene's #@mesh
     /// suggestion, else 1/40 of the scene's bounding-box diagonal).
-    #[arg(long, value_name = "METRES", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "METRES", allow_negative_numbers = true,
           value_parser = metres())]
     pub element_size: Option<f64>,
 
@@ -394,7 +409,7 @@ pub struct RenderArgs {
     /// first, coarse solve finds the light varying across it (shadow
     /// edges, contacts, hot spots); 0 keeps the fixed grid. Overrides the
     /// preset (adaptive: 2; the paper's presets: 0). At most 8
-    #[arg(long, value_name = "N", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "N", allow_negative_numbers = true,
           value_parser = whole::<u32>())]
     pub refine_levels: Option<u32>,
 
@@ -402,59 +417,65 @@ pub struct RenderArgs {
     /// radiosity varies by more than this fraction of the larger of its
     /// own mean and the scene's, once more per doubling beyond (default
     /// 0.25)
-    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "FRACTION", allow_negative_numbers = true,
           value_parser = positive_real())]
     pub refine_tolerance: Option<f64>,
 
     /// Stop when unshot power falls below this fraction of emitted power
     /// (default: the preset's; adaptive 0.003, the paper's presets 0.01).
-    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "FRACTION", allow_negative_numbers = true,
           value_parser = fraction())]
     pub converge: Option<f64>,
 
     /// Stop after N patches have shot.
-    #[arg(long, value_name = "N", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "N", allow_negative_numbers = true,
           value_parser = whole::<u64>())]
     pub max_shots: Option<u64>,
 
     /// Stop once N subsources have shot.
-    #[arg(long, value_name = "N", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "N", allow_negative_numbers = true,
           value_parser = whole::<u64>())]
     pub max_subsources: Option<u64>,
 
     /// Stop the solve after this many seconds and write every output from
     /// the state reached (pictures with the ambient term for the rest).
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(help_heading = "Solver", long, value_name = "SECONDS")]
     pub time_limit: Option<f64>,
 
     /// Worker threads (default: every core).
-    #[arg(long, value_name = "N", allow_negative_numbers = true,
+    #[arg(help_heading = "Solver", long, value_name = "N", allow_negative_numbers = true,
           value_parser = positive::<usize>())]
     pub threads: Option<usize>,
 
     /// Picture width in pixels.
-    #[arg(long, default_value_t = 800, allow_negative_numbers = true,
+    #[arg(help_heading = "Picture", long, default_value_t = 800, allow_negative_numbers = true,
           value_parser = positive::<u32>())]
     pub width: u32,
 
     /// Picture height in pixels.
-    #[arg(long, default_value_t = 600, allow_negative_numbers = true,
+    #[arg(help_heading = "Picture", long, default_value_t = 600, allow_negative_numbers = true,
           value_parser = positive::<u32>())]
     pub height: u32,
 
     /// The view as eye,target,up,fov: ten numbers, e.g.
     /// 0,1.6,4,0,1,0,0,1,0,60 (default: the scene's camera, or one framing
     /// the scene).
-    #[arg(long, value_name = "EYE,TARGET,UP,FOV", allow_hyphen_values = true)]
+    #[arg(
+        help_heading = "Picture",
+        long,
+        value_name = "EYE,TARGET,UP,FOV",
+        allow_hyphen_values = true
+    )]
     pub camera: Option<String>,
 
     /// Anti-aliasing: N x N samples a pixel.
-    #[arg(long, value_name = "N", default_value_t = 3, allow_negative_numbers = true,
+    #[arg(help_heading = "Picture", long, value_name = "N", default_value_t = 3, allow_negative_numbers = true,
           value_parser = positive::<u32>())]
     pub supersampling: u32,
 
     /// Exposure adjustment in stops, on top of automatic exposure.
     #[arg(
+        help_heading = "Picture",
         long,
         value_name = "EV",
         default_value_t = 0.0,
@@ -463,11 +484,11 @@ pub struct RenderArgs {
     pub exposure: f64,
 
     /// Show the solution without the ambient term.
-    #[arg(long)]
+    #[arg(help_heading = "Picture", long)]
     pub no_ambient: bool,
 
     /// No progress bar and no summary.
-    #[arg(short, long)]
+    #[arg(help_heading = "Progress and stopping", short, long)]
     pub quiet: bool,
 
     /// Machine-readable progress: one JSON object a line (`stage`,
@@ -475,14 +496,14 @@ pub struct RenderArgs {
     /// other programs"), written to FILE as the run goes, or to standard
     /// output for `-` (then with no summary). For front ends such as the
     /// Blender add-on; independent of --quiet.
-    #[arg(long, value_name = "FILE")]
+    #[arg(help_heading = "Progress and stopping", long, value_name = "FILE")]
     pub progress_json: Option<PathBuf>,
 
     /// Stop the solve, and write the outputs from the state reached, once
     /// FILE exists (checked ten times a second), as a first Ctrl-C does: a
     /// way to stop that works on every system. FILE must not exist when
     /// the run starts.
-    #[arg(long, value_name = "FILE")]
+    #[arg(help_heading = "Progress and stopping", long, value_name = "FILE")]
     pub stop_file: Option<PathBuf>,
 
     /// Largest scene file (OBJ or MTL) read, MiB [default: 1024].
@@ -576,6 +597,7 @@ impl clap::Args for MethodArgs {
                 .long(p.flag())
                 .value_name(p.value_name)
                 .help(p.help)
+                .help_heading("Solver")
                 .action(ArgAction::Set);
             cmd = cmd.arg(match p.kind {
                 Kind::Count => arg

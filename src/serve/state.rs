@@ -15,10 +15,10 @@ use serde::Serialize;
 use tokio::sync::watch;
 
 use super::wire::{self, Rgbe};
-use radiosity::app::{Counts, Observer, Outcome};
-use radiosity::final_gather::{FinalGather, FinalPass, Point};
+use radiosity::app::{self, Counts, Observer, Outcome};
+use radiosity::final_gather::{FinalGather, FinalPass};
 use radiosity::mesh::Mesh;
-use radiosity::render::{self, Exposure, RenderSettings};
+use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Scene};
 use radiosity::solver::{Flow, Solver, StopReason};
 use radiosity::view;
@@ -188,6 +188,8 @@ pub struct Shared {
     /// Read on every shot without taking the lock.
     pause_flag: AtomicBool,
     stop_flag: Arc<AtomicBool>,
+    /// Set by a stop while the outputs are made: the final pass ends.
+    abort_flag: Arc<AtomicBool>,
     shutdown_flag: AtomicBool,
     /// Bumped on every change clients should see.
     changed: watch::Sender<u64>,
@@ -235,6 +237,7 @@ impl Shared {
             resume: Condvar::new(),
             pause_flag: AtomicBool::new(false),
             stop_flag: Arc::new(AtomicBool::new(false)),
+            abort_flag: Arc::new(AtomicBool::new(false)),
             shutdown_flag: AtomicBool::new(false),
             changed: watch::Sender::new(0),
             closing: watch::Sender::new(false),
@@ -305,11 +308,15 @@ impl Shared {
     }
 
     /// Ends the solve after its current shot; the outputs are then written
-    /// from the state reached.
+    /// from the state reached. While they are made (the final pass), ends
+    /// that too: the outputs complete are written, the others named.
     pub fn stop(&self) {
         let mut inner = self.lock();
         if !matches!(inner.status.phase, Phase::Writing | Phase::Finished) {
             inner.status.stop_requested = true;
+        }
+        if inner.status.phase == Phase::Writing {
+            self.abort_flag.store(true, Ordering::SeqCst);
         }
         self.stop_flag.store(true, Ordering::SeqCst);
         drop(inner);
@@ -367,34 +374,34 @@ impl Shared {
 
     /// Draws the final picture of `solver`'s solution from the scene's
     /// view at the page's size, with the final pass, as `radiosity render`
-    /// draws its picture (3 x 3 supersampling, automatic exposure plus the
-    /// display's stops), and publishes it.
-    fn draw_frame(&self, solver: &Solver<'_>) {
+    /// draws its picture ([`app::picture`]: 3 x 3 supersampling, automatic
+    /// exposure plus the display's stops), telling `observer` its progress,
+    /// and publishes it; a stop pressed mid-way leaves it unpublished.
+    fn draw_frame(&self, solver: &Solver<'_>, observer: &mut dyn Observer) {
         let scene = solver.scene();
         let [width, height] = *self
             .view_size
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let settings = RenderSettings {
-            width,
-            height,
-            camera: self.camera_of(scene),
-            supersampling: 3,
-        };
-        let pass = FinalPass::new(solver, solver.settings().final_gather);
-        let ambient = if self.display.ambient {
-            solver.ambient()
-        } else {
-            DVec3::ZERO
-        };
-        let display = solver.display_radiosity(self.display.ambient);
-        let image = render::render_shaded(
-            scene,
-            solver.mesh(),
-            &pass.vertex_display(&display, ambient),
-            &settings,
-            Some(&|points: &[Point]| pass.shade(points)),
+        let mut pass = FinalPass::new(solver, solver.settings().final_gather);
+        if let Some(flag) = observer.abort() {
+            pass.stop_on(flag);
+        }
+        let image = app::picture(
+            solver,
+            Some(&pass),
+            &app::PictureView {
+                width,
+                height,
+                camera: self.camera_of(scene),
+                supersampling: 3,
+                ambient: self.display.ambient,
+            },
+            observer,
         );
+        if pass.cut_short() {
+            return;
+        }
         let scale = image.exposure_scale(Exposure::Auto {
             ev: self.display.exposure,
         });
@@ -668,6 +675,10 @@ impl Observer for LiveObserver {
         Some(Arc::clone(&self.shared.stop_flag))
     }
 
+    fn abort(&self) -> Option<Arc<AtomicBool>> {
+        Some(Arc::clone(&self.shared.abort_flag))
+    }
+
     fn shot(&mut self, solver: &Solver<'_>) -> Flow {
         if self.shared.stop_flag.load(Ordering::SeqCst) {
             return Flow::Stop;
@@ -701,7 +712,8 @@ impl Observer for LiveObserver {
     fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
         self.publish(solver, Phase::Writing, Some(stop));
         if solver.settings().final_gather != FinalGather::Off {
-            self.shared.draw_frame(solver);
+            let shared = Arc::clone(&self.shared);
+            shared.draw_frame(solver, self);
         }
     }
 }
@@ -789,6 +801,29 @@ mod tests {
         let json = serde_json::to_value(&status).unwrap();
         assert_eq!(json["final_pass"]["done"], 25);
         assert_eq!(json["final_pass"]["what"], "picture");
+    }
+
+    /// A stop while the solve runs ends the solve, not the final pass
+    /// that follows (the picture of what was reached is still drawn); a stop
+    /// while the outputs are made ends the final pass.
+    #[test]
+    fn a_stop_in_the_final_pass_ends_it() {
+        let display = Display {
+            camera: None,
+            ambient: true,
+            exposure: 0.0,
+        };
+        let shared = Arc::new(Shared::new(display, &[]));
+        let observer = LiveObserver::new(Arc::clone(&shared));
+        let abort = observer.abort().unwrap();
+        let interrupt = observer.interrupt().unwrap();
+        shared.set_phase(Phase::Solving);
+        shared.stop();
+        assert!(interrupt.load(Ordering::SeqCst));
+        assert!(!abort.load(Ordering::SeqCst));
+        shared.set_phase(Phase::Writing);
+        shared.stop();
+        assert!(abort.load(Ordering::SeqCst));
     }
 
     /// A pause right after a resume, before the solve thread has woken,

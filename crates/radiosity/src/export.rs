@@ -239,13 +239,20 @@ pub fn write_sensors_csv(
 /// Writes the linear picture as OpenEXR (32-bit float RGB, radiosity in
 /// W/m^2 per pixel, top row first).
 pub fn write_exr(out: &mut (impl Write + io::Seek), image: &Image) -> io::Result<()> {
-    use exr::prelude::{Image as ExrImage, SpecificChannels, Vec2, WritableImage};
+    use exr::prelude::{
+        Encoding, Image as ExrImage, LineOrder, SpecificChannels, Vec2, WritableImage,
+    };
     let width = image.width as usize;
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = image.pixels[y * width + x];
         (p.x, p.y, p.z)
     });
-    ExrImage::from_channels((width, image.height as usize), channels)
+    // Tiles in increasing order: the same bytes on every run.
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
+    };
+    ExrImage::from_encoded_channels((width, image.height as usize), encoding, channels)
         .write()
         .to_buffered(out)
         .map_err(io::Error::other)

@@ -507,9 +507,13 @@ fn list_extensions(root: &mut json::Root) {
 }
 
 /// Writes the lightmap as OpenEXR: RGB half floats (three significant
-/// digits, as engines store HDR lightmaps), PIZ-compressed.
+/// digits, as engines store HDR lightmaps), PIZ-compressed, its tiles in
+/// increasing order (compressed in parallel, written in order: the same
+/// bytes on every run).
 fn write_exr(out: &mut (impl io::Write + io::Seek), width: u32, pixels: &[Vec3]) -> io::Result<()> {
-    use exr::prelude::{Encoding, Image as ExrImage, SpecificChannels, Vec2, WritableImage, f16};
+    use exr::prelude::{
+        Encoding, Image as ExrImage, LineOrder, SpecificChannels, Vec2, WritableImage, f16,
+    };
     let width = width as usize;
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = pixels[y * width + x];
@@ -517,7 +521,10 @@ fn write_exr(out: &mut (impl io::Write + io::Seek), width: u32, pixels: &[Vec3])
     });
     ExrImage::from_encoded_channels(
         (width, pixels.len() / width.max(1)),
-        Encoding::SMALL_FAST_LOSSLESS,
+        Encoding {
+            line_order: LineOrder::Increasing,
+            ..Encoding::SMALL_FAST_LOSSLESS
+        },
         channels,
     )
     .write()
