@@ -1,8 +1,8 @@
-//! Memory (beyond the paper): the peak resident set of
-//! this process, what the machine has available, and an estimate of a run's
-//! peak from the counts known once the scene is meshed, so a run that would
-//! exhaust the machine is refused before its solve, naming the setting to
-//! change.
+//! Memory (beyond the paper): an estimate of a run's peak from the counts
+//! known once the scene is meshed, so a run that would exhaust the machine
+//! is refused before its solve, naming the setting to change. What the
+//! process and the machine hold is read in `probe`, sizes as people write
+//! them are parsed in `size`.
 //!
 //! The model adds, for each kind of item, its count times a cost in bytes
 //! measured on the shared scenes with a counting allocator
@@ -24,6 +24,12 @@
 //! the built-in scenes and Sponza in `tests/memory.rs`).
 
 use std::fmt;
+
+mod probe;
+mod size;
+
+pub use self::probe::{available_bytes, peak_resident_bytes, reset_peak, resident_bytes};
+pub use self::size::{SizeError, bytes, parse_size};
 
 pub use crate::solver::costs::{Part, SolverCosts};
 
@@ -367,87 +373,6 @@ pub fn check(estimate: &Estimate, limit: Option<u64>) -> Result<(), TooLarge> {
     Ok(())
 }
 
-/// A field of `/proc/self/status` or `/proc/meminfo` in bytes (the files
-/// give KiB).
-fn proc_field(path: &str, field: &str) -> Option<u64> {
-    let text = std::fs::read_to_string(path).ok()?;
-    let line = text.lines().find(|l| l.starts_with(field))?;
-    let kib: u64 = line[field.len()..]
-        .trim_start_matches(':')
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()?;
-    Some(kib.saturating_mul(1024))
-}
-
-/// The most memory this process has held resident so far (Linux: `VmHWM`;
-/// elsewhere `getrusage`'s `ru_maxrss`).
-#[must_use]
-pub fn peak_resident_bytes() -> Option<u64> {
-    proc_field("/proc/self/status", "VmHWM").or_else(rusage_max_rss)
-}
-
-/// The memory this process holds resident now (Linux only).
-#[must_use]
-pub fn resident_bytes() -> Option<u64> {
-    proc_field("/proc/self/status", "VmRSS")
-}
-
-/// The memory the machine can give without swapping (Linux:
-/// `MemAvailable`).
-#[must_use]
-pub fn available_bytes() -> Option<u64> {
-    proc_field("/proc/meminfo", "MemAvailable")
-}
-
-#[cfg(unix)]
-fn rusage_max_rss() -> Option<u64> {
-    // SAFETY: getrusage writes into the zeroed struct we own.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
-        return None;
-    }
-    let max = u64::try_from(usage.ru_maxrss).ok()?;
-    // Bytes on macOS, KiB elsewhere.
-    Some(if cfg!(target_os = "macos") {
-        max
-    } else {
-        max * 1024
-    })
-}
-
-#[cfg(not(unix))]
-fn rusage_max_rss() -> Option<u64> {
-    None
-}
-
-/// Resets this process's peak resident set to its current one, so a later
-/// [`peak_resident_bytes`] measures what came after (Linux 4.0 and later:
-/// `/proc/self/clear_refs`); freed heap is first given back to the system
-/// where the allocator allows. Returns false where this is not possible.
-pub fn reset_peak() -> bool {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: malloc_trim only releases free memory of glibc's heap.
-    unsafe {
-        libc::malloc_trim(0);
-    }
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
-}
-
-/// `1.5 GiB`, `300 MiB`, `12 KiB`.
-#[must_use]
-pub fn bytes(n: u64) -> String {
-    let n = n as f64;
-    if n >= (1u64 << 30) as f64 {
-        format!("{:.1} GiB", n / (1u64 << 30) as f64)
-    } else if n >= (1u64 << 20) as f64 {
-        format!("{:.0} MiB", n / (1u64 << 20) as f64)
-    } else {
-        format!("{:.0} KiB", n / 1024.0)
-    }
-}
-
 /// `120M`, `4.5k`, `17`.
 fn count(n: u64) -> String {
     if n >= 10_000_000 {
@@ -461,76 +386,10 @@ fn count(n: u64) -> String {
     }
 }
 
-/// Parses a memory size: a number with an optional unit, `K`, `M`, `G` or
-/// `T` (powers of 1024, optionally followed by `iB` or `B`); a bare number
-/// is MiB, as `--max-file-size` takes it. `24G`, `1.5GiB`, `512`.
-pub fn parse_size(text: &str) -> Result<u64, SizeError> {
-    let t = text.trim();
-    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
-    let (number, unit) = t.split_at(split);
-    let value: f64 = number
-        .trim()
-        .parse()
-        .map_err(|_| SizeError::NotASize(text.to_string()))?;
-    let shift = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "m" | "mb" | "mib" => 20,
-        "k" | "kb" | "kib" => 10,
-        "g" | "gb" | "gib" => 30,
-        "t" | "tb" | "tib" => 40,
-        "b" => 0,
-        _ => {
-            return Err(SizeError::UnknownUnit {
-                text: text.to_string(),
-                unit: unit.to_string(),
-            });
-        }
-    };
-    let bytes = value * (1u64 << shift) as f64;
-    if !(bytes.is_finite() && (1.0..1e19).contains(&bytes)) {
-        return Err(SizeError::NotPositive(text.to_string()));
-    }
-    Ok(bytes as u64)
-}
-
-/// A memory size [`parse_size`] cannot read.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-pub enum SizeError {
-    /// No number where the size should start.
-    #[error("'{0}' is not a size such as 512M, 24G or 1.5GiB")]
-    NotASize(String),
-    /// A unit other than K, M, G or T.
-    #[error("'{text}': unknown unit '{unit}' (use K, M, G or T)")]
-    UnknownUnit {
-        /// The size as given.
-        text: String,
-        /// Its unit.
-        unit: String,
-    },
-    /// Zero, negative or too large.
-    #[error("'{0}' is not a positive size")]
-    NotPositive(String),
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::solver::Settings;
-
-    #[test]
-    fn sizes_parse() {
-        assert_eq!(parse_size("512"), Ok(512 << 20));
-        assert_eq!(parse_size("24G"), Ok(24 << 30));
-        assert_eq!(parse_size("1.5GiB"), Ok(3 << 29));
-        assert_eq!(parse_size("100 kB"), Ok(100 << 10));
-        assert!(parse_size("-1G").is_err());
-        assert!(parse_size("lots").is_err());
-        assert!(
-            parse_size("3X")
-                .unwrap_err()
-                .to_string()
-                .contains("unknown unit")
-        );
-    }
 
     /// A run of `elements` and `vertices` that writes nothing drawn.
     fn solve_only(elements: u64, vertices: u64) -> Sizes {
@@ -614,22 +473,5 @@ mod tests {
         // Each total is rounded up to a byte.
         let grown = (with.total() - without.total()) as f64;
         assert!((grown - (expected - shot_buffers)).abs() <= 1.0, "{grown}");
-    }
-
-    #[test]
-    fn this_process_has_a_peak() {
-        // The resident size first: other tests run in threads of this
-        // process, and the peak read after it can only be larger, up to the
-        // kernel's per-thread batching of its RSS counters (a few pages a
-        // thread), for which 4 MiB leaves room.
-        let now = resident_bytes();
-        let peak = peak_resident_bytes().unwrap();
-        assert!(peak > 1 << 20);
-        if let Some(now) = now {
-            assert!(
-                now <= peak + (4 << 20),
-                "resident {now} above the peak {peak}"
-            );
-        }
     }
 }
