@@ -119,6 +119,7 @@
 
 mod assets;
 mod http;
+mod observer;
 mod state;
 pub mod wire;
 
@@ -126,7 +127,8 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
-pub use state::{Display, LiveObserver};
+pub use observer::LiveObserver;
+pub use state::Display;
 
 use radiosity::app::Outcome;
 

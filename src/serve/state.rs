@@ -7,7 +7,7 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use axum::body::Bytes;
 use glam::DVec3;
@@ -16,11 +16,11 @@ use tokio::sync::watch;
 
 use super::wire::{self, Rgbe};
 use radiosity::app::{self, Counts, Observer, Outcome};
-use radiosity::final_gather::{FinalGather, FinalPass};
+use radiosity::final_gather::FinalPass;
 use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Scene};
-use radiosity::solver::{Flow, Solver, StopReason};
+use radiosity::solver::Solver;
 use radiosity::view;
 
 /// Shortest solve time (pauses excluded) between two snapshots of the
@@ -186,10 +186,10 @@ pub struct Shared {
     /// Wakes a paused solve.
     resume: Condvar,
     /// Read on every shot without taking the lock.
-    pause_flag: AtomicBool,
-    stop_flag: Arc<AtomicBool>,
+    pub(super) pause_flag: AtomicBool,
+    pub(super) stop_flag: Arc<AtomicBool>,
     /// Set by a stop while the outputs are made: the final pass ends.
-    abort_flag: Arc<AtomicBool>,
+    pub(super) abort_flag: Arc<AtomicBool>,
     shutdown_flag: AtomicBool,
     /// Bumped on every change clients should see.
     changed: watch::Sender<u64>,
@@ -377,7 +377,7 @@ impl Shared {
     /// draws its picture ([`app::picture`]: 3 x 3 supersampling, automatic
     /// exposure plus the display's stops), telling `observer` its progress,
     /// and publishes it; a stop pressed mid-way leaves it unpublished.
-    fn draw_frame(&self, solver: &Solver<'_>, observer: &mut dyn Observer) {
+    pub(super) fn draw_frame(&self, solver: &Solver<'_>, observer: &mut dyn Observer) {
         let scene = solver.scene();
         let [width, height] = *self
             .view_size
@@ -424,7 +424,7 @@ impl Shared {
             .unwrap_or_else(|| view::camera_or_framing(scene))
     }
 
-    fn set_scene(&self, scene: &Scene, mesh: &Mesh) {
+    pub(super) fn set_scene(&self, scene: &Scene, mesh: &Mesh) {
         let camera = self.camera_of(scene);
         let counts = Counts::of(scene, mesh);
         let (lo, hi) = scene.bounds();
@@ -470,7 +470,12 @@ impl Shared {
         });
     }
 
-    fn publish(&self, radiosity: Vec<DVec3>, ambient: DVec3, update: impl FnOnce(&mut Status)) {
+    pub(super) fn publish(
+        &self,
+        radiosity: Vec<DVec3>,
+        ambient: DVec3,
+        update: impl FnOnce(&mut Status),
+    ) {
         let mut inner = self.lock();
         let seq = inner.snapshot.as_ref().map_or(1, |s| s.seq + 1);
         inner.snapshot = Some(Arc::new(Snapshot {
@@ -486,7 +491,7 @@ impl Shared {
     }
 
     /// The final pass's progress, told to the page.
-    fn set_final_pass(&self, progress: FinalPassStatus) {
+    pub(super) fn set_final_pass(&self, progress: FinalPassStatus) {
         let mut inner = self.lock();
         if inner.status.final_pass.as_ref() == Some(&progress) {
             return;
@@ -496,7 +501,7 @@ impl Shared {
         self.notify();
     }
 
-    fn set_phase(&self, phase: Phase) {
+    pub(super) fn set_phase(&self, phase: Phase) {
         let mut inner = self.lock();
         inner.status.phase = phase;
         match phase {
@@ -511,7 +516,7 @@ impl Shared {
 
     /// Pauses the solve if it has reached a hold of `--pause-at` with
     /// `shots` shots (every hold at or below `shots` is then used up).
-    fn hold_at(&self, shots: u64) {
+    pub(super) fn hold_at(&self, shots: u64) {
         let mut inner = self.lock();
         let reached = inner.holds.partition_point(|&h| h <= shots);
         if reached > 0 {
@@ -522,7 +527,7 @@ impl Shared {
     }
 
     /// Blocks the solve thread while paused; true if it should stop.
-    fn wait_while_paused(&self) -> bool {
+    pub(super) fn wait_while_paused(&self) -> bool {
         let mut inner = self.lock();
         while inner.paused && !self.stop_flag.load(Ordering::SeqCst) {
             inner = self
@@ -554,173 +559,10 @@ pub fn initial_ambient(scene: &Scene, mesh: &Mesh) -> DVec3 {
     (unshot / area) / (DVec3::ONE - rho / area)
 }
 
-/// When the solve thread takes a snapshot while the solve runs: after the
-/// first shot, then once [`SNAPSHOT_INTERVAL`] of solve time (pauses
-/// excluded) has passed since the last snapshot, whatever took it. Two
-/// snapshots taken while solving are therefore at least the interval of
-/// solve time apart, which the status's `elapsed_seconds` shows.
-#[derive(Clone, Copy, Debug, Default)]
-struct Throttle {
-    /// Solve time of the last snapshot.
-    last: Option<Duration>,
-}
-
-impl Throttle {
-    /// Whether a snapshot is due at solve time `active`.
-    fn due(&self, active: Duration) -> bool {
-        self.last
-            .is_none_or(|last| active.saturating_sub(last) >= SNAPSHOT_INTERVAL)
-    }
-
-    /// A snapshot was taken at solve time `active`.
-    fn taken(&mut self, active: Duration) {
-        self.last = Some(active);
-    }
-}
-
-/// The [`Observer`] that feeds the live view from the solve thread.
-pub struct LiveObserver {
-    shared: Arc<Shared>,
-    solve_start: Instant,
-    paused_total: Duration,
-    throttle: Throttle,
-    /// Active solve time and rays at the last snapshot, for rays/s.
-    last_rays: (Duration, u64),
-    rays_per_second: f64,
-}
-
-impl LiveObserver {
-    /// An observer publishing into `shared`.
-    pub fn new(shared: Arc<Shared>) -> LiveObserver {
-        LiveObserver {
-            shared,
-            solve_start: Instant::now(),
-            paused_total: Duration::ZERO,
-            throttle: Throttle::default(),
-            last_rays: (Duration::ZERO, 0),
-            rays_per_second: 0.0,
-        }
-    }
-
-    fn active_time(&self) -> Duration {
-        self.solve_start.elapsed().saturating_sub(self.paused_total)
-    }
-
-    fn publish(&mut self, solver: &Solver<'_>, phase: Phase, stop: Option<StopReason>) {
-        let stats = solver.stats();
-        let active = self.active_time();
-        let window = active.saturating_sub(self.last_rays.0);
-        // Too short a window (a pause right after a snapshot) keeps the
-        // previous rate rather than showing noise.
-        if window >= Duration::from_millis(50) {
-            self.rays_per_second =
-                stats.rays_cast.saturating_sub(self.last_rays.1) as f64 / window.as_secs_f64();
-            self.last_rays = (active, stats.rays_cast);
-        }
-        let rays_per_second = self.rays_per_second;
-        let unshot_fraction = solver.unshot_fraction();
-        let device = solver.device_report();
-        self.shared
-            .publish(solver.radiosity().to_vec(), solver.ambient(), |status| {
-                status.phase = phase;
-                if phase == Phase::Paused {
-                    status.pause_requested = false;
-                }
-                status.shots = stats.shots;
-                status.subsources = stats.subsources;
-                status.rays = stats.rays_cast;
-                status.rays_per_second = rays_per_second;
-                status.unshot_fraction = unshot_fraction;
-                status.elapsed_seconds = active.as_secs_f64();
-                status.device = device.name.unwrap_or_else(|| "cpu".to_string());
-                status.device_shots = device.device_shots;
-                if let Some(stop) = stop {
-                    status.stop_reason = Some(stop.describe());
-                }
-            });
-        self.throttle.taken(active);
-    }
-}
-
-impl Observer for LiveObserver {
-    fn started(&mut self, scene: &Scene, mesh: &Mesh) {
-        self.shared.set_scene(scene, mesh);
-        // Before the first shot only the emitters shine, and the ambient
-        // term stands for all the rest: shown while the first shot (long
-        // on a large scene) runs.
-        let radiosity = mesh
-            .vertices
-            .iter()
-            .map(|v| scene.surfaces[v.surface as usize].emission)
-            .collect();
-        // A hold at shot 0, or a pause pressed while loading, holds the
-        // solve before its first shot.
-        self.shared.hold_at(0);
-        let held = self.shared.pause_flag.load(Ordering::SeqCst);
-        self.shared
-            .publish(radiosity, initial_ambient(scene, mesh), |status| {
-                status.phase = if held { Phase::Paused } else { Phase::Solving };
-                if held {
-                    status.pause_requested = false;
-                }
-            });
-        // A stop while held is seen by the solve before its first shot.
-        if held && !self.shared.wait_while_paused() {
-            self.shared.set_phase(Phase::Solving);
-        }
-        self.solve_start = Instant::now();
-    }
-
-    fn interrupt(&self) -> Option<Arc<AtomicBool>> {
-        Some(Arc::clone(&self.shared.stop_flag))
-    }
-
-    fn abort(&self) -> Option<Arc<AtomicBool>> {
-        Some(Arc::clone(&self.shared.abort_flag))
-    }
-
-    fn shot(&mut self, solver: &Solver<'_>) -> Flow {
-        if self.shared.stop_flag.load(Ordering::SeqCst) {
-            return Flow::Stop;
-        }
-        self.shared.hold_at(solver.stats().shots);
-        if self.shared.pause_flag.load(Ordering::SeqCst) {
-            self.publish(solver, Phase::Paused, None);
-            let paused_at = Instant::now();
-            let stop = self.shared.wait_while_paused();
-            self.paused_total += paused_at.elapsed();
-            if stop {
-                return Flow::Stop;
-            }
-            self.shared.set_phase(Phase::Solving);
-            return Flow::Continue;
-        }
-        if self.throttle.due(self.active_time()) {
-            self.publish(solver, Phase::Solving, None);
-        }
-        Flow::Continue
-    }
-
-    fn final_pass(&mut self, what: &str, done: u64, total: u64, _elapsed: Duration) {
-        self.shared.set_final_pass(FinalPassStatus {
-            what: what.to_string(),
-            done,
-            total,
-        });
-    }
-
-    fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
-        self.publish(solver, Phase::Writing, Some(stop));
-        if solver.settings().final_gather != FinalGather::Off {
-            let shared = Arc::clone(&self.shared);
-            shared.draw_frame(solver, self);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::serve::observer::{LiveObserver, Throttle};
     use radiosity::mesh::MeshSettings;
     use radiosity::solver::Settings;
 

@@ -59,8 +59,8 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     /// The last scene uploaded, shared by the solves on this device
-    /// ([`crate::trace::DeviceScene`]).
-    pub(crate) scene: Arc<Mutex<Option<Arc<crate::trace::DeviceScene>>>>,
+    /// ([`crate::device_scene::DeviceScene`]).
+    pub(crate) scene: Arc<Mutex<Option<Arc<crate::device_scene::DeviceScene>>>>,
     /// The transfer kernels, compiled once for the solves on this device.
     pub(crate) pipelines: Arc<Mutex<Option<Arc<crate::gather::Pipelines>>>>,
 }

@@ -5,15 +5,20 @@
 //! Vulkan adapter (Mesa's lavapipe).
 //!
 //! Modules, one concern each: [`adapter`] (choosing and opening a device,
-//! naming it), [`trace`] (shadow segments against the scene: a binary
+//! naming it), [`device_scene`] (the scene's triangles and BVH on the
+//! device), `wgpu_io` (buffers, bindings, readbacks, device errors),
+//! [`gather`] (the default method's transfers), [`trace`] (shadow
+//! segments against the scene: a binary
 //! bounding-volume hierarchy over the surfaces' triangles, the very tree
 //! the CPU's BVH builds, walked by the `occluded` kernel in `trace.wgsl`
 //! with a watertight triangle test). The CPU implementation is the oracle
 //! every kernel is tested against.
 
 pub mod adapter;
+pub mod device_scene;
 pub mod gather;
 pub mod trace;
+mod wgpu_io;
 
 pub use adapter::{DeviceChoice, Gpu, GpuError};
 pub use gather::GpuBackend;

@@ -7,7 +7,7 @@ use super::{
     GpuBin, GpuElement, GpuElementBook, GpuNodeSource, GpuPartial, GpuReceiver, GpuSurface,
     GpuTreeNode,
 };
-use crate::trace;
+use crate::device_scene as trace;
 
 /// What a solve keeps on the device, estimated before it starts: each
 /// buffer's bytes, by name.

@@ -11,10 +11,10 @@ use radiosity::solver::device::AdaptiveSolve;
 use radiosity::solver::hierarchy::NONE;
 
 use super::buffers::{GpuElement, GpuElementBook, GpuPane, GpuReceiver, GpuSurface, GpuTreeNode};
-use crate::trace::split;
+use crate::device_scene::split;
 
 /// A solve's data for the device (the scene's triangles and BVH apart:
-/// [`crate::trace::DeviceScene`]).
+/// [`crate::device_scene::DeviceScene`]).
 pub(super) struct SceneData {
     /// The element tree.
     pub(super) tree: Vec<GpuTreeNode>,

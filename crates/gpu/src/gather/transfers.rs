@@ -24,7 +24,8 @@ use super::kernels::{Growing, Pipelines, Timer, dvec3, split_bytes, state_buffer
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
-use crate::trace::{DeviceScene, catch_uncaptured, entry, nonempty, read_back, split, storage};
+use crate::device_scene::{DeviceScene, split};
+use crate::wgpu_io::{catch_uncaptured, entry, nonempty, read_back, storage};
 
 /// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
 /// `book.wgsl`; the shooters' powers take 64).
