@@ -14,6 +14,7 @@ use clap::{Arg, ArgAction, ArgMatches, Parser, Subcommand};
 use super::values::{fraction, memory_size, metres, positive, positive_real, whole};
 use crate::serve;
 use radiosity::accel::Accel;
+use radiosity::app;
 use radiosity::export::gltf::{BakeMode, BakeTarget};
 use radiosity::export::lightmap;
 use radiosity::final_gather::FinalGather;
@@ -448,12 +449,12 @@ pub struct RenderArgs {
     pub threads: Option<usize>,
 
     /// Picture width in pixels.
-    #[arg(help_heading = "Picture", long, default_value_t = 800, allow_negative_numbers = true,
+    #[arg(help_heading = "Picture", long, default_value_t = app::DEFAULT_PICTURE[0], allow_negative_numbers = true,
           value_parser = positive::<u32>())]
     pub width: u32,
 
     /// Picture height in pixels.
-    #[arg(help_heading = "Picture", long, default_value_t = 600, allow_negative_numbers = true,
+    #[arg(help_heading = "Picture", long, default_value_t = app::DEFAULT_PICTURE[1], allow_negative_numbers = true,
           value_parser = positive::<u32>())]
     pub height: u32,
 

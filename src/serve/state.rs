@@ -241,7 +241,7 @@ impl Shared {
             shutdown_flag: AtomicBool::new(false),
             changed: watch::Sender::new(0),
             closing: watch::Sender::new(false),
-            view_size: Mutex::new([800, 600]),
+            view_size: Mutex::new(app::DEFAULT_PICTURE),
         }
     }
 

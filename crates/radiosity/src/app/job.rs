@@ -15,6 +15,11 @@ use crate::render::{self, Exposure};
 use crate::scene::{Camera, LoadOptions, MeshHint};
 use crate::solver::Settings;
 
+/// A picture's size when none is given (`--width`, `--height`, the live
+/// view's first frame), and the view the bake and the PLY take their
+/// exposure from when no picture is written.
+pub const DEFAULT_PICTURE: [u32; 2] = [800, 600];
+
 /// What to draw and where.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImageJob {

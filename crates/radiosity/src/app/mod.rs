@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 pub use self::bake::{bake_colours, bake_values};
 pub use self::error::Error;
 use self::job::check_output;
-pub use self::job::{BakeJob, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
+pub use self::job::{BakeJob, DEFAULT_PICTURE, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
 pub use self::outcome::{Counts, Outcome, StatsFile};
 pub use self::progress::{FINAL_PASS_INTERVAL, Observer, Progress, ProgressMeter, progress_of};
 

@@ -56,8 +56,8 @@ pub(super) fn write(
     observer.writing("making the outputs");
     let view = job.image.clone().unwrap_or(ImageJob {
         path: PathBuf::new(),
-        width: 800,
-        height: 600,
+        width: super::DEFAULT_PICTURE[0],
+        height: super::DEFAULT_PICTURE[1],
         camera: None,
         supersampling: 1,
         exposure: Exposure::Auto { ev: 0.0 },

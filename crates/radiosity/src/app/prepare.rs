@@ -7,7 +7,7 @@
 use std::time::{Duration, Instant};
 
 use super::job::mesh_error;
-use super::{Counts, Error, Job, Observer};
+use super::{Counts, DEFAULT_PICTURE, Error, Job, Observer};
 use crate::export;
 use crate::export::gltf::BakeTarget;
 use crate::memory;
@@ -213,8 +213,8 @@ fn check_device(
 }
 
 /// The counts a run's memory estimate takes: the meshed scene's, and the
-/// picture drawn for the image, bake or PLY (800 x 600 when none is asked
-/// for, as [`run`] draws it).
+/// picture drawn for the image, bake or PLY ([`DEFAULT_PICTURE`] when none is asked
+/// for, as [`super::run`] draws it).
 fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
     let drawn = job.image.is_some() || job.bake.is_some() || job.ply.is_some();
     let (width, height, supersampling, camera) = match &job.image {
@@ -224,7 +224,7 @@ fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
             image.supersampling,
             image.camera.is_some(),
         ),
-        None => (800, 600, 1, false),
+        None => (DEFAULT_PICTURE[0], DEFAULT_PICTURE[1], 1, false),
     };
     let pixels = if drawn {
         u64::from(width) * u64::from(height)
