@@ -1,12 +1,13 @@
 //! The final pass's direct light at a point: the emitting surfaces in
 //! pieces (the paper's subsources) and the lights with a position, every
 //! one traced or, beyond a point's budget, a cut of the light tree
-//! ([`super::tree`]: Conty Estevez & Kulla 2018, Yuksel 2019); a picture's
-//! pixel shading its samples together: a shaft to each surface first
-//! (Haines & Wallace 1991), probes where something meets it, the rays
-//! of a penumbra last (Wallace, Elmquist & Haines 1989's ray-traced final
-//! display, its shadow rays spent where visibility is partial).
+//! ([`super::tree`]: Conty Estevez & Kulla 2018, Yuksel 2019), each
+//! surface's light as the exact factor times what passes along shadow
+//! rays to points of its pieces (Wallace, Elmquist & Haines 1989's
+//! ray-traced final display). A picture's pixel shading its samples
+//! together is `super::pixel`'s.
 
+use std::borrow::Cow;
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -15,7 +16,6 @@ use rayon::prelude::*;
 
 use super::tree::{Bounds, Pick};
 use super::{EMITTER_SIDE, FinalPass, Point, SAMPLE_SOURCES, SAMPLE_SPLIT, unit};
-use crate::accel::shaft::Shaft;
 use crate::accel::{self, ShadowCache};
 use crate::form_factor;
 use crate::geometry;
@@ -25,29 +25,38 @@ use crate::solver::{Receiver, lights};
 
 /// An emitting surface, set up for points.
 pub(super) struct Emitter {
-    polygon: Vec<DVec3>,
-    normal: DVec3,
-    offset: f64,
-    emission: DVec3,
-    group: u32,
+    pub(super) polygon: Vec<DVec3>,
+    pub(super) normal: DVec3,
+    pub(super) offset: f64,
+    pub(super) emission: DVec3,
+    pub(super) group: u32,
     /// The centre and radius of a sphere holding it.
-    centre: DVec3,
-    radius: f64,
+    pub(super) centre: DVec3,
+    pub(super) radius: f64,
     /// Its pieces at 1 to [`PRESPLIT`] per side (index `side - 1`).
     pieces: Vec<Vec<Piece>>,
 }
 
 impl Emitter {
+    /// Its pieces at `side` per side: set up beforehand up to
+    /// [`PRESPLIT`], made here beyond.
+    pub(super) fn grid(&self, side: u32) -> Cow<'_, [Piece]> {
+        match self.pieces.get(side as usize - 1) {
+            Some(pieces) => Cow::Borrowed(pieces),
+            None => Cow::Owned(pieces(&self.polygon, side)),
+        }
+    }
+
     /// The exact factor (equation (2), [`form_factor::analytic::analytic_facing_fast`])
     /// from a point (normal `normal`) to `polygon`, the emitter or a
     /// piece of it, clipped to the point's front.
-    fn factor(&self, point: DVec3, normal: DVec3, polygon: &[DVec3]) -> f64 {
+    pub(super) fn factor(&self, point: DVec3, normal: DVec3, polygon: &[DVec3]) -> f64 {
         form_factor::analytic::analytic_facing_fast(point, normal, polygon, self.normal)
     }
 
     /// Whether it can send light to `r`: another surface, `r` before its
     /// front, some of it before `r`'s.
-    fn faces(&self, r: &Receiver) -> bool {
+    pub(super) fn faces(&self, r: &Receiver) -> bool {
         r.group != self.group
             && self.normal.dot(r.point) - self.offset > 0.0
             && self
@@ -71,8 +80,9 @@ pub(super) enum Source {
 const TREE_STREAM: u64 = 1 << 40;
 
 /// A piece of an emitting surface.
-struct Piece {
-    polygon: Vec<DVec3>,
+#[derive(Clone)]
+pub(super) struct Piece {
+    pub(super) polygon: Vec<DVec3>,
     centroid: DVec3,
     area: f64,
 }
@@ -207,172 +217,8 @@ impl FinalPass<'_> {
         light
     }
 
-    /// [`FinalPass::direct_light`] of picture samples when every source is
-    /// traced, a pixel's samples together (consecutive points with one
-    /// seed), pixels in groups of [`PIXEL_GROUP`]. For each emitting
-    /// surface, a shaft from the group's samples to it, then from each
-    /// pixel's where the group's is not clear ([`FinalPass::clear_view`]):
-    /// where it is clear, the surface is wholly in view and no ray is
-    /// cast. Otherwise each sample probes it with one ray, the pixel's
-    /// samples taking the cells of an `s x s` grid over it; if every probe
-    /// lets the same through (the surface wholly hidden, or behind the
-    /// same glass), each sample takes the surface's exact factor times
-    /// that (no noise); otherwise (a penumbra) each sample takes its
-    /// [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays as alone. A surface
-    /// partly hidden from a pixel by something that meets the shaft but
-    /// no probe is taken as wholly in view (or hidden): the probes are a
-    /// grid of `s^2` cells over it, a point drawn in each. The exact
-    /// factor is the pixel's ([`PIXEL_SHARE`]) where its samples allow.
-    fn pixels_light(
-        &self,
-        receivers: &[Receiver],
-        points: &[Point],
-        emitters_only: bool,
-    ) -> Vec<DVec3> {
-        let mut starts = vec![0];
-        for i in 1..points.len() {
-            if points[i].seed != points[i - 1].seed {
-                starts.push(i);
-            }
-        }
-        starts.push(points.len());
-        // Pixels in groups of [`PIXEL_GROUP`] (a stretch of a row): one
-        // shaft for the group first, then one for each pixel where that
-        // one is not clear.
-        let bounds: Vec<(usize, usize)> = starts.windows(2).map(|w| (w[0], w[1])).collect();
-        let light: Vec<Vec<DVec3>> = bounds
-            .par_chunks(PIXEL_GROUP)
-            .map_init(
-                || RefCell::new(ShadowCache::default()),
-                |cache, pixels| {
-                    let (start, end) = (pixels[0].0, pixels[pixels.len() - 1].1);
-                    let (rs, ps) = (&receivers[start..end], &points[start..end]);
-                    let mut out = vec![DVec3::ZERO; rs.len()];
-                    if self.stopping() {
-                        return out;
-                    }
-                    for (o, r) in out.iter_mut().zip(rs) {
-                        for &sun in self.suns.iter().filter(|_| !emitters_only) {
-                            cache.borrow_mut().from_origin(u32::MAX);
-                            *o += lights::direct_at(
-                                &self.scene.lights[sun],
-                                r,
-                                self.scene,
-                                self.occluder,
-                                self.reach,
-                                &mut cache.borrow_mut(),
-                            );
-                        }
-                    }
-                    let group = (pixels.len() > 1).then(|| Pixel::of(rs, ps));
-                    let each: Vec<Pixel> = pixels
-                        .iter()
-                        .map(|&(a, b)| Pixel::of(&receivers[a..b], &points[a..b]))
-                        .collect();
-                    let mut probes = Vec::new();
-                    for k in 0..self.sources.len() as u32 {
-                        let Source::Emitter(e) = self.sources[k as usize] else {
-                            if !emitters_only {
-                                for ((o, r), p) in out.iter_mut().zip(rs).zip(ps) {
-                                    *o += self.source_light(k, r, p.sample, p.seed, cache);
-                                }
-                            }
-                            continue;
-                        };
-                        let e = &self.emitters[e];
-                        cache.borrow_mut().from_origin(k);
-                        let group_clear = group
-                            .as_ref()
-                            .is_some_and(|g| g.all_face(e, rs) && self.clear_view(e, g, cache));
-                        for (&(a, b), pixel) in pixels.iter().zip(&each) {
-                            let at = a - start..b - start;
-                            self.pixel_light(
-                                k,
-                                e,
-                                (&rs[at.clone()], &ps[at.clone()], pixel),
-                                group_clear,
-                                &mut out[at],
-                                &mut probes,
-                                cache,
-                            );
-                        }
-                    }
-                    out
-                },
-            )
-            .collect();
-        self.shaded
-            .fetch_add(receivers.len() as u64, Ordering::Relaxed);
-        light.into_iter().flatten().collect()
-    }
-
-    /// What emitter `e` (source `k`) sends to a pixel's samples `rs`
-    /// (points `ps`, seen together as `pixel`), added to `out`
-    /// ([`FinalPass::pixels_light`]); `clear` where a shaft around more
-    /// than the pixel was found clear of `e` already.
-    #[allow(clippy::too_many_arguments)]
-    fn pixel_light(
-        &self,
-        k: u32,
-        e: &Emitter,
-        (rs, ps, pixel): (&[Receiver], &[Point], &Pixel),
-        clear: bool,
-        out: &mut [DVec3],
-        probes: &mut Vec<Option<DVec3>>,
-        cache: &RefCell<ShadowCache>,
-    ) {
-        probes.clear();
-        let mut seen = Seen::Nothing;
-        let all_face = pixel.all_face(e, rs);
-        cache.borrow_mut().from_origin(k);
-        if all_face && (clear || self.clear_view(e, pixel, cache)) {
-            // Nothing stands between the pixel and the surface: no probe
-            // needed.
-            seen = Seen::All(DVec3::ONE);
-        } else {
-            for (r, p) in rs.iter().zip(ps) {
-                cache.borrow_mut().from_origin(k);
-                let probe = self.probe(e, r, p.sample, p.seed, cache);
-                if let Some(passed) = probe {
-                    seen = seen.and(passed);
-                }
-                probes.push(probe);
-            }
-            // A lone sample's probe says nothing of the rest of the
-            // surface: it takes its own rays.
-            if rs.len() < 2 && seen != Seen::Nothing {
-                seen = Seen::Mixed;
-            }
-        }
-        match seen {
-            // Nothing in front, or wholly hidden.
-            Seen::Nothing => {}
-            Seen::All(passed) if passed == DVec3::ZERO => {}
-            // Wholly in view (or behind the same glass): the exact factor
-            // times what passes, one for the pixel where its samples are
-            // close enough together.
-            Seen::All(passed) => {
-                let shared = pixel_factor(e, pixel, all_face);
-                for (o, r) in out.iter_mut().zip(rs) {
-                    if e.faces(r) {
-                        let whole =
-                            shared.unwrap_or_else(|| e.factor(r.point, r.normal, &e.polygon));
-                        *o += e.emission * passed * whole.max(0.0);
-                    }
-                }
-            }
-            Seen::Mixed => {
-                let shared = pixel_shares(e, pixel, all_face, ps);
-                for ((o, r), p) in out.iter_mut().zip(rs).zip(ps) {
-                    cache.borrow_mut().from_origin(k);
-                    *o += self.emitter_light_shared(e, r, p.sample, p.seed, cache, shared.as_ref());
-                }
-            }
-        }
-    }
-
     /// What source `k` sends to `r` (its shadow rays through `cache`).
-    fn source_light(
+    pub(super) fn source_light(
         &self,
         k: u32,
         r: &Receiver,
@@ -483,34 +329,11 @@ impl FinalPass<'_> {
         }
     }
 
-    /// Whether nothing stands between `pixel`'s samples (all facing
-    /// emitter `e`) and `e`: no surface but theirs and its meets the shaft
-    /// between the ball holding them and `e` ([`Shaft`]), and no glass
-    /// could dim the light. One walk of the tree for what would be a
-    /// probe ray a sample.
-    fn clear_view(&self, e: &Emitter, pixel: &Pixel, cache: &RefCell<ShadowCache>) -> bool {
-        let Some(group) = pixel.group else {
-            return false;
-        };
-        if !self.scene.panes.is_empty() {
-            return false;
-        }
-        Shaft::around(pixel.centre, pixel.radius, &e.polygon, e.normal, e.centre)
-            .map(|shaft| match pixel.normal {
-                Some(normal) => shaft.on_plane(normal, &e.polygon),
-                None => shaft,
-            })
-            .is_some_and(|shaft| {
-                self.occluder
-                    .shaft_clear(&shaft, [e.group, group], &mut cache.borrow_mut())
-            })
-    }
-
     /// What passes from `at` (a point of `piece`, or its centroid when
     /// `None`) to `r`; a piece crossing `r`'s tangent plane is seen from
     /// its clipped part's centroid when `at` lies behind. `None` where
     /// nothing of the piece lies before `r`.
-    fn passed_from(
+    pub(super) fn passed_from(
         &self,
         e: &Emitter,
         r: &Receiver,
@@ -533,44 +356,6 @@ impl FinalPass<'_> {
         Some(self.passed(e, r, c, cache))
     }
 
-    /// A picture's sample's probe of emitter `e`: what passes along one
-    /// shadow ray from a point drawn in the sample's cell of an `s x s`
-    /// grid over it (`s^2 >= n`, the pixel's samples taking the cells in
-    /// turn from a place of the pixel's own); `None` where nothing of it
-    /// lies before `r`. The rays are those of
-    /// [`FinalPass::emitter_light_split`] with one ray a sample.
-    fn probe(
-        &self,
-        e: &Emitter,
-        r: &Receiver,
-        sample: Option<(u32, u32)>,
-        seed: u64,
-        cache: &RefCell<ShadowCache>,
-    ) -> Option<DVec3> {
-        let (k, n) = sample?;
-        if !e.faces(r) {
-            return None;
-        }
-        let side = (f64::from(n.max(1)).sqrt().ceil() as u32).max(1);
-        let own;
-        let pieces = match e.pieces.get(side as usize - 1) {
-            Some(pieces) => pieces,
-            None => {
-                own = pieces(&e.polygon, side);
-                &own
-            }
-        };
-        let count = pieces.len() as u64;
-        if count == 0 {
-            return None;
-        }
-        let index = (u64::from(k) + seed % count) % count;
-        let piece = &pieces[index as usize];
-        let stream = u64::from(k) * 2 + 2;
-        let at = point_in(&piece.polygon, unit(seed, stream), unit(seed, stream + 1));
-        self.passed_from(e, r, &piece.polygon, Some(at), cache)
-    }
-
     /// What emitter `e` sends to `r`: a picture's sample casts
     /// [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] rays (`shared`: the exact
     /// factor and the pieces' shares its pixel's samples share, from
@@ -587,7 +372,7 @@ impl FinalPass<'_> {
         self.emitter_light_shared(e, r, sample, seed, cache, None)
     }
 
-    fn emitter_light_shared(
+    pub(super) fn emitter_light_shared(
         &self,
         e: &Emitter,
         r: &Receiver,
@@ -608,15 +393,7 @@ impl FinalPass<'_> {
             // pixel's samples taking them in turn from a place of the
             // pixel's own, seen from a point drawn uniformly in it.
             Some((k, n)) => {
-                let side = sample_side(n);
-                let own;
-                let pieces = match e.pieces.get(side as usize - 1) {
-                    Some(pieces) => pieces,
-                    None => {
-                        own = pieces(&e.polygon, side);
-                        &own
-                    }
-                };
+                let pieces = e.grid(sample_side(n));
                 let count = pieces.len() as u64;
                 if count == 0 {
                     return DVec3::ZERO;
@@ -632,7 +409,7 @@ impl FinalPass<'_> {
                 let shares = match shared {
                     Some(shares) => shares,
                     None => {
-                        let Some(shares) = Shares::at(e, r.point, r.normal, pieces) else {
+                        let Some(shares) = Shares::at(e, r.point, r.normal, &pieces) else {
                             return DVec3::ZERO;
                         };
                         own_shares = shares;
@@ -672,16 +449,22 @@ impl FinalPass<'_> {
     }
 }
 
+/// Side of the grid of cells a pixel's `n` samples take one each of
+/// (`side^2 >= n`): their probes' grid.
+pub(super) fn cells_side(n: u32) -> u32 {
+    (f64::from(n.max(1)).sqrt().ceil() as u32).max(1)
+}
+
 /// Side of the grid of pieces a picture's samples (`n` to a pixel) take
 /// [`SAMPLE_SPLIT`]` x `[`SAMPLE_SPLIT`] each of.
-fn sample_side(n: u32) -> u32 {
-    (f64::from(n.max(1)).sqrt().ceil() as u32).max(1) * SAMPLE_SPLIT
+pub(super) fn sample_side(n: u32) -> u32 {
+    cells_side(n) * SAMPLE_SPLIT
 }
 
 /// An emitter's exact factor at a point and its pieces' shares of it
 /// (each piece's point factor over their sum), at one sample or for a
 /// whole pixel.
-struct Shares {
+pub(super) struct Shares {
     whole: f64,
     /// Each piece's share; empty when each is worked out as asked for.
     shares: Vec<f64>,
@@ -709,7 +492,12 @@ impl Shares {
     }
 
     /// [`Shares::at`] with every piece's share worked out at once.
-    fn listed(e: &Emitter, point: DVec3, normal: DVec3, pieces: &[Piece]) -> Option<Shares> {
+    pub(super) fn listed(
+        e: &Emitter,
+        point: DVec3,
+        normal: DVec3,
+        pieces: &[Piece],
+    ) -> Option<Shares> {
         let whole = e.factor(point, normal, &e.polygon);
         if whole <= 0.0 {
             return None;
@@ -746,119 +534,6 @@ fn point_factor(piece: &Piece, point: DVec3, normal: DVec3, e: &Emitter) -> f64 
     let d2 = d.length_squared();
     let cosines = (normal.dot(d) * -e.normal.dot(d)).max(0.0);
     piece.area * cosines / (d2 * d2)
-}
-
-/// What the shadow rays of one estimate saw.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Seen {
-    /// No ray was cast (nothing of the source in front).
-    Nothing,
-    /// Every ray let the same through.
-    All(DVec3),
-    /// Rays let different amounts through: a penumbra.
-    Mixed,
-}
-
-impl Seen {
-    /// Both: one ray's `passed` after these.
-    fn and(self, passed: DVec3) -> Seen {
-        match self {
-            Seen::Nothing => Seen::All(passed),
-            Seen::All(v) if v == passed => self,
-            _ => Seen::Mixed,
-        }
-    }
-}
-
-/// Pixels of a picture whose shafts to an emitter are tested together
-/// first ([`FinalPass::pixels_light`]).
-const PIXEL_GROUP: usize = 4;
-
-/// A pixel's samples share one exact factor of an emitter when they lie
-/// within this fraction of their distance to it of their centroid.
-///
-/// The mean of the factor over the samples is its value at their centroid
-/// plus a term of the second order in their spread: for a factor falling
-/// as a power of the distance, within `10 (spread / distance)^2` of it,
-/// 0.1% here, where the picture shows the mean.
-pub const PIXEL_SHARE: f64 = 0.01;
-
-/// A pixel's samples seen together: the ball holding them, and what they
-/// have in common.
-struct Pixel {
-    centre: DVec3,
-    /// Every sample lies within this of the centre (and a hair more).
-    radius: f64,
-    /// Their normal, where they lie on one surface.
-    normal: Option<DVec3>,
-    /// Their surface's id, where they share one.
-    group: Option<u32>,
-}
-
-impl Pixel {
-    fn of(rs: &[Receiver], ps: &[Point]) -> Pixel {
-        let centre = rs.iter().map(|r| r.point).sum::<DVec3>() / rs.len().max(1) as f64;
-        let radius = rs
-            .iter()
-            .map(|r| r.point.distance(centre))
-            .fold(0.0, f64::max)
-            * (1.0 + 1e-9);
-        let first = rs.first();
-        let one_surface = !rs.is_empty()
-            && ps.iter().all(|p| p.surface == ps[0].surface)
-            && rs.iter().all(|r| Some(r.normal) == first.map(|f| f.normal));
-        Pixel {
-            centre,
-            radius,
-            normal: first.filter(|_| one_surface).map(|r| r.normal),
-            group: first
-                .filter(|f| rs.iter().all(|r| r.group == f.group))
-                .map(|r| r.group),
-        }
-    }
-
-    /// Whether every sample `rs` faces `e` ([`Emitter::faces`]): for the
-    /// whole ball at once where the samples share a surface, else one by
-    /// one.
-    fn all_face(&self, e: &Emitter, rs: &[Receiver]) -> bool {
-        if let (Some(normal), Some(group)) = (self.normal, self.group) {
-            let ahead = e.normal.dot(self.centre) - e.offset > self.radius;
-            let seen = e
-                .polygon
-                .iter()
-                .any(|c| normal.dot(*c - self.centre) > self.radius);
-            if group != e.group && ahead && seen {
-                return true;
-            }
-        }
-        !rs.is_empty() && rs.iter().all(|r| e.faces(r))
-    }
-}
-
-/// Where a pixel's samples may share what they see of `e` (its exact
-/// factor, its pieces' shares): their centroid and normal, where they lie
-/// on one surface and face `e` together (`all_face`), within
-/// [`PIXEL_SHARE`] of their distance to it of the centroid; `None`
-/// otherwise (each sample takes its own).
-fn pixel_centre(e: &Emitter, pixel: &Pixel, all_face: bool) -> Option<(DVec3, DVec3)> {
-    let normal = pixel.normal.filter(|_| all_face)?;
-    let distance = pixel.centre.distance(e.centre) - e.radius;
-    (pixel.radius <= PIXEL_SHARE * distance).then_some((pixel.centre, normal))
-}
-
-/// The exact factor of `e` a pixel's samples share ([`pixel_centre`]).
-fn pixel_factor(e: &Emitter, pixel: &Pixel, all_face: bool) -> Option<f64> {
-    let (centre, normal) = pixel_centre(e, pixel, all_face)?;
-    Some(e.factor(centre, normal, &e.polygon))
-}
-
-/// The exact factor and pieces' shares of `e` a pixel's samples share
-/// ([`pixel_centre`]), for samples that cast their own rays.
-fn pixel_shares(e: &Emitter, pixel: &Pixel, all_face: bool, ps: &[Point]) -> Option<Shares> {
-    let (centre, normal) = pixel_centre(e, pixel, all_face)?;
-    let (_, n) = ps[0].sample?;
-    let pieces = e.pieces.get(sample_side(n) as usize - 1)?;
-    Shares::listed(e, centre, normal, pieces)
 }
 
 /// The scene's emitting surfaces.
@@ -1000,7 +675,7 @@ fn clip_front(polygon: &[DVec3], r: &Receiver) -> Vec<DVec3> {
 
 /// The point at `(u, v)` in `[0, 1)^2` of a triangle (uniform by area) or
 /// a quad (bilinear: uniform by area on a parallelogram).
-fn point_in(piece: &[DVec3], u: f64, v: f64) -> DVec3 {
+pub(super) fn point_in(piece: &[DVec3], u: f64, v: f64) -> DVec3 {
     if piece.len() == 4 {
         let bottom = piece[0].lerp(piece[1], u);
         let top = piece[3].lerp(piece[2], u);

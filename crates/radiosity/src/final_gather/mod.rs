@@ -85,10 +85,11 @@ use crate::scene::{Scene, glass};
 use crate::solver::{Receiver, Solver, lights, surface_receivers};
 
 mod direct;
+mod pixel;
 pub mod tree;
 
-pub use self::direct::PIXEL_SHARE;
 use self::direct::{Emitter, Source, emitters, sources};
+pub use self::pixel::PIXEL_SHARE;
 use self::tree::LightTree;
 
 pub use crate::solver::FinalGather;
