@@ -30,6 +30,7 @@ use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
 fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
     let source = [
         include_str!("../src/trace.wgsl"),
+        include_str!("../src/gather/polygon.wgsl"),
         include_str!("../src/gather/gather.wgsl"),
         include_str!("../src/gather/book.wgsl"),
     ]

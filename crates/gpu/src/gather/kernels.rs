@@ -79,6 +79,7 @@ impl Pipelines {
     pub(super) fn new(gpu: &Gpu) -> Pipelines {
         let source = [
             include_str!("../trace.wgsl"),
+            include_str!("polygon.wgsl"),
             include_str!("gather.wgsl"),
             include_str!("book.wgsl"),
         ]
