@@ -305,6 +305,7 @@ fn serve(args: &ServeArgs) -> Result<()> {
             camera: job.image.as_ref().and_then(|i| i.camera),
             ambient: !args.render.no_ambient,
             exposure: args.render.exposure,
+            final_gather: job.final_gather,
         },
         &args.pause_at,
     )?;

@@ -10,6 +10,7 @@ use anyhow::{Result, anyhow};
 use super::args::{OnOff, RenderArgs};
 use radiosity::app::{BakeJob, ImageJob, Job, SensorJob};
 use radiosity::export::lightmap::AtlasSettings;
+use radiosity::final_gather::FinalGather;
 use radiosity::mesh::MAX_REFINE_LEVELS;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Limits};
@@ -105,9 +106,6 @@ impl RenderArgs {
         if let Some(converge) = self.converge {
             settings.converge = converge;
         }
-        if let Some(final_gather) = self.final_gather {
-            settings.final_gather = final_gather;
-        }
         if let Some(levels) = self.refine_levels {
             if levels > MAX_REFINE_LEVELS {
                 return Err(anyhow!(
@@ -162,6 +160,9 @@ impl RenderArgs {
             settings,
             patch_size: self.patch_size,
             element_size: self.element_size,
+            final_gather: self
+                .final_gather
+                .unwrap_or(FinalGather::of_preset(self.preset)),
             image: Some(ImageJob {
                 path: self
                     .output

@@ -173,7 +173,7 @@ impl Observer for LiveObserver {
 
     fn finished(&mut self, solver: &Solver<'_>, stop: StopReason) {
         self.publish(solver, Phase::Writing, Some(stop));
-        if solver.settings().final_gather != FinalGather::Off {
+        if self.shared.final_gather() != FinalGather::Off {
             let shared = Arc::clone(&self.shared);
             shared.draw_frame(solver, self);
         }

@@ -16,7 +16,7 @@ use tokio::sync::watch;
 
 use super::wire::{self, Rgbe};
 use radiosity::app::{self, Counts, Observer, Outcome};
-use radiosity::final_gather::FinalPass;
+use radiosity::final_gather::{FinalGather, FinalPass};
 use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Scene};
@@ -164,6 +164,9 @@ pub struct Display {
     pub ambient: bool,
     /// Stops on top of automatic exposure.
     pub exposure: f64,
+    /// What the final picture shows (the job's `--final-gather`): with
+    /// `off`, the page's own picture of the mesh is the last word.
+    pub final_gather: FinalGather,
 }
 
 struct Inner {
@@ -243,6 +246,11 @@ impl Shared {
             closing: watch::Sender::new(false),
             view_size: Mutex::new(app::DEFAULT_PICTURE),
         }
+    }
+
+    /// What the final picture shows ([`Display::final_gather`]).
+    pub fn final_gather(&self) -> FinalGather {
+        self.display.final_gather
     }
 
     fn lock(&self) -> MutexGuard<'_, Inner> {
@@ -383,7 +391,7 @@ impl Shared {
             .view_size
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let mut pass = FinalPass::new(solver, solver.settings().final_gather);
+        let mut pass = FinalPass::new(solver, self.display.final_gather);
         if let Some(flag) = observer.abort() {
             pass.stop_on(flag);
         }
@@ -595,6 +603,7 @@ mod tests {
             camera: None,
             ambient: true,
             exposure: 0.0,
+            final_gather: FinalGather::Direct,
         };
         let shared = Shared::new(display, &[5, 0, 9, 5]);
         let paused = |shared: &Shared| shared.pause_flag.load(Ordering::SeqCst);
@@ -625,6 +634,7 @@ mod tests {
             camera: None,
             ambient: true,
             exposure: 0.0,
+            final_gather: FinalGather::Direct,
         };
         let shared = Arc::new(Shared::new(display, &[]));
         assert_eq!(shared.current().0.final_pass, None);
@@ -654,6 +664,7 @@ mod tests {
             camera: None,
             ambient: true,
             exposure: 0.0,
+            final_gather: FinalGather::Direct,
         };
         let shared = Arc::new(Shared::new(display, &[]));
         let observer = LiveObserver::new(Arc::clone(&shared));
@@ -676,6 +687,7 @@ mod tests {
             camera: None,
             ambient: true,
             exposure: 0.0,
+            final_gather: FinalGather::Direct,
         };
         let shared = Shared::new(display, &[]);
         shared.set_phase(Phase::Solving);

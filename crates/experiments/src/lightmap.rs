@@ -29,7 +29,7 @@ use radiosity::render::Shade;
 use radiosity::scene::sky::Daylight;
 use radiosity::scene::{self, LoadOptions};
 use radiosity::sensors::{self, SensorPoint};
-use radiosity::solver::{Settings, Solver};
+use radiosity::solver::{Preset, Settings, Solver};
 
 use crate::validate::{solve_then, uniform};
 use crate::{Context, Error, Report, table};
@@ -266,7 +266,7 @@ pub fn measure(context: &Context, case: &Case) -> Result<Row, Error> {
     // The bake under the default final pass (the direct light at each
     // texel), made while the solver is there.
     let bake_with = |solver: &Solver<'_>| {
-        let pass = FinalPass::new(solver, solver.settings().final_gather);
+        let pass = FinalPass::new(solver, FinalGather::of_preset(Preset::Adaptive));
         let values = pass.vertex_display(solver.radiosity(), DVec3::ZERO);
         let shade = |p: &[Point]| pass.shade(p);
         let bake = LightmapBake {

@@ -33,7 +33,7 @@ use radiosity::scene::sky::{
 };
 use radiosity::scene::{self, Camera, LoadOptions, Scene, builtin};
 use radiosity::sensors::{self, SensorPoint};
-use radiosity::solver::{Flow, Preset, Settings, Solver, refine};
+use radiosity::solver::{Flow, Preset, Settings, Shooting, Solver, refine};
 use radiosity::view;
 
 /// A scene of the experiments and where its OBJ comes from.
@@ -334,6 +334,9 @@ pub fn solve_then<T>(
     } else {
         sensors::receivers(&scene, points, Path::new("sensor points")).map_err(app::Error::from)?
     };
+    // The rows of the default method show the final pass; the paper's
+    // presets' rows their mesh's values, as the paper did.
+    let shows_final_pass = settings.method.shooting() == Shooting::Adaptive;
     let mut settings = settings.clone();
     let sized = settings.mesh.sized_for(&scene);
     settings.mesh = MeshSettings {
@@ -352,7 +355,7 @@ pub fn solve_then<T>(
     solver.run(|_| Flow::Continue);
     let solve_seconds = start.elapsed().as_secs_f64();
     let sensor_irradiance = solver.sensor_irradiance().to_vec();
-    let sensor_full = if points.is_empty() || solver.settings().final_gather == FinalGather::Off {
+    let sensor_full = if points.is_empty() || !shows_final_pass {
         Vec::new()
     } else {
         FinalPass::new(&solver, FinalGather::Full).sensors(&solver)

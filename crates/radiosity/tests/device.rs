@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use radiosity::app::{self, Error, ImageJob, Job};
+use radiosity::final_gather::FinalGather;
 use radiosity::mesh::Mesh;
 use radiosity::render::Exposure;
 use radiosity::scene::{LoadOptions, Scene};
@@ -50,6 +51,7 @@ fn job(dir: &Path, device: Device) -> Job {
         },
         patch_size: None,
         element_size: None,
+        final_gather: FinalGather::Direct,
         image: Some(ImageJob {
             path: dir.join("out.png"),
             width: 16,

@@ -14,6 +14,7 @@ use common::test_data;
 use glam::DVec3;
 use radiosity::app::{self, BakeJob, ImageJob, Job};
 use radiosity::export::gltf::BakeMode;
+use radiosity::final_gather::FinalGather;
 use radiosity::render::Exposure;
 use radiosity::scene::{self, LoadOptions};
 use radiosity::solver::Settings;
@@ -83,6 +84,7 @@ fn job(scene: &str, dir: &Path, bake: Option<(&str, BakeMode)>, image: &str) -> 
         },
         patch_size: None,
         element_size: None,
+        final_gather: FinalGather::Off,
         image: Some(ImageJob {
             path: dir.join(image),
             width: 120,

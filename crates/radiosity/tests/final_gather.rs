@@ -12,7 +12,7 @@ use radiosity::form_factor::closed_form;
 use radiosity::mesh::Mesh;
 use radiosity::render::{self, RenderSettings};
 use radiosity::scene::{Camera, Light, LightKind};
-use radiosity::solver::{Settings, Solver};
+use radiosity::solver::{Preset, Settings, Solver};
 
 use common::{quad, scene_of};
 
@@ -36,7 +36,10 @@ fn ramp_width(image: &render::Image, pixels: impl Iterator<Item = (u32, u32)>, l
 fn a_sun_shadow_edge_is_at_most_two_pixels_wide() {
     let scene = common::board_in_the_sun();
     let settings = Settings::adaptive();
-    assert_eq!(settings.final_gather, FinalGather::Direct);
+    assert_eq!(
+        FinalGather::of_preset(Preset::Adaptive),
+        FinalGather::Direct
+    );
     let mut mesh_settings = settings.mesh;
     let hint = scene.default_mesh_sizes();
     mesh_settings.patch_size = hint.patch_size;

@@ -3,6 +3,7 @@
 //! wall, and the picture is neither black nor saturated.
 
 use radiosity::app::{self, ImageJob, Job};
+use radiosity::final_gather::FinalGather;
 use radiosity::render::Exposure;
 use radiosity::solver::Settings;
 
@@ -28,6 +29,7 @@ fn cornell_box_red_wall_is_redder_and_exposure_is_sane() {
         },
         patch_size: None,
         element_size: None,
+        final_gather: FinalGather::Off,
         image: Some(ImageJob {
             path: path.clone(),
             width: 96,

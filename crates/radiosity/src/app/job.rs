@@ -10,6 +10,7 @@ use super::Error;
 use crate::export;
 use crate::export::gltf::{BakeMode, BakeTarget};
 use crate::export::lightmap::{self, AtlasSettings};
+use crate::final_gather::FinalGather;
 use crate::mesh::{MeshError, MeshSettings};
 use crate::render::{self, Exposure};
 use crate::scene::{Camera, LoadOptions, MeshHint};
@@ -53,6 +54,9 @@ pub struct Job {
     pub patch_size: Option<f64>,
     /// `--element-size`; `None` takes the scene's suggestion.
     pub element_size: Option<f64>,
+    /// What pictures, lightmap texels and sensors show (`--final-gather`;
+    /// [`FinalGather::of_preset`] when not given).
+    pub final_gather: FinalGather,
     /// The picture, if any.
     pub image: Option<ImageJob>,
     /// `--vertices FILE.csv`.
@@ -312,6 +316,7 @@ mod tests {
             settings: Settings::adaptive(),
             patch_size,
             element_size,
+            final_gather: FinalGather::Direct,
             image: None,
             vertices_csv: None,
             stats_json: None,

@@ -23,7 +23,7 @@ pub use self::bake::{bake_colours, bake_values};
 pub use self::error::Error;
 use self::job::check_output;
 pub use self::job::{BakeJob, DEFAULT_PICTURE, ImageJob, Job, MAX_SAMPLES, SensorJob, validate};
-pub use self::outcome::{Counts, Outcome, StatsFile};
+pub use self::outcome::{Counts, Outcome, RunSettings, StatsFile};
 pub use self::progress::{FINAL_PASS_INTERVAL, Observer, Progress, ProgressMeter, progress_of};
 
 use crate::export::{self, Staged};
@@ -228,7 +228,7 @@ fn report(
     outcome.write_time = write_start.elapsed();
     if let Some(path) = &job.stats_json {
         outcome.total_time = start.elapsed();
-        let file = StatsFile::of(&prepared.settings, &outcome);
+        let file = StatsFile::of(&prepared.settings, job.final_gather, &outcome);
         staged.push(
             Staged::write(path, |w| file.write(w)).map_err(|source| Error::Output {
                 path: path.clone(),

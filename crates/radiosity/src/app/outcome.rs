@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use crate::final_gather::FinalGather;
 use crate::memory;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -223,7 +224,7 @@ pub struct StatsFile {
     /// ([`crate::accel::Occluder::build_statistics`]).
     pub accel_build: std::collections::BTreeMap<&'static str, usize>,
     /// The settings in force, the mesh sizes being those the run used.
-    pub settings: Settings,
+    pub settings: RunSettings,
     /// The scene's lights that are not surfaces (point, spot, sun, sky,
     /// IES) and the power each sent.
     pub lights: Vec<LightPower>,
@@ -250,6 +251,17 @@ pub struct StatsFile {
     pub device_stage_seconds: Option<std::collections::BTreeMap<&'static str, f64>>,
 }
 
+/// The settings of a run as the statistics file gives them: one flat
+/// object, the solve's settings and the job's final pass beside them.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RunSettings {
+    /// The solve's settings.
+    #[serde(flatten)]
+    pub solve: Settings,
+    /// What the outputs showed (`--final-gather`).
+    pub final_gather: FinalGather,
+}
+
 /// A run's method counters with every other method's at zero, as a map.
 fn all_counters<S: serde::Serializer>(
     counters: &[(&'static str, Counter)],
@@ -271,9 +283,10 @@ fn all_counters<S: serde::Serializer>(
 }
 
 impl StatsFile {
-    /// The statistics of a run that used `settings`.
+    /// The statistics of a run that solved with `settings` and showed its
+    /// results through the final pass `final_gather`.
     #[must_use]
-    pub fn of(settings: &Settings, outcome: &Outcome) -> StatsFile {
+    pub fn of(settings: &Settings, final_gather: FinalGather, outcome: &Outcome) -> StatsFile {
         StatsFile {
             scene: outcome.scene.clone(),
             counts: outcome.counts,
@@ -292,7 +305,10 @@ impl StatsFile {
             estimated_memory_bytes: outcome.memory_estimate.total(),
             threads: outcome.threads,
             accel_build: outcome.accel_statistics.iter().copied().collect(),
-            settings: settings.clone(),
+            settings: RunSettings {
+                solve: settings.clone(),
+                final_gather,
+            },
             lights: outcome.lights.clone(),
             lightmap: outcome.lightmap.clone(),
             device: outcome

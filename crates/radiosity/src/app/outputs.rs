@@ -76,7 +76,7 @@ pub(super) fn write(
         .as_ref()
         .is_some_and(|b| b.target == BakeTarget::Lightmap);
     let drawn = job.image.is_some() || job.bake.is_some() || job.ply.is_some();
-    let final_gather = prepared.settings.final_gather;
+    let final_gather = job.final_gather;
     let final_start = Instant::now();
     let pass = (final_gather != FinalGather::Off && (drawn || lightmap || job.sensors.is_some()))
         .then(|| {
@@ -323,9 +323,7 @@ fn sensor_values(
     let (job, prepared, solver) = (shown.job, shown.prepared, shown.solver);
     let start = Instant::now();
     let irradiance = match &shown.pass {
-        Some(pass)
-            if prepared.settings.final_gather == FinalGather::Full && job.sensors.is_some() =>
-        {
+        Some(pass) if job.final_gather == FinalGather::Full && job.sensors.is_some() => {
             let count = AtomicU64::new(prepared.sensor_receivers.len() as u64);
             with_progress(observer, "sensors", pass, &count, || pass.sensors(solver))
         }

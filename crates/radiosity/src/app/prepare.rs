@@ -251,7 +251,7 @@ fn memory_sizes(job: &Job, scene: &Scene, mesh: &Mesh) -> memory::Sizes {
                 let cap = u64::from(b.lightmap.max_size).pow(2);
                 (2.0 * area * b.lightmap.density.powi(2)).min(cap as f64) as u64
             }),
-        final_gather: job.settings.final_gather,
+        final_gather: job.final_gather,
         going_on: None,
     }
 }

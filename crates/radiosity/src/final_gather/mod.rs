@@ -92,7 +92,34 @@ use self::direct::{Emitter, Source, emitters, sources};
 pub use self::pixel::PIXEL_SHARE;
 use self::tree::LightTree;
 
-pub use crate::solver::FinalGather;
+use crate::solver::Preset;
+
+crate::choice::named_choice! {
+    /// What pictures, lightmap texels and sensors show (`--final-gather`):
+    /// a setting of the job, not of the solve, whose results it only reads.
+    pub enum FinalGather: "final gather" {
+        /// The mesh's values (the paper's display).
+        Off = "off",
+        /// Direct light at the point shown, the mesh's indirect part.
+        Direct = "direct",
+        /// Direct light at the point shown, the mesh's reflected light
+        /// gathered over its hemisphere.
+        Full = "full",
+    }
+}
+
+impl FinalGather {
+    /// What `preset` shows when `--final-gather` is not given: the paper's
+    /// presets their mesh's values (`off`, their figures as the paper drew
+    /// them), the default the direct light at each point (`direct`).
+    #[must_use]
+    pub fn of_preset(preset: Preset) -> FinalGather {
+        match preset {
+            Preset::Adaptive => FinalGather::Direct,
+            Preset::WongTsang93 | Preset::Wallace89 => FinalGather::Off,
+        }
+    }
+}
 
 /// Rays per side of the stratified grid over an emitting surface for a
 /// point that casts all its rays at once (a vertex, a texel, a sensor).

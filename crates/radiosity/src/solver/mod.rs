@@ -57,9 +57,7 @@ pub use self::method::{Counter, Method, Shooter, Stats, Visibility};
 pub use self::receiver::{GATHER_NUDGE, Receiver, surface_receivers, vertex_receivers};
 pub use self::registry::{MethodSettings, Shooting};
 pub use self::resume::Start;
-pub use self::settings::{
-    ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, FinalGather, Preset, Settings, SettingsError,
-};
+pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, SettingsError};
 use crate::accel::Occluder;
 use crate::luminance;
 use crate::mesh::Mesh;

@@ -16,21 +16,6 @@ use crate::accel::Accel;
 use crate::form_factor::FormFactor;
 use crate::mesh::{MeshSettings, RefineSettings};
 
-crate::choice::named_choice! {
-    /// What pictures, lightmap texels and sensors show (`--final-gather`;
-    /// the final pass, [`crate::final_gather`], is above the solver, and a
-    /// preset names its own: defined here, where both read it).
-    pub enum FinalGather: "final gather" {
-        /// The mesh's values (the paper's display).
-        Off = "off",
-        /// Direct light at the point shown, the mesh's indirect part.
-        Direct = "direct",
-        /// Direct light at the point shown, the mesh's reflected light
-        /// gathered over its hemisphere.
-        Full = "full",
-    }
-}
-
 /// Every setting of a solve, apart from run state. Presets are named
 /// constructors; each field can be overridden on its own. Serialised as
 /// the `--stats` file's `settings` object: one flat object, the mesh's
@@ -62,11 +47,6 @@ pub struct Settings {
     /// Stop before a shot once the solve has run this long.
     #[serde(serialize_with = "optional_seconds")]
     pub time_limit: Option<Duration>,
-    /// What pictures, lightmap texels and sensors show
-    /// (`--final-gather`, [`crate::final_gather`]): the mesh's values, or
-    /// the direct light evaluated at each point shown, with the indirect
-    /// light from the mesh or gathered over the hemisphere.
-    pub final_gather: FinalGather,
     /// Where the transfers run (`--device`): the CPU unless a back end is
     /// given. Reported beside the settings, not among them.
     #[serde(skip)]
@@ -93,10 +73,6 @@ pub const DEFAULT_CONVERGE: f64 = 0.01;
 /// 0.003).
 pub const ADAPTIVE_CONVERGE: f64 = 0.003;
 
-/// The default preset's `--final-gather` (the paper's presets: `off`, their
-/// figures as the paper drew them).
-pub const DEFAULT_FINAL_GATHER: FinalGather = FinalGather::Direct;
-
 impl Settings {
     /// Wallace, Elmquist & Haines (1989): patch shooting, a shadow ray for
     /// every pair against every surface, the disk form factor of equation
@@ -113,7 +89,6 @@ impl Settings {
             max_shots: None,
             max_subsources: None,
             time_limit: None,
-            final_gather: FinalGather::Off,
             device: Device::cpu(),
         }
     }
@@ -154,7 +129,6 @@ impl Settings {
             form_factor: FormFactor::Analytic,
             accel: Accel::Bvh,
             converge: ADAPTIVE_CONVERGE,
-            final_gather: DEFAULT_FINAL_GATHER,
             ..Settings::wallace89()
         }
     }
