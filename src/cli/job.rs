@@ -2,7 +2,6 @@
 //! [`Job`] for [`radiosity::app::run`].
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{Result, anyhow};
@@ -15,76 +14,10 @@ use radiosity::mesh::MAX_REFINE_LEVELS;
 use radiosity::render::Exposure;
 use radiosity::scene::{Camera, Limits};
 use radiosity::sensors;
-use radiosity::solver::device::Device;
-use radiosity::solver::{Preset, Settings};
-use radiosity_gpu::GpuBackend;
+use radiosity::solver::Preset;
+use radiosity_gpu::policy;
 
 impl RenderArgs {
-    /// The device `--device` asks for, opened: `auto` leaves settings a GPU
-    /// does not run, and machines without a real GPU, on the CPU (with a
-    /// warning when an adapter would not open); `gpu` is an error then.
-    fn device(&self, settings: &Settings, warnings: &mut Vec<String>) -> Result<Device> {
-        let choice = radiosity_gpu::DeviceChoice::from(self.device);
-        match choice {
-            radiosity_gpu::DeviceChoice::Cpu => Ok(Device::cpu()),
-            radiosity_gpu::DeviceChoice::Auto => {
-                if settings.gpu_refuses().is_some() {
-                    return Ok(Device::cpu());
-                }
-                match radiosity_gpu::Gpu::open(choice) {
-                    Ok(Some(gpu)) => Ok(Device::preferred(Arc::new(self.backend(gpu)?))),
-                    Ok(None) => Ok(Device::cpu()),
-                    Err(e) => {
-                        warnings.push(format!("--device auto: {e}; the solve runs on the CPU"));
-                        Ok(Device::cpu())
-                    }
-                }
-            }
-            radiosity_gpu::DeviceChoice::Gpu => {
-                if let Some(setting) = settings.gpu_refuses() {
-                    let setting = if self.preset == Preset::Adaptive {
-                        setting
-                    } else {
-                        format!("the {} preset ({setting})", self.preset)
-                    };
-                    return Err(anyhow!(
-                        "--device gpu runs the default method (adaptive shooting, BVH shadow \
-                         rays, the analytic factor), not {setting}: use --device cpu (the \
-                         paper's presets run on the CPU, in f64)"
-                    ));
-                }
-                let gpu = radiosity_gpu::Gpu::open(choice)
-                    .map_err(|e| anyhow!("--device gpu: {e}"))?
-                    .ok_or_else(|| {
-                        anyhow!("--device gpu: {}", radiosity_gpu::GpuError::NoAdapter)
-                    })?;
-                Ok(Device::backend(Arc::new(self.backend(gpu)?)))
-            }
-        }
-    }
-
-    /// The GPU back end on `gpu` with `--max-gpu-memory`, and the two
-    /// knobs for measuring its kernels (DEVELOPERS.md): the environment's
-    /// `RADIOSITY_GPU_FRONTIER` and `RADIOSITY_GPU_DISPATCH_RECEIVERS`.
-    fn backend(&self, gpu: radiosity_gpu::Gpu) -> Result<GpuBackend> {
-        let mut backend = GpuBackend::new(gpu).with_max_memory(self.max_gpu_memory);
-        let knob = |name: &str| -> Result<Option<u32>> {
-            match std::env::var(name) {
-                Ok(value) => value.trim().parse::<u32>().map(Some).map_err(|_| {
-                    anyhow!("{name}={value}: a whole number of at least 1 was expected")
-                }),
-                Err(_) => Ok(None),
-            }
-        };
-        if let Some(nodes) = knob("RADIOSITY_GPU_FRONTIER")? {
-            backend = backend.with_frontier(nodes);
-        }
-        if let Some(receivers) = knob("RADIOSITY_GPU_DISPATCH_RECEIVERS")? {
-            backend = backend.with_dispatch_receivers(receivers as usize);
-        }
-        Ok(backend)
-    }
-
     /// The validated job (second stage after clap's raw values), with
     /// warnings about flags it does not use.
     pub fn job(&self) -> Result<(Job, Vec<String>)> {
@@ -131,7 +64,12 @@ impl RenderArgs {
             max_faces: self.max_faces.unwrap_or(defaults.max_faces),
             max_vertices: self.max_vertices.unwrap_or(defaults.max_vertices),
         };
-        settings.device = self.device(&settings, &mut warnings)?;
+        let options = policy::Options::from_env(self.max_gpu_memory).map_err(|e| anyhow!(e))?;
+        let preset = (self.preset != Preset::Adaptive).then(|| self.preset.name());
+        let (device, warning) = policy::open(self.device.into(), &settings, preset, &options)
+            .map_err(|e| anyhow!(e))?;
+        warnings.extend(warning);
+        settings.device = device;
         settings.max_shots = self.max_shots;
         settings.max_subsources = self.max_subsources;
         if let Some(seconds) = self.time_limit {

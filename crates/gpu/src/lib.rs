@@ -4,8 +4,9 @@
 //! run on any GPU (Vulkan, Metal, DX12) and, for the tests, on a software
 //! Vulkan adapter (Mesa's lavapipe).
 //!
-//! Modules, one concern each: [`adapter`] (choosing and opening a device,
-//! naming it), [`device_scene`] (the scene's triangles and BVH on the
+//! Modules, one concern each: [`adapter`] (finding and opening an adapter,
+//! naming it), [`policy`] (the device a run takes: which settings the GPU
+//! runs, what `--device auto|gpu|cpu` opens), [`device_scene`] (the scene's triangles and BVH on the
 //! device), `wgpu_io` (buffers, bindings, readbacks, device errors),
 //! [`gather`] (the default method's transfers), [`trace`] (shadow
 //! segments against the scene: a binary
@@ -17,6 +18,7 @@
 pub mod adapter;
 pub mod device_scene;
 pub mod gather;
+pub mod policy;
 pub mod trace;
 mod wgpu_io;
 

@@ -22,6 +22,10 @@ impl Backend for Tiny {
         "tiny device".into()
     }
 
+    fn refuses(&self, _: &Settings) -> Option<String> {
+        None
+    }
+
     fn adaptive(&self, _: &AdaptiveSolve<'_>) -> Result<Box<dyn AdaptiveTransfers>, DeviceError> {
         panic!("a solve it cannot hold must not start on it")
     }

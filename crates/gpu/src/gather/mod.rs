@@ -154,6 +154,11 @@ impl Backend for GpuBackend {
         self.gpu.name()
     }
 
+    /// [`crate::policy::refuses`]: the default method only.
+    fn refuses(&self, settings: &radiosity::solver::Settings) -> Option<String> {
+        crate::policy::refuses(settings)
+    }
+
     /// [`DeviceMemory::of`] against the adapter's largest buffer and
     /// `--max-gpu-memory`.
     fn check(

@@ -165,7 +165,7 @@ pub(super) fn prepare(
 
 /// The run's memory estimate on `mesh` (with the coarse pass `going_on`
 /// still held), refused over the job's limit, then the device's check
-/// ([`check_device`]); returns the estimate.
+/// ([`solver::device::Device::fit`]); returns the estimate.
 fn check_resources(
     job: &Job,
     scene: &Scene,
@@ -183,33 +183,14 @@ fn check_resources(
         settings.method.method().memory(),
     );
     memory::check(&estimate, job.max_memory).map_err(Error::Memory)?;
-    check_device(settings, scene, mesh, receivers, notes)?;
-    Ok(estimate)
-}
-
-/// Whether the solve of `mesh` fits the settings' device
-/// ([`solver::device::Backend::check`]): a device asked for by name that
-/// cannot hold it is an error; one taken because it was there leaves the
-/// solve to the CPU, with a note.
-fn check_device(
-    settings: &mut Settings,
-    scene: &Scene,
-    mesh: &Mesh,
-    receivers: usize,
-    notes: &mut Vec<String>,
-) -> Result<(), Error> {
-    let Some(backend) = settings.device.get() else {
-        return Ok(());
-    };
-    match backend.check(scene, mesh, receivers) {
-        Ok(_) => Ok(()),
-        Err(e) if settings.device.required() => Err(Error::Device(e.0)),
-        Err(e) => {
-            notes.push(format!("--device auto: {}; the solve runs on the CPU", e.0));
-            settings.device = solver::device::Device::cpu();
-            Ok(())
-        }
+    if let Some(note) = settings
+        .device
+        .fit(scene, mesh, receivers)
+        .map_err(|e| Error::Device(e.0))?
+    {
+        notes.push(note);
     }
+    Ok(estimate)
 }
 
 /// The counts a run's memory estimate takes: the meshed scene's, and the

@@ -37,6 +37,11 @@ pub trait Backend: Send + Sync {
     /// backend).
     fn name(&self) -> String;
 
+    /// The setting, as its flag, among `settings` that this device does
+    /// not run (`--shooting patches`, say); `None` when it runs them all.
+    /// The back end decides, not the solver.
+    fn refuses(&self, settings: &super::Settings) -> Option<String>;
+
     /// Starts adaptive shooting's transfers for one solve: what stays the
     /// same from shot to shot (the scene, the element tree, the receivers)
     /// goes to the device now.
@@ -354,6 +359,36 @@ impl Device {
     #[must_use]
     pub fn required(&self) -> bool {
         self.required
+    }
+
+    /// Whether the solve of `mesh` with `receivers` receivers fits the
+    /// device ([`Backend::check`]): a device asked for by name that cannot
+    /// hold it is an error; one taken because it was there becomes the CPU,
+    /// and the note saying so is returned.
+    ///
+    /// # Errors
+    ///
+    /// When a device asked for by name cannot hold the solve.
+    pub fn fit(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        receivers: usize,
+    ) -> Result<Option<String>, DeviceError> {
+        let Some(backend) = &self.backend else {
+            return Ok(None);
+        };
+        match backend.check(scene, mesh, receivers) {
+            Ok(_) => Ok(None),
+            Err(e) if self.required => Err(e),
+            Err(e) => {
+                *self = Device::cpu();
+                Ok(Some(format!(
+                    "--device auto: {}; the solve runs on the CPU",
+                    e.0
+                )))
+            }
+        }
     }
 
     /// The device's name: `cpu`, or the backend's.

@@ -219,30 +219,17 @@ impl Settings {
         {
             return Err(SettingsError::NeverStops);
         }
-        if let (Some(backend), Some(setting)) = (self.device.get(), self.gpu_refuses()) {
+        if let Some((backend, setting)) = self
+            .device
+            .get()
+            .and_then(|b| b.refuses(self).map(|setting| (b, setting)))
+        {
             return Err(SettingsError::Device {
                 device: backend.name(),
                 setting,
             });
         }
         Ok(())
-    }
-
-    /// The setting, as its flag, that keeps these settings off a GPU
-    /// ([`super::device`]), which runs the default method only: adaptive
-    /// shooting, BVH shadow rays, the analytic factor. The paper's presets
-    /// stay on the CPU in `f64`.
-    #[must_use]
-    pub fn gpu_refuses(&self) -> Option<String> {
-        if self.method.shooting() != Shooting::Adaptive {
-            Some(format!("--shooting {}", self.method.shooting()))
-        } else if self.accel != Accel::Bvh {
-            Some(format!("--accel {}", self.accel))
-        } else if self.form_factor != FormFactor::Analytic {
-            Some(format!("--form-factor {}", self.form_factor))
-        } else {
-            None
-        }
     }
 }
 

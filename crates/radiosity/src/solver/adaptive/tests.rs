@@ -46,6 +46,10 @@ impl Backend for Stand {
         "stand-in".into()
     }
 
+    fn refuses(&self, _: &crate::solver::Settings) -> Option<String> {
+        None
+    }
+
     fn segments(&self, _: &Scene) -> Result<Box<dyn crate::solver::device::Segments>, DeviceError> {
         Err(DeviceError("no segments on this device".into()))
     }
