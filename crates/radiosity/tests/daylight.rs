@@ -179,9 +179,7 @@ fn daylight(model: SkyModel) -> Daylight {
 fn scene(surfaces: Vec<Surface>, model: SkyModel) -> Scene {
     let mut scene = scene_of(surfaces);
     scene.lights = daylight(model).lights().unwrap();
-    scene
-        .lights
-        .retain(|l| matches!(l.kind, LightKind::Sky { .. }));
+    scene.lights.retain(|l| matches!(l.kind, LightKind::Sky(_)));
     scene
 }
 
@@ -202,7 +200,7 @@ fn through_both(
     normal: DVec3,
 ) -> f64 {
     let scene = scene(Vec::new(), model);
-    let LightKind::Sky { sky, .. } = &scene.lights[0].kind else {
+    let LightKind::Sky(radiosity::scene::sky::SkyLight { sky, .. }) = &scene.lights[0].kind else {
         unreachable!()
     };
     let n_u = if opening.u.length() < 0.1 { 20 } else { 600 };
@@ -584,7 +582,7 @@ fn a_portal_marked_in_a_thick_walls_window_is_sampled_without_bias() {
     use radiosity::solver::sky::SkyPlan;
     let (surfaces, opening) = thick_window();
     let occluder = radiosity::accel::Accel::Bvh.build(&surfaces);
-    let found = radiosity::solver::portals::openings(&surfaces, occluder.as_ref());
+    let found = radiosity::solver::sky::portals::openings(&surfaces, occluder.as_ref());
     assert!(found.is_empty(), "{found:?}");
     drop(occluder);
     for model in [SkyModel::Uniform, SkyModel::Overcast, SkyModel::Clear] {
@@ -659,7 +657,8 @@ fn portal_directives_are_read_and_misplaced_ones_named() {
     assert_eq!(scene.portals[0].location.line, Some(18));
     sky(&mut scene);
     let occluder = radiosity::accel::Accel::Bvh.build(&scene.surfaces);
-    radiosity::solver::portals::check_marked(&scene.portals, occluder.as_ref(), 100.0).unwrap();
+    radiosity::solver::sky::portals::check_marked(&scene.portals, occluder.as_ref(), 100.0)
+        .unwrap();
     // A portal inside the closed box sees no sky: misplaced.
     let inside = format!(
         "mtllib m.mtl\n#@portal hole\n{box_faces}usemtl hole\nv 1 1 1\nv 2 1 1\nv 2 1 2\nv 1 1 2\n\
@@ -667,9 +666,10 @@ fn portal_directives_are_read_and_misplaced_ones_named() {
     );
     let scene = load_obj(&inside, mtl).unwrap();
     let occluder = radiosity::accel::Accel::Bvh.build(&scene.surfaces);
-    let error = radiosity::solver::portals::check_marked(&scene.portals, occluder.as_ref(), 100.0)
-        .unwrap_err()
-        .to_string();
+    let error =
+        radiosity::solver::sky::portals::check_marked(&scene.portals, occluder.as_ref(), 100.0)
+            .unwrap_err()
+            .to_string();
     assert!(
         error.contains("t.obj:23:") && error.contains("sees no sky on either side"),
         "{error}"

@@ -142,9 +142,9 @@ fn direct_and_indirect_add_up_to_the_total_at_every_vertex() {
     let mut scene = scene_of(surfaces);
     scene.lights.push(Light {
         name: "bulb".into(),
-        kind: LightKind::Point {
+        kind: LightKind::Point(radiosity::scene::light::Point {
             position: DVec3::new(1.0, 1.0, 0.5),
-        },
+        }),
         colour: DVec3::new(1.0, 0.8, 0.6),
         intensity: 30.0,
     });

@@ -171,9 +171,9 @@ fn hierarchy_transforms_materials_camera_and_warnings() {
     assert_eq!(light.name, "light 0 ('sun lamp')");
     assert_eq!(
         light.kind,
-        radiosity::scene::LightKind::Point {
+        radiosity::scene::LightKind::Point(radiosity::scene::light::Point {
             position: DVec3::new(0.0, 6.0, 0.0)
-        }
+        })
     );
     assert_eq!((light.intensity, light.colour), (100.0, DVec3::ONE));
     // One warning each: the POINTS primitive, the cap.

@@ -147,12 +147,12 @@ fn lights_take_their_nodes_transforms_and_light_a_scene_alone() {
     let near = |a: DVec3, b: DVec3| (a - b).length() < 1e-6;
     // The profiled light: its nadir the node's -z, C0 its +x, the
     // multiplier from the extras (the glTF intensity is not used).
-    let LightKind::Luminaire {
+    let LightKind::Luminaire(radiosity::scene::light::Luminaire {
         position,
         nadir,
         c0,
         ref profile,
-    } = scene.lights[2].kind
+    }) = scene.lights[2].kind
     else {
         panic!("{:?}", scene.lights[2].kind)
     };
@@ -164,19 +164,19 @@ fn lights_take_their_nodes_transforms_and_light_a_scene_alone() {
     assert_eq!(spot.name, "light 0 ('spot')");
     assert_eq!(spot.intensity, 40.0);
     assert_eq!(spot.colour, DVec3::new(1.0, 0.5, 0.25));
-    let LightKind::Spot {
+    let LightKind::Spot(radiosity::scene::light::Spot {
         position,
         direction,
         inner,
         outer,
-    } = spot.kind
+    }) = spot.kind
     else {
         panic!("{:?}", spot.kind)
     };
     assert!(near(position, DVec3::new(1.0, 2.0, 0.0)), "{position}");
     assert!(near(direction, -DVec3::Y), "{direction}");
     assert!((inner - 0.25).abs() < 1e-7 && (outer - 0.5).abs() < 1e-7);
-    let LightKind::Sun { direction } = scene.lights[1].kind else {
+    let LightKind::Sun(radiosity::scene::light::Sun { direction }) = scene.lights[1].kind else {
         panic!("{:?}", scene.lights[1].kind)
     };
     assert!(near(direction, -DVec3::Y), "{direction}");

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use approx::assert_relative_eq;
 use glam::DVec3;
+use radiosity::final_gather::{FinalGather, FinalPass, Point};
 use radiosity::mesh::Mesh;
 use radiosity::scene::light::cone;
 use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
@@ -36,7 +37,7 @@ fn with_lights(surfaces: Vec<radiosity::scene::Surface>, lights: Vec<Light>) -> 
 fn point_light(position: DVec3, candela: f64) -> Light {
     Light {
         name: "test point".into(),
-        kind: LightKind::Point { position },
+        kind: LightKind::Point(radiosity::scene::light::Point { position }),
         colour: DVec3::ONE,
         intensity: candela,
     }
@@ -89,12 +90,12 @@ fn a_spot_is_full_inside_its_inner_cone_and_dark_outside_its_outer() {
     let height = 2.0;
     let spot = Light {
         name: "test spot".into(),
-        kind: LightKind::Spot {
+        kind: LightKind::Spot(radiosity::scene::light::Spot {
             position: DVec3::new(0.0, height, 0.0),
             direction: -DVec3::Y,
             inner,
             outer,
-        },
+        }),
         colour: DVec3::ONE,
         intensity: 400.0,
     };
@@ -133,7 +134,7 @@ fn the_sun_casts_a_sharp_shadow() {
     let illuminance = 50_000.0;
     let sun = Light {
         name: "test sun".into(),
-        kind: LightKind::Sun { direction },
+        kind: LightKind::Sun(radiosity::scene::light::Sun { direction }),
         colour: DVec3::ONE,
         intensity: illuminance,
     };
@@ -210,9 +211,9 @@ fn a_point_light_in_a_closed_box_sends_all_its_flux_to_the_walls() {
 fn a_scene_lit_only_by_the_sun_is_solved() {
     let sun = Light {
         name: "sun".into(),
-        kind: LightKind::Sun {
+        kind: LightKind::Sun(radiosity::scene::light::Sun {
             direction: -DVec3::Y,
-        },
+        }),
         colour: DVec3::ONE,
         intensity: 1000.0,
     };
@@ -293,7 +294,7 @@ fn the_obj_reader_takes_light_directives_and_names_bad_ones() {
         .scene;
     assert_eq!(scene.lights.len(), 1);
     // Due south, 40 degrees up: the light travels north (-z) and down.
-    let LightKind::Sun { direction } = scene.lights[0].kind else {
+    let LightKind::Sun(radiosity::scene::light::Sun { direction }) = scene.lights[0].kind else {
         panic!("{:?}", scene.lights[0].kind)
     };
     let expected = -DVec3::new(0.0, 40f64.to_radians().sin(), 40f64.to_radians().cos());
@@ -436,7 +437,7 @@ fn an_open_floor_under_a_sky_receives_its_horizontal_illuminance() {
     ] {
         let mut lights = sky_lights(model, 10_000.0, subdivision, sun);
         // The sun of no illuminance only places the clear sky's peak.
-        lights.retain(|l| matches!(l.kind, LightKind::Sky { .. }));
+        lights.retain(|l| matches!(l.kind, LightKind::Sky(_)));
         let scene = with_lights(vec![floor(0.5)], lights);
         let points = floor_points();
         let got = lux_at(&scene, Settings::adaptive(), &points);
@@ -630,27 +631,33 @@ fn export_scene_writes_lights_that_read_back_as_they_were() {
             b.name
         );
         match (&a.kind, &b.kind) {
-            (LightKind::Point { position: p }, LightKind::Point { position: q }) => {
+            (
+                LightKind::Point(radiosity::scene::light::Point { position: p }),
+                LightKind::Point(radiosity::scene::light::Point { position: q }),
+            ) => {
                 assert!(close(*p, *q));
             }
             (
-                LightKind::Spot {
+                LightKind::Spot(radiosity::scene::light::Spot {
                     position: p,
                     direction: d,
                     inner: i,
                     outer: o,
-                },
-                LightKind::Spot {
+                }),
+                LightKind::Spot(radiosity::scene::light::Spot {
                     position: q,
                     direction: e,
                     inner: j,
                     outer: u,
-                },
+                }),
             ) => {
                 assert!(close(*p, *q) && close(*d, *e), "{d} {e}");
                 assert!((i - j).abs() < 1e-6 && (o - u).abs() < 1e-6);
             }
-            (LightKind::Sun { direction: d }, LightKind::Sun { direction: e }) => {
+            (
+                LightKind::Sun(radiosity::scene::light::Sun { direction: d }),
+                LightKind::Sun(radiosity::scene::light::Sun { direction: e }),
+            ) => {
                 assert!(close(*d, *e), "{d} {e}");
             }
             (a, b) => panic!("{a:?} read back as {b:?}"),
@@ -691,18 +698,20 @@ fn a_blender_scene_renders_with_its_point_spot_and_sun_lights() {
     // Each light's direct light where it falls: under the lamp (2.7 m up),
     // on the table under the spot, and on the floor where the sun comes in
     // through the middle of the window (x 1.5..3.5, y 0.9..2.1, z = 0).
-    let LightKind::Point { position: lamp } = scene.lights[0].kind else {
-        unreachable!()
-    };
-    let LightKind::Spot {
-        position: spot,
-        direction: spot_axis,
-        ..
-    } = scene.lights[1].kind
+    let LightKind::Point(radiosity::scene::light::Point { position: lamp }) = scene.lights[0].kind
     else {
         unreachable!()
     };
-    let LightKind::Sun { direction: sun } = scene.lights[2].kind else {
+    let LightKind::Spot(radiosity::scene::light::Spot {
+        position: spot,
+        direction: spot_axis,
+        ..
+    }) = scene.lights[1].kind
+    else {
+        unreachable!()
+    };
+    let LightKind::Sun(radiosity::scene::light::Sun { direction: sun }) = scene.lights[2].kind
+    else {
         unreachable!()
     };
     assert!(
@@ -790,7 +799,7 @@ fn an_asymmetric_luminaire_sends_c90_counter_clockwise_from_c0_seen_from_above()
     // Hanging straight down, C0 along +x: seen from above (looking down
     // -y, +x to the right and -z up the page), counter-clockwise from +x
     // is -z.
-    let LightKind::Luminaire { .. } = scene.lights[0].kind else {
+    let LightKind::Luminaire(_) = scene.lights[0].kind else {
         panic!()
     };
     let towards_minus_z = scene.lights[0].falloff(-DVec3::Z);
@@ -826,4 +835,68 @@ fn a_scene_lit_by_lights_alone_takes_the_tolerance_as_one_with_emitters_does() {
     };
     let (tight, loose) = (rays(1e-3), rays(1e-1));
     assert!(loose * 2 < tight, "{loose} rays at 0.1, {tight} at 0.001");
+}
+
+/// The worked example of a new kind of light (`scene/light/lambert.rs`,
+/// registered by one line): a Lambertian point read from its `#@light`
+/// directive gives `I0 cos(theta) cos(theta') / d^2` at the sensors under
+/// every preset, its flux `pi I0` is what the energy ledger and the
+/// statistics count, and the final pass evaluates the same closed form at
+/// the mesh's vertices.
+#[test]
+fn a_lambertian_point_light_gives_its_closed_form_everywhere() {
+    let at = DVec3::new(0.3, 2.0, -0.2);
+    let axis = DVec3::new(0.4, -1.0, 0.2).normalize();
+    let candela = 150.0;
+    let text = format!(
+        "#@light lambert {} {} {} {} {} {} {candela}\n{FLOOR_OBJ}",
+        at.x, at.y, at.z, axis.x, axis.y, axis.z
+    );
+    let scene = load_with_files(&text, &[]).unwrap();
+    assert_eq!(scene.lights[0].kind.name(), "lambert");
+    let expected = |p: DVec3| {
+        let d = at - p;
+        let cos_light = axis.dot(-d.normalize()).max(0.0);
+        candela * cos_light * d.y / d.length().powi(3)
+    };
+    let points = floor_points();
+    for preset in [Preset::Adaptive, Preset::WongTsang93, Preset::Wallace89] {
+        let got = lux_at(&scene, preset.settings(), &points);
+        for (&(p, _), lux) in points.iter().zip(got) {
+            assert_relative_eq!(lux, expected(p), max_relative = 1e-5);
+        }
+    }
+    // Its flux: pi I0 in lumens, 1/179 of it in watts per channel.
+    let flux = scene.lights[0].flux().unwrap();
+    assert_relative_eq!(
+        flux.x * radiosity::photometry::LUMINOUS_EFFICACY,
+        std::f64::consts::PI * candela,
+        max_relative = 1e-12
+    );
+    // The final pass: the direct light at each vertex of the floor.
+    let settings = Settings::adaptive();
+    let mesh = Mesh::build(&scene, &settings.mesh.sized_for(&scene)).unwrap();
+    let mut solver = Solver::new(&scene, &mesh, settings);
+    solver.run(|_| radiosity::solver::Flow::Continue);
+    let pass = FinalPass::new(&solver, FinalGather::Direct);
+    let vertices: Vec<Point> = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| Point {
+            surface: v.surface,
+            position: v.position,
+            sample: None,
+            seed: i as u64,
+        })
+        .collect();
+    for (v, e) in vertices.iter().zip(pass.direct(&vertices)) {
+        // (The pass evaluates a hair off the surface, as the sensors do.)
+        assert_relative_eq!(
+            lux(e),
+            expected(v.position),
+            max_relative = 1e-5,
+            epsilon = 1e-9
+        );
+    }
 }

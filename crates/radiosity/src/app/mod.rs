@@ -249,7 +249,7 @@ pub fn export_scene(scene: &str, out: &Path, load: &LoadOptions) -> Result<Vec<P
     load.validate()?;
     check_output(out, &["glb", "gltf"], "export-scene")?;
     let loaded = scene::load_with(scene, load)?;
-    solver::portals::check_scene(&loaded.scene)?;
+    solver::sky::portals::check_scene(&loaded.scene)?;
     let files = export::gltf::export_scene(&loaded.scene, out).map_err(|source| Error::Output {
         path: out.to_path_buf(),
         source,

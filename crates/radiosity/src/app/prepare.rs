@@ -58,7 +58,7 @@ pub(super) fn prepare(
     };
     let load_start = Instant::now();
     let loaded = scene::load_with(&job.scene, &job.load)?;
-    solver::portals::check_scene(&loaded.scene)?;
+    solver::sky::portals::check_scene(&loaded.scene)?;
     // What a lightmap bake cannot rewrite is said before the solve.
     if let (Some(bake), Some(appearance)) = (&job.bake, &loaded.appearance)
         && bake.target == BakeTarget::Lightmap

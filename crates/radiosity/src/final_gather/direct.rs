@@ -20,7 +20,8 @@ use crate::accel::{self, ShadowCache};
 use crate::form_factor;
 use crate::geometry;
 use crate::mesh;
-use crate::scene::{LightKind, Scene, glass};
+use crate::scene::light::AtPoints;
+use crate::scene::{Scene, glass};
 use crate::solver::{Receiver, lights};
 
 /// An emitting surface, set up for points.
@@ -588,34 +589,13 @@ pub(super) fn sources(
         });
     }
     for (i, light) in scene.lights.iter().enumerate() {
-        let (power, axis, theta_o, theta_e) = match &light.kind {
-            LightKind::Sky { .. } => continue,
-            LightKind::Sun { .. } => {
+        let orientation = match light.model().at_points(light.radiometric()) {
+            AtPoints::FromMesh => continue,
+            AtPoints::Distant => {
                 suns.push(i);
                 continue;
             }
-            LightKind::Point { .. } => (
-                crate::luminance(light.radiometric()),
-                DVec3::Y,
-                std::f64::consts::PI,
-                std::f64::consts::FRAC_PI_2,
-            ),
-            LightKind::Spot {
-                direction, outer, ..
-            } => (
-                crate::luminance(light.radiometric()),
-                *direction,
-                *outer,
-                0.0,
-            ),
-            LightKind::Luminaire { .. } => (
-                light
-                    .flux()
-                    .map_or(0.0, |f| crate::luminance(f) / (4.0 * std::f64::consts::PI)),
-                DVec3::Y,
-                std::f64::consts::PI,
-                std::f64::consts::FRAC_PI_2,
-            ),
+            AtPoints::Located(orientation) => orientation,
         };
         let Some(position) = light.position() else {
             continue;
@@ -624,10 +604,10 @@ pub(super) fn sources(
         bounds.push(Bounds {
             lo: position,
             hi: position,
-            power,
-            axis,
-            theta_o,
-            theta_e,
+            power: orientation.power,
+            axis: orientation.axis,
+            theta_o: orientation.theta_o,
+            theta_e: orientation.theta_e,
         });
     }
     (sources, bounds, suns)

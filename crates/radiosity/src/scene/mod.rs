@@ -520,11 +520,8 @@ pub fn load_with(name_or_path: &str, options: &LoadOptions) -> Result<Loaded, Sc
         })?;
     scene.lights.extend(daylight);
     // Whether the marked portals see the sky is checked where rays are
-    // traced ([`crate::solver::portals::check_scene`]).
-    let has_sky = scene
-        .lights
-        .iter()
-        .any(|l| matches!(l.kind, LightKind::Sky { .. }));
+    // traced ([`crate::solver::sky::portals::check_scene`]).
+    let has_sky = scene.lights.iter().any(|l| l.sky().is_some());
     if !scene.portals.is_empty() && !has_sky {
         scene.warnings.push(format!(
             "{}: {} portal face(s): portals serve the sky (--sky), and there is none",

@@ -9,7 +9,8 @@
 //! turns each into planar convex pieces. The comment directive
 //! `#@camera ex ey ez tx ty tz ux uy uz fov` gives the scene's camera,
 //! `#@mesh PATCH ELEMENT` its suggested mesh sizes in metres and `#@light`
-//! a point, spot or sun light ([`super::light::parse_directive`]) or a
+//! a light of a registered kind (point, spot, sun, lambert:
+//! [`super::light::parse_directive`]) or a
 //! luminaire from an IES photometric file named relative to the OBJ
 //! (`#@light ies FILE.ies X Y Z [DX DY DZ] [MULTIPLIER]`, [`super::ies`]);
 //! other programs read them as comments.

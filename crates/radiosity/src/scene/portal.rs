@@ -4,7 +4,7 @@
 //! Cycles' portals are marked, kept apart from the surfaces; and the
 //! [`Portal`] an opening is, found or marked. Finding openings in the
 //! geometry and checking marked ones trace rays: that is the solver's
-//! ([`crate::solver::portals`]).
+//! ([`crate::solver::sky::portals`]).
 
 use glam::DVec3;
 

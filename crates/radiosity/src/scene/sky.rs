@@ -30,6 +30,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
+use super::light::{AtPoints, LightError, LightModel, Punctual};
 use super::{Light, LightKind, Scene};
 
 /// The luminance distributions.
@@ -395,9 +396,9 @@ impl Daylight {
             towards_sun = Some(towards);
             lights.push(Light {
                 name: "the sun (--sun)".into(),
-                kind: LightKind::Sun {
+                kind: LightKind::Sun(super::light::Sun {
                     direction: -towards,
-                },
+                }),
                 colour: DVec3::ONE,
                 intensity: sun.illuminance,
             });
@@ -435,15 +436,71 @@ impl Daylight {
                 .with_ground(spec.ground_reflectance * (1.0 + sun_share) / PI);
             lights.push(Light {
                 name: "the sky (--sky)".into(),
-                kind: LightKind::Sky {
+                kind: LightKind::Sky(SkyLight {
                     sky: std::sync::Arc::new(sky),
                     subdivision: spec.subdivision,
-                },
+                }),
                 colour: DVec3::ONE,
                 intensity: spec.illuminance,
             });
         }
         Ok(lights)
+    }
+}
+
+/// A sky as a light ([`super::light`]): its luminance distribution and
+/// how finely its directions are drawn; the light's intensity is the sky's
+/// unobstructed horizontal illuminance in lux. Its light comes from many
+/// directions at once, drawn through the scene's openings and over the
+/// rest of the sky by the solver ([`crate::solver::sky`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyLight {
+    /// Its luminance distribution.
+    pub sky: std::sync::Arc<Sky>,
+    /// Patch subdivision (see [`patches`]), at least 1.
+    pub subdivision: usize,
+}
+
+impl LightModel for SkyLight {
+    fn name(&self) -> &'static str {
+        "sky"
+    }
+
+    fn validate(&self) -> Result<(), LightError> {
+        Ok(())
+    }
+
+    fn position(&self) -> Option<DVec3> {
+        None
+    }
+
+    /// The sky's relative luminance seen looking back along `towards`.
+    fn falloff(&self, towards: DVec3) -> f64 {
+        self.sky.relative_luminance(-towards)
+    }
+
+    /// None from one direction: its samples are [`Light::sky_sample`]'s.
+    fn transfer(&self, point: DVec3, _normal: DVec3, _reach: f64) -> (f64, DVec3) {
+        (0.0, point)
+    }
+
+    fn solid_angle(&self) -> Option<f64> {
+        None
+    }
+
+    /// Its light changes slowly across a surface and takes hundreds of
+    /// rays at a point: the final pass leaves it with the mesh.
+    fn at_points(&self, _unit: DVec3) -> AtPoints {
+        AtPoints::FromMesh
+    }
+
+    /// glTF has no skies.
+    fn punctual(&self, _intensity: f64) -> Option<Punctual> {
+        None
+    }
+
+    fn sky(&self) -> Option<&SkyLight> {
+        Some(self)
     }
 }
 
@@ -460,17 +517,17 @@ pub fn overcast_alone(scene: &Scene) -> Result<f64, String> {
     let mut sky = None;
     for light in &scene.lights {
         match &light.kind {
-            LightKind::Sky { sky: s, .. } if s.model == SkyModel::Overcast => {
+            LightKind::Sky(s) if s.sky.model == SkyModel::Overcast => {
                 sky = Some(light.intensity);
             }
-            LightKind::Sky { .. } => {
+            LightKind::Sky(_) => {
                 return Err(
                     "the daylight factor is defined under the overcast sky (--sky overcast), \
                      not this one"
                         .into(),
                 );
             }
-            LightKind::Sun { .. } => {
+            LightKind::Sun(_) => {
                 return Err(format!(
                     "the daylight factor is defined without the sun, and {} lights the scene",
                     light.name

@@ -36,13 +36,13 @@ use super::device::{DeviceError, Segment, Segments};
 use super::method::ShotInputs;
 use super::sky::SkyPlan;
 use crate::accel::{self, Occluder, ShadowCache};
-use crate::scene::{Light, LightKind, Scene, glass};
+use crate::scene::{Light, Scene, glass};
 
 /// Receivers gathered between two checks of the shot's abort.
 const CHUNK: usize = 4096;
 
 /// A shadow segment's surface id that matches no surface.
-const NO_SURFACE: u32 = u32::MAX;
+pub(super) const NO_SURFACE: u32 = u32::MAX;
 
 /// The order lights shoot in: point and spot lights by decreasing flux
 /// (luminance), then suns in input order.
@@ -113,7 +113,7 @@ pub fn shoot(
 /// it (asked of `device`, or of the scene's occluder, in parallel), else
 /// the transmittance of the glass it crosses ([`glass::transmittance`]),
 /// 1 through none.
-fn answer(
+pub(super) fn answer(
     inputs: &ShotInputs<'_>,
     device: Option<&dyn Segments>,
     segments: &[Segment],
@@ -157,7 +157,7 @@ pub fn direct_at(
     reach: f64,
     cache: &mut ShadowCache,
 ) -> DVec3 {
-    if matches!(light.kind, LightKind::Sky { .. }) {
+    if light.sky().is_some() {
         return DVec3::ZERO;
     }
     let (unblocked, from) = light.irradiance(r.point, r.normal, reach);
@@ -182,7 +182,7 @@ pub fn direct_at(
 /// The shadow segment from `from` (a light, or for a distant light a point
 /// beyond the scene) to `point`, clear when no surface but those of `skip`
 /// crosses it.
-fn segment(from: DVec3, point: DVec3, skip: [u32; 2], distant: bool) -> Segment {
+pub(super) fn segment(from: DVec3, point: DVec3, skip: [u32; 2], distant: bool) -> Segment {
     let (a, b) = if distant {
         // The far end lies outside the scene. The receiver's end stays
         // where it is: moved towards the sky it could step through a
@@ -239,7 +239,7 @@ pub fn gather(
         let first = chunk_start;
         if let Some(plan) = &plan {
             let (chunk_pairs, chunk_rays) =
-                gather_sky(plan, light, inputs, device, chunk, first, out)?;
+                super::sky::gather(plan, light, inputs, device, chunk, first, out)?;
             pairs += chunk_pairs;
             rays += chunk_rays;
             chunk_start += chunk.len();
@@ -277,74 +277,6 @@ pub fn gather(
     stats.rays_cast += rays;
     stats.gather_time += start.elapsed();
     Ok(Some(irradiance))
-}
-
-/// A chunk of receivers' sky ([`super::sky`]): every receiver's first
-/// round of rays answered at once, then its second round (the portal cells
-/// to refine), then each receiver's irradiance into `out`. Returns the
-/// receivers that drew a ray and the rays.
-fn gather_sky(
-    plan: &SkyPlan,
-    light: &Light,
-    inputs: &ShotInputs<'_>,
-    device: Option<&dyn Segments>,
-    chunk: &[super::Receiver],
-    first: usize,
-    out: &mut [DVec3],
-) -> Result<(u64, u64), DeviceError> {
-    let reach = sun_reach(inputs.scene);
-    // The sky's far ends lie outside the scene: a segment skips the
-    // receiver's own surface only.
-    let segments = |draws: &[super::sky::SkyDraw], refined: bool| -> Vec<Segment> {
-        draws
-            .iter()
-            .zip(chunk)
-            .flat_map(|(d, r)| {
-                let rays = if refined { &d.refined } else { &d.rays };
-                rays.iter()
-                    .map(move |&(_, from)| segment(from, r.point, [NO_SURFACE, r.group], true))
-            })
-            .collect()
-    };
-    let split =
-        |passed: &[DVec3], draws: &[super::sky::SkyDraw], refined: bool| -> Vec<Vec<DVec3>> {
-            let mut next = 0;
-            draws
-                .iter()
-                .map(|d| {
-                    let n = if refined {
-                        d.refined.len()
-                    } else {
-                        d.rays.len()
-                    };
-                    next += n;
-                    passed[next - n..next].to_vec()
-                })
-                .collect()
-        };
-    let mut draws: Vec<super::sky::SkyDraw> = chunk
-        .par_iter()
-        .enumerate()
-        .map(|(k, r)| plan.pilot(light, (first + k) as u64, r.point, r.normal, reach))
-        .collect();
-    let first_round = segments(&draws, false);
-    let passed = split(&answer(inputs, device, &first_round)?, &draws, false);
-    draws
-        .par_iter_mut()
-        .zip(&passed)
-        .for_each(|(d, p)| plan.refine(light, d, p));
-    let second_round = segments(&draws, true);
-    let refined = if second_round.is_empty() {
-        vec![Vec::new(); draws.len()]
-    } else {
-        split(&answer(inputs, device, &second_round)?, &draws, true)
-    };
-    let mut pairs = 0;
-    for (((e, d), p), q) in out.iter_mut().zip(&draws).zip(&passed).zip(&refined) {
-        *e = plan.finish(d, p, q);
-        pairs += u64::from(!d.rays.is_empty());
-    }
-    Ok((pairs, (first_round.len() + second_round.len()) as u64))
 }
 
 /// An element's grid of points: each one's weighted unblocked irradiance
@@ -400,7 +332,7 @@ pub fn element_means_of(
     device: Option<&dyn Segments>,
     stats: &mut Stats,
 ) -> Result<Option<Option<Vec<DVec3>>>, DeviceError> {
-    if matches!(light.kind, LightKind::Sky { .. }) {
+    if light.sky().is_some() {
         return Ok(Some(None));
     }
     let start = Instant::now();

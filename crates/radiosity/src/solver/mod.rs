@@ -37,7 +37,6 @@ pub mod hierarchy;
 pub mod lights;
 pub mod method;
 pub mod patches;
-pub mod portals;
 mod receiver;
 pub mod refine;
 pub mod registry;
@@ -61,7 +60,7 @@ pub use self::settings::{ADAPTIVE_CONVERGE, DEFAULT_CONVERGE, Preset, Settings, 
 use crate::accel::Occluder;
 use crate::luminance;
 use crate::mesh::Mesh;
-use crate::scene::{LightKind, Scene};
+use crate::scene::Scene;
 
 /// A duration as a number of seconds.
 fn seconds<S: serde::Serializer>(time: &Duration, serializer: S) -> Result<S::Ok, S::Error> {
@@ -725,7 +724,7 @@ impl<'a> Solver<'a> {
             }
         }
         if let Some(index) = light
-            && matches!(self.scene.lights[index].kind, LightKind::Sky { .. })
+            && self.scene.lights[index].sky().is_some()
         {
             for (d, e) in self.sky.iter_mut().zip(&irradiance) {
                 *d += *e;

@@ -257,7 +257,7 @@ impl<'a> Solver<'a> {
                     for (m, l) in method_vertex.iter_mut().zip(vertex) {
                         *m -= *l;
                     }
-                    if matches!(light.kind, crate::scene::LightKind::Sky { .. }) {
+                    if light.sky().is_some() {
                         for (s, e) in sky.iter_mut().zip(&e) {
                             *s += *e;
                         }

@@ -129,9 +129,9 @@ pub fn board_in_the_sun() -> Scene {
     let elevation = 60f64.to_radians();
     scene.lights.push(Light {
         name: "sun".into(),
-        kind: LightKind::Sun {
+        kind: LightKind::Sun(radiosity::scene::light::Sun {
             direction: DVec3::new(-elevation.cos(), -elevation.sin(), 0.0),
-        },
+        }),
         colour: DVec3::ONE,
         intensity: 100_000.0,
     });

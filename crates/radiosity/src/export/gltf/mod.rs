@@ -157,48 +157,30 @@ fn materials_from_surfaces(scene: &Scene) -> (Vec<json::Material>, Vec<usize>) {
 /// own at its position, its -z axis along its direction (the inverse of the
 /// reader's mapping). The colour is scaled to a largest channel of 1, the
 /// intensity (candela; lux for a sun) up by as much. A luminaire becomes a
-/// point light of the same flux (glTF has no intensity tables) and a sky is
-/// left out (glTF has no skies). Returns the nodes.
+/// point light of the same flux (glTF has no intensity tables); a kind
+/// glTF has no form for (a sky, a Lambertian point) is left out
+/// ([`crate::scene::light::LightModel::punctual`]). Returns the nodes.
 fn lights(root: &mut json::Root, lights: &[crate::scene::Light]) -> Vec<json::Index<json::Node>> {
-    use crate::scene::LightKind;
+    use crate::scene::light::PunctualKind;
     use json::extensions::scene::khr_lights_punctual::{Light, Spot, Type};
     let mut out = Vec::new();
     for light in lights {
-        let (type_, position, direction, spot, intensity) = match &light.kind {
-            LightKind::Point { position } => (Type::Point, *position, None, None, light.intensity),
-            LightKind::Spot {
-                position,
-                direction,
-                inner,
-                outer,
-            } => (
-                Type::Spot,
-                *position,
-                Some(*direction),
-                Some(Spot {
-                    inner_cone_angle: *inner as f32,
-                    outer_cone_angle: *outer as f32,
-                }),
-                light.intensity,
-            ),
-            LightKind::Sun { direction } => (
-                Type::Directional,
-                DVec3::ZERO,
-                Some(*direction),
-                None,
-                light.intensity,
-            ),
-            LightKind::Luminaire {
-                position, profile, ..
-            } => (
-                Type::Point,
-                *position,
-                None,
-                None,
-                light.intensity * profile.flux() / (4.0 * std::f64::consts::PI),
-            ),
-            LightKind::Sky { .. } => continue,
+        let Some(punctual) = light.model().punctual(light.intensity) else {
+            continue;
         };
+        let (type_, spot) = match punctual.kind {
+            PunctualKind::Point => (Type::Point, None),
+            PunctualKind::Spot { inner, outer } => (
+                Type::Spot,
+                Some(Spot {
+                    inner_cone_angle: inner as f32,
+                    outer_cone_angle: outer as f32,
+                }),
+            ),
+            PunctualKind::Directional => (Type::Directional, None),
+        };
+        let (position, direction, intensity) =
+            (punctual.position, punctual.direction, punctual.intensity);
         let peak = light.colour.max_element();
         let (colour, intensity) = if peak > 0.0 {
             (light.colour / peak, intensity * peak)

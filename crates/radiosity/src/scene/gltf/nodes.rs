@@ -180,10 +180,12 @@ impl Loader<'_> {
             return Ok(light);
         }
         let kind = match light.type_ {
-            json::validation::Checked::Valid(Type::Point) => LightKind::Point { position },
-            json::validation::Checked::Valid(Type::Directional) => LightKind::Sun {
+            json::validation::Checked::Valid(Type::Point) => {
+                LightKind::Point(light::Point { position })
+            }
+            json::validation::Checked::Valid(Type::Directional) => LightKind::Sun(light::Sun {
                 direction: direction()?,
-            },
+            }),
             json::validation::Checked::Valid(Type::Spot) => {
                 let (inner, outer) = light.spot.as_ref().map_or((0.0, FRAC_PI_4), |s| {
                     (widen(s.inner_cone_angle), widen(s.outer_cone_angle))
@@ -200,12 +202,12 @@ impl Loader<'_> {
                 let (inner, outer) = (snap(inner), snap(outer));
                 let (inner, outer) = light::cone(inner.to_degrees(), outer.to_degrees())
                     .map_err(|e| fail(self, e.to_string()))?;
-                LightKind::Spot {
+                LightKind::Spot(light::Spot {
                     position,
                     direction: direction()?,
                     inner,
                     outer,
-                }
+                })
             }
             json::validation::Checked::Invalid => {
                 return Err(fail(

@@ -1,5 +1,11 @@
-//! The sky's irradiance at a receiver: what a sky ([`crate::scene::sky`])
-//! sends through openings ([`super::portals`]) and over the rest of
+//! The sky in the solver, in one module: the openings its light comes
+//! through ([`portals`]: found, or marked by the file and checked), the
+//! plan of the directions drawn at a receiver (here) and its shot over a
+//! chunk of receivers (`shot`). Its model, luminance and the light kind
+//! are the scene's ([`crate::scene::sky`]).
+//!
+//! The sky's irradiance at a receiver: what a sky sends through openings
+//! ([`portals`]) and over the rest of
 //! its dome and the ground, as unblocked irradiances each with the far end
 //! of its shadow segment. Beyond the paper, whose sources are surfaces.
 //!
@@ -29,11 +35,16 @@
 
 use glam::DVec3;
 
-use super::portals::{self, Portal};
+pub mod portals;
+mod shot;
+
+pub(super) use self::shot::gather;
+
+use self::portals::Portal;
 use crate::accel::Occluder;
 use crate::geometry::{self, spherical};
-use crate::scene::sky::{self, Patch};
-use crate::scene::{Light, LightKind, Scene};
+use crate::scene::sky::{self, Patch, SkyLight};
+use crate::scene::{Light, Scene};
 
 /// Most portals sampled at one receiver: those that pass it the most.
 pub const MAX_ACTIVE: usize = 16;
@@ -123,9 +134,7 @@ impl SkyPlan {
     /// `scene` (found with `occluder`); `None` for any other light.
     #[must_use]
     pub fn new(light: &Light, scene: &Scene, occluder: &dyn Occluder) -> Option<SkyPlan> {
-        let LightKind::Sky { sky, subdivision } = &light.kind else {
-            return None;
-        };
+        let SkyLight { sky, subdivision } = light.sky()?;
         let ground = if sky.ground() > 0.0 {
             sky::ground_patches((*subdivision / 2).max(1))
         } else {
@@ -190,7 +199,7 @@ impl SkyPlan {
             normal,
             reach,
         };
-        let LightKind::Sky { sky, .. } = &light.kind else {
+        let Some(SkyLight { sky, .. }) = light.sky() else {
             return draw;
         };
         let radiometric = light.radiometric();
@@ -284,7 +293,7 @@ impl SkyPlan {
     /// ray set aside. The choice never looks at the cell's own ray, so the
     /// estimate stays unbiased.
     pub fn refine(&self, light: &Light, draw: &mut SkyDraw, passed: &[DVec3]) {
-        let LightKind::Sky { sky, .. } = &light.kind else {
+        let Some(SkyLight { sky, .. }) = light.sky() else {
             return;
         };
         let radiometric = light.radiometric();

@@ -3,7 +3,7 @@
 //! window, a skylight, a slit, a courtyard's open top), found from the
 //! geometry, so that the sky can be sampled through them as a source
 //! instead of being found by directions drawn over the whole sky (see
-//! [`super::sky`]): the idea behind Radiance's `mkillum` and the portals of
+//! [`super`]): the idea behind Radiance's `mkillum` and the portals of
 //! pbrt-v4 and Mitsuba, found here without the user marking them; and the
 //! openings a user marks ([`Marked`]), checked to see the sky. Both trace
 //! rays, so they live with the solver, not with the scene that only reads
@@ -156,10 +156,7 @@ pub fn check_marked(
 ///
 /// The first misplaced portal, at its face's line.
 pub fn check_scene(scene: &Scene) -> Result<(), SceneError> {
-    let has_sky = scene
-        .lights
-        .iter()
-        .any(|l| matches!(l.kind, crate::scene::LightKind::Sky { .. }));
+    let has_sky = scene.lights.iter().any(|l| l.sky().is_some());
     if scene.portals.is_empty() || !has_sky {
         return Ok(());
     }
