@@ -13,7 +13,6 @@ use clap::error::ErrorKind;
 
 mod cli;
 mod serve;
-mod viewer;
 
 use cli::args::{Cli, Command, ExperimentArgs, RenderArgs, ServeArgs, ViewArgs};
 use cli::progress::{ProgressDisplay, print_summary};
@@ -281,7 +280,7 @@ fn stop_handlers() -> Result<Stops> {
 }
 
 fn view(args: &ViewArgs) -> Result<()> {
-    let server = viewer::Server::bind(&args.file, args.port)?;
+    let server = serve::viewer::Viewer::bind(&args.file, args.port)?;
     println!("serving {} at {}", args.file.display(), server.url());
     println!("open that address in a browser; Ctrl-C stops");
     server.run()?;

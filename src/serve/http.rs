@@ -18,7 +18,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use tokio::time::Instant;
 
-use super::assets;
+use super::assets::{self, Page};
 use super::state::{SNAPSHOT_INTERVAL, Shared};
 use super::wire::{self, Rgbe};
 
@@ -29,13 +29,38 @@ const MAX_CLIENT_MESSAGE: usize = 4096;
 #[derive(Clone)]
 struct App {
     shared: Arc<Shared>,
-    local: SocketAddr,
+}
+
+/// The content security policy of the live view's page.
+const LIVE_POLICY: &str = "default-src 'self'; script-src 'self' 'unsafe-inline'; \
+     style-src 'self' 'unsafe-inline'; img-src 'self' data:; connect-src 'self'; \
+     frame-ancestors 'none'; base-uri 'none'; form-action 'none'";
+
+/// What guards a server's routes: the address it listens on and its
+/// page's content security policy.
+#[derive(Clone, Copy)]
+pub struct Guard {
+    /// The address the server listens on.
+    pub local: SocketAddr,
+    /// The `Content-Security-Policy` of every response.
+    pub policy: &'static str,
+}
+
+impl Guard {
+    /// `router` behind this guard ([`guard`]).
+    pub fn around<S: Clone + Send + Sync + 'static>(self, router: Router<S>) -> Router<S> {
+        router.layer(middleware::from_fn_with_state(self, guard))
+    }
 }
 
 /// The router for a server listening on `local`.
 pub fn router(shared: Arc<Shared>, local: SocketAddr) -> Router {
-    let app = App { shared, local };
-    Router::new()
+    let app = App { shared };
+    let guard = Guard {
+        local,
+        policy: LIVE_POLICY,
+    };
+    let routes = Router::new()
         .route("/api/live", get(live))
         .route("/api/status", get(status))
         .route("/api/vertex/{index}", get(vertex))
@@ -44,15 +69,14 @@ pub fn router(shared: Arc<Shared>, local: SocketAddr) -> Router {
         .route("/api/stop", post(stop))
         .route("/api/view/{width}/{height}", post(view))
         .route("/api/frame.png", get(frame))
-        .fallback(get(asset))
-        .layer(middleware::from_fn_with_state(app.clone(), guard))
-        .with_state(app)
+        .fallback(get(|uri: Uri| async move { asset(Page::Live, &uri) }));
+    guard.around(routes).with_state(app)
 }
 
 /// Rejects unexpected hosts and origins; adds the security headers.
-async fn guard(State(app): State<App>, request: Request, next: Next) -> Response {
+async fn guard(State(guard): State<Guard>, request: Request, next: Next) -> Response {
     let headers = request.headers();
-    if let Err(reason) = check_host(headers, app.local) {
+    if let Err(reason) = check_host(headers, guard.local) {
         return (StatusCode::FORBIDDEN, reason).into_response();
     }
     if let Err(reason) = check_origin(headers) {
@@ -62,11 +86,7 @@ async fn guard(State(app): State<App>, request: Request, next: Next) -> Response
     let h = response.headers_mut();
     h.insert(
         header::CONTENT_SECURITY_POLICY,
-        HeaderValue::from_static(
-            "default-src 'self'; script-src 'self' 'unsafe-inline'; \
-             style-src 'self' 'unsafe-inline'; img-src 'self' data:; connect-src 'self'; \
-             frame-ancestors 'none'; base-uri 'none'; form-action 'none'",
-        ),
+        HeaderValue::from_static(guard.policy),
     );
     h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
     h.insert(
@@ -138,9 +158,10 @@ pub fn check_origin(headers: &HeaderMap) -> Result<(), String> {
     }
 }
 
-/// The embedded files, by exact path; nothing else exists.
-async fn asset(uri: Uri) -> Response {
-    match assets::find(uri.path()) {
+/// `page`'s embedded files ([`assets`]), by exact path; nothing else
+/// exists.
+pub fn asset(page: Page, uri: &Uri) -> Response {
+    match assets::find(page, uri.path()) {
         Some(asset) => (
             [(header::CONTENT_TYPE, asset.content_type)],
             Bytes::from_static(asset.bytes),

@@ -17,6 +17,9 @@
 //! to the next. Time held paused counts neither in the page's solve time
 //! nor against `--time-limit`.
 //!
+//! The same server, with the same guard and table of embedded files,
+//! serves `radiosity view`'s bake viewer ([`viewer`]).
+//!
 //! # Threads
 //! The solve runs on the caller's thread through [`radiosity::app::run`] with
 //! the [`Server::observer`], at full speed whether or not a page is open:
@@ -121,6 +124,7 @@ mod assets;
 mod http;
 mod observer;
 mod state;
+pub mod viewer;
 pub mod wire;
 
 use std::net::SocketAddr;
