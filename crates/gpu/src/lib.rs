@@ -6,7 +6,8 @@
 //!
 //! Modules, one concern each: [`adapter`] (finding and opening an adapter,
 //! naming it), [`policy`] (the device a run takes: which settings the GPU
-//! runs, what `--device auto|gpu|cpu` opens), [`device_scene`] (the scene's triangles and BVH on the
+//! runs, what `--device auto|gpu|cpu` opens), [`shaders`] (the kernels'
+//! source, with the numbers they share with Rust generated from it), [`device_scene`] (the scene's triangles and BVH on the
 //! device), `wgpu_io` (buffers, bindings, readbacks, device errors),
 //! [`gather`] (the default method's transfers), [`trace`] (shadow
 //! segments against the scene: a binary
@@ -19,6 +20,7 @@ pub mod adapter;
 pub mod device_scene;
 pub mod gather;
 pub mod policy;
+pub mod shaders;
 pub mod trace;
 mod wgpu_io;
 

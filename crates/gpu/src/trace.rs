@@ -44,8 +44,7 @@ use crate::{Gpu, GpuError};
 /// The most segments one dispatch traces.
 pub const DISPATCH_SEGMENTS: usize = 1 << 18;
 
-/// Threads of a workgroup (`@workgroup_size` in `trace.wgsl`).
-const WORKGROUP: u32 = 64;
+use crate::shaders::WORKGROUP;
 
 /// A segment as the kernel reads it (WGSL `Segment`).
 #[repr(C)]
@@ -114,7 +113,7 @@ impl SceneTracer {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("trace.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(include_str!("trace.wgsl").into()),
+                source: wgpu::ShaderSource::Wgsl(crate::shaders::trace_source().into()),
             });
         let pipeline = gpu
             .device

@@ -68,9 +68,7 @@ struct Dispatch {
 @group(0) @binding(3) var<storage, read_write> blocked: array<u32>;
 @group(0) @binding(4) var<uniform> dispatch: Dispatch;
 
-const INTERIOR: u32 = 0x80000000u;
-// The CPU's build bounds the depth by 64 (bvh::MAX_DEPTH).
-const STACK_SIZE: u32 = 64u;
+// STACK_SIZE: the CPU's build bounds the depth by bvh::MAX_DEPTH.
 
 // Whether the segment origin + t d, 0 <= t <= 1, meets the box (`inv` is
 // 1 / d with no zero component).
@@ -212,7 +210,7 @@ fn segment_blocked(p0: vec3<f32>, p0_lo: vec3<f32>, p1: vec3<f32>, p1_lo: vec3<f
     return false;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dispatch.count) {
         return;

@@ -28,13 +28,7 @@ use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
 /// Size and member offsets of the WGSL struct `name` of the transfer
 /// kernel (trace.wgsl and gather.wgsl, as the device compiles them).
 fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
-    let source = [
-        include_str!("../src/trace.wgsl"),
-        include_str!("../src/gather/polygon.wgsl"),
-        include_str!("../src/gather/gather.wgsl"),
-        include_str!("../src/gather/book.wgsl"),
-    ]
-    .concat();
+    let source = radiosity_gpu::shaders::gather_source();
     let module = naga::front::wgsl::parse_str(&source).unwrap();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).unwrap();

@@ -40,7 +40,7 @@ fn gpu() -> Option<Gpu> {
 
 /// Size and member offsets of the WGSL struct `name` in trace.wgsl.
 fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
-    let module = naga::front::wgsl::parse_str(include_str!("../src/trace.wgsl")).unwrap();
+    let module = naga::front::wgsl::parse_str(&radiosity_gpu::shaders::trace_source()).unwrap();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).unwrap();
     let (handle, ty) = module

@@ -56,7 +56,6 @@ struct Book {
 // surfaces' first shots (Solver::direct_irradiance).
 @group(0) @binding(26) var<storage, read_write> direct_total: array<vec4<f32>>;
 
-const BOOK_WORKGROUP: u32 = 256u;
 
 var<workgroup> sum_incident: array<vec3<f32>, BOOK_WORKGROUP>;
 var<workgroup> sum_absorbed: array<vec3<f32>, BOOK_WORKGROUP>;
@@ -65,7 +64,7 @@ var<workgroup> sum_magnitude: array<vec3<f32>, BOOK_WORKGROUP>;
 
 // The shooter's elements' unshot radiosity, in the tree's order, for the
 // host to prepare its sources.
-@compute @workgroup_size(256)
+@compute @workgroup_size(BOOK_WORKGROUP)
 fn collect(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = book.first + id.x;
     if (i >= book.last) {
@@ -77,7 +76,7 @@ fn collect(@builtin(global_invocation_id) id: vec3<u32>) {
 // The shooter has shot: its elements are left with what the host wrote
 // into the staging buffer (zero, or minus their overshoot); a second pass
 // leaves them.
-@compute @workgroup_size(256)
+@compute @workgroup_size(BOOK_WORKGROUP)
 fn leave_shooter(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = book.first + id.x;
     if (i >= book.last || book.leave == 0u) {
@@ -89,7 +88,7 @@ fn leave_shooter(@builtin(global_invocation_id) id: vec3<u32>) {
 // Each element's mean irradiance from its corners: its reflected share
 // becomes unshot radiosity; the power it received, absorbed and still has
 // to shoot summed per workgroup (a fixed tree of additions).
-@compute @workgroup_size(256)
+@compute @workgroup_size(BOOK_WORKGROUP)
 fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) local: u32, @builtin(workgroup_id) group: vec3<u32>) {
     let e = id.x;
     var incident = vec3<f32>(0.0);
@@ -137,7 +136,7 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
 
 // Each receiver's irradiance: what it had, plus the shot's; its direct
 // part, plus the shot's direct share.
-@compute @workgroup_size(256)
+@compute @workgroup_size(BOOK_WORKGROUP)
 fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.receivers) {
         return;
@@ -151,7 +150,7 @@ fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
 
 // Each shooter's unshot power (luminance, element by element in
 // magnitude), over its elements in the tree's order.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.shooters) {
         return;

@@ -128,14 +128,6 @@ struct Shot {
     item_groups: u32,
 }
 
-// What the shot's walks counted, summed (integers: the same in any order).
-const PAIRS: u32 = 0u;
-const RAYS: u32 = 1u;
-const WALKS: u32 = 2u;
-const VISITS: u32 = 3u;
-const ELEMENTS: u32 = 4u;
-// The items the chunk's split walks hold so far (reset by `join_items`).
-const ITEMS: u32 = 5u;
 
 @group(0) @binding(5) var<storage, read> tree: array<TreeNode>;
 @group(0) @binding(6) var<storage, read> surfaces: array<Surface>;
@@ -159,21 +151,6 @@ const ITEMS: u32 = 5u;
 // The workgroups `gather_items` is dispatched with (indirect).
 @group(0) @binding(25) var<storage, read_write> item_dispatch: array<u32, 3>;
 
-const NONE: u32 = 0xffffffffu;
-const PI: f32 = 3.14159265358979;
-const TAU: f32 = 6.28318530717959;
-// radiosity::solver::adaptive::{FAR_RATIO, FAR_FACTOR} and
-// hierarchy::transfer::QUADRATURE_RATIO.
-const FAR_RATIO: f32 = 3.0;
-const FAR_FACTOR: f32 = 30.0;
-const QUADRATURE_RATIO: f32 = 4.0;
-// accel::SEGMENT_EPSILON.
-const SEGMENT_EPSILON: f32 = 1e-6;
-// form_factor::analytic's DEGENERATE and ON_PLANE.
-const DEGENERATE: f32 = 1e-11;
-const ON_PLANE: f32 = 1e-12;
-// The host checks the element tree is shallower than this.
-const WALK_STACK: u32 = 64u;
 
 // What one receiver's walk counted.
 var<private> pairs: u32;
@@ -415,8 +392,6 @@ fn straddles(n: TreeNode, r: Receiver) -> bool {
     return abs(dot(r.normal, node_offset(n, r))) < n.radius;
 }
 
-// hierarchy::transfer::GRAZE.
-const GRAZE: f32 = 0.0625;
 
 // transfer::placement: which side of the receiver's tangent plane a node
 // lies on, by its sphere and its box, in front also when it reaches
@@ -477,8 +452,6 @@ struct Geometry {
     e: array<vec3<f32>, 6>,
 }
 
-// hierarchy::transfer::DIM_SHARE.
-const DIM_SHARE: f32 = 0.05;
 
 // Transfer::bound: the most irradiance (luminance) a node of power
 // `weight` can send the receiver, from its box's nearest point at the
@@ -761,17 +734,15 @@ fn negligible_for(i: u32) -> f32 {
     return shot.negligible * max(luminance(total[i].xyz) / shot.mean, 1.0);
 }
 
-// The ring of nodes a receiver's walk takes breadth first before it is
-// split: it holds at most `shot.frontier` (<= RING) at a time.
-const RING: u32 = 64u;
-
+// (RING: the ring of nodes a receiver's walk takes breadth first before
+// it is split holds at most `shot.frontier` (<= RING) at a time.)
 // A receiver's walk, breadth first, until it is done or its frontier
 // holds `shot.frontier` nodes; those are left as items, one subtree each,
 // for `gather_items` (many threads for the receivers near the shooter,
 // whose walks are long), their sums joined by `join_items` in the
 // frontier's order, so the answer never depends on which thread got which
 // item.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= shot.count) {
         return;
@@ -829,7 +800,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
 // most `shot.item_groups` (never more than a dispatch may have).
 @compute @workgroup_size(1)
 fn size_items() {
-    item_dispatch[0] = min((atomicLoad(&counters[ITEMS]) + 63u) / 64u, shot.item_groups);
+    item_dispatch[0] = min((atomicLoad(&counters[ITEMS]) + WORKGROUP - 1u) / WORKGROUP, shot.item_groups);
     item_dispatch[1] = 1u;
     item_dispatch[2] = 1u;
 }
@@ -837,7 +808,7 @@ fn size_items() {
 // The items of split walks, each subtree walked depth first: a thread
 // takes items a dispatch's width apart until none is left, so any number
 // of workgroups walks them all.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn gather_items(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
@@ -850,7 +821,7 @@ fn gather_items(
     rays = 0u;
     visits = 0u;
     element_sources = 0u;
-    for (var t = id.x; t < count; t += groups.x * 64u) {
+    for (var t = id.x; t < count; t += groups.x * WORKGROUP) {
         let k = shot.count + t;
         let item = split[k];
         let i = item.y;
@@ -865,7 +836,7 @@ fn gather_items(
 
 // Each receiver's split walk joined, its items' sums in its frontier's
 // order; the chunk's items are then free for the next chunk.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn join_items(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x == 0u) {
         atomicStore(&counters[ITEMS], 0u);

@@ -77,13 +77,7 @@ impl Pipelines {
     }
 
     pub(super) fn new(gpu: &Gpu) -> Pipelines {
-        let source = [
-            include_str!("../trace.wgsl"),
-            include_str!("polygon.wgsl"),
-            include_str!("gather.wgsl"),
-            include_str!("book.wgsl"),
-        ]
-        .concat();
+        let source = crate::shaders::gather_source();
         let module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -61,15 +61,12 @@ pub const MAX_WORKGROUPS: u32 = 65_535;
 /// At most [`MAX_FRONTIER`].
 pub const FRONTIER: u32 = 32;
 
-/// The largest frontier (`RING` in `gather.wgsl`).
-pub const MAX_FRONTIER: u32 = 64;
+pub use crate::shaders::MAX_FRONTIER;
+use crate::shaders::{WALK_STACK, WORKGROUP};
 
-/// Threads of a workgroup (`@workgroup_size` in `gather.wgsl`).
-const WORKGROUP: u32 = 64;
-
-/// The deepest element tree the kernel's walk stack holds
-/// (`WALK_STACK` in `gather.wgsl`, less the two a visit pushes).
-const MAX_TREE_DEPTH: usize = 62;
+/// The deepest element tree the kernel's walk stack holds: two less than
+/// its entries (a visit pushes two children).
+const MAX_TREE_DEPTH: usize = WALK_STACK as usize - 2;
 
 /// Storage buffers the transfer kernel binds at once.
 const STORAGE_BUFFERS: u32 = 13;

@@ -27,12 +27,8 @@ use crate::Gpu;
 use crate::device_scene::{DeviceScene, split};
 use crate::wgpu_io::{catch_uncaptured, entry, nonempty, read_back, storage};
 
-/// Threads of the book-keeping's workgroups (`BOOK_WORKGROUP` in
-/// `book.wgsl`; the shooters' powers take 64).
-const BOOK_WORKGROUP: u32 = 256;
-
-/// Counters the walks sum (`counters` in `gather.wgsl`).
-const COUNTERS: usize = 8;
+use crate::shaders::BOOK_WORKGROUP;
+use crate::shaders::counter::{self, COUNTERS};
 
 /// A solve on the GPU.
 pub(super) struct GpuTransfers {
@@ -622,11 +618,11 @@ impl GpuTransfers {
             unshot_power,
             unshot_magnitude,
             shooter_power,
-            pairs: u64::from(counts[0]),
-            rays: u64::from(counts[1]),
-            walks: u64::from(counts[2]),
-            node_visits: u64::from(counts[3]),
-            element_sources: u64::from(counts[4]),
+            pairs: u64::from(counts[counter::PAIRS]),
+            rays: u64::from(counts[counter::RAYS]),
+            walks: u64::from(counts[counter::WALKS]),
+            node_visits: u64::from(counts[counter::VISITS]),
+            element_sources: u64::from(counts[counter::ELEMENTS]),
             upload_time: kernel_start - upload_start,
             kernel_time: readback_start - kernel_start,
             readback_time: readback_start.elapsed(),

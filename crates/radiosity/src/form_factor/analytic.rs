@@ -26,11 +26,11 @@ use crate::geometry::{self, clip};
 /// also the size under which the receiver's normal counts as parallel to
 /// the polygon's. Positions are rounded to about `1e-16` of the polygon's
 /// size, so beyond `1e-11` an offset's direction is known to about `1e-5`.
-const DEGENERATE: f64 = 1e-11;
+pub const DEGENERATE: f64 = 1e-11;
 
 /// Relative distance (to the farthest corner) within which a corner counts
 /// as lying on the receiver's tangent plane, and is kept by the clip.
-const ON_PLANE: f64 = 1e-12;
+pub const ON_PLANE: f64 = 1e-12;
 
 /// Form factor from the differential area at `receiver` (unit normal
 /// `receiver_normal`) to the planar `polygon` (corners counter-clockwise seen
