@@ -1,0 +1,355 @@
+//! Each WGSL rule against its Rust twin, through a small test kernel on the
+//! device (`polygon.wgsl`: the clipper, Newell's normal, the centroid and
+//! the analytic factor of the paper's equation (2)). The inputs are random
+//! triangles and quads around a receiver, with the cases that break naive
+//! code drawn on purpose: corners on the receiver's tangent plane and
+//! polygons crossing it (grazing), polygons in the plane (coplanar), behind
+//! it (clipped to nothing), slivers. The Rust twin reads the same `f32`
+//! inputs in `f64`, so the two differ only by the kernel's `f32`
+//! arithmetic; each comparison states its tolerance in units of `f32`'s
+//! round-off of the inputs' scale.
+//!
+//! Without an adapter the tests say they did not run, unless
+//! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
+//! installed): then they fail.
+
+#[allow(dead_code)]
+#[path = "../../radiosity/tests/common/rng.rs"]
+mod rng;
+
+use glam::DVec3;
+use radiosity::form_factor::analytic::analytic_facing;
+use radiosity::geometry::{self, clip::clip_each};
+use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
+use rng::Rng;
+use wgpu::util::DeviceExt;
+
+/// `f32`'s unit round-off.
+const EPS: f64 = f32::EPSILON as f64;
+
+/// The test kernel: each case's polygon through each rule.
+const KERNEL: &str = r"
+struct Case {
+    p: array<vec4<f32>, 4>,
+    normal: vec4<f32>,
+    source_normal: vec4<f32>,
+    count: u32,
+    tolerance: f32,
+    pad0: u32,
+    pad1: u32,
+}
+
+struct Out {
+    clipped: array<vec4<f32>, 6>,
+    newell: vec4<f32>,
+    centroid: vec4<f32>,
+    clipped_count: u32,
+    factor: f32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<storage, read> cases: array<Case>;
+@group(0) @binding(1) var<storage, read_write> outs: array<Out>;
+
+@compute @workgroup_size(WORKGROUP)
+fn twins(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&cases)) {
+        return;
+    }
+    let c = cases[i];
+    var poly: Polygon;
+    poly.count = c.count;
+    for (var k = 0u; k < c.count; k += 1u) {
+        poly.p[k] = c.p[k].xyz;
+    }
+    var o: Out;
+    let clipped = clip(poly, c.normal.xyz, c.tolerance);
+    o.clipped_count = clipped.count;
+    for (var k = 0u; k < clipped.count; k += 1u) {
+        o.clipped[k] = vec4<f32>(clipped.p[k], 0.0);
+    }
+    o.newell = vec4<f32>(newell(poly), 0.0);
+    o.centroid = vec4<f32>(centroid(poly), 0.0);
+    o.factor = analytic(poly, c.normal.xyz, c.source_normal.xyz);
+    outs[i] = o;
+}
+";
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Case {
+    p: [[f32; 4]; 4],
+    normal: [f32; 4],
+    source_normal: [f32; 4],
+    count: u32,
+    tolerance: f32,
+    pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Out {
+    clipped: [[f32; 4]; 6],
+    newell: [f32; 4],
+    centroid: [f32; 4],
+    clipped_count: u32,
+    factor: f32,
+    pad: [u32; 2],
+}
+
+/// A GPU adapter (software ones included), or `None` with a note when
+/// there is none and none is required.
+fn gpu() -> Option<Gpu> {
+    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
+    match Gpu::open(DeviceChoice::Gpu) {
+        Ok(gpu) => gpu,
+        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
+        Err(e) => {
+            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
+            None
+        }
+    }
+}
+
+/// The kernel's outputs for `cases`.
+fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
+    let source = radiosity_gpu::shaders::prelude()
+        + radiosity_gpu::shaders::GATHER_FILES
+            .iter()
+            .find(|f| f.0 == "gather/polygon.wgsl")
+            .unwrap()
+            .1
+        + KERNEL;
+    let device = &gpu.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("twins"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("twins"),
+        layout: None,
+        module: &module,
+        entry_point: Some("twins"),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    });
+    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("cases"),
+        contents: bytemuck::cast_slice(cases),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let bytes = (cases.len() * size_of::<Out>()) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("outs"),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("twins"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: input.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: output.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        let groups = (cases.len() as u32).div_ceil(radiosity_gpu::shaders::WORKGROUP);
+        pass.dispatch_workgroups(groups, 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, bytes);
+    gpu.queue.submit([encoder.finish()]);
+    let slice = readback.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |r| r.unwrap());
+    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    bytemuck::cast_slice::<u8, Out>(&slice.get_mapped_range().unwrap()).to_vec()
+}
+
+fn f32s(v: DVec3) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+fn read(v: [f32; 4]) -> DVec3 {
+    DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
+}
+
+/// A random polygon around the receiver (at the origin, its normal
+/// `normal`), of one of the kinds the header lists.
+fn case(rng: &mut Rng, normal: DVec3) -> Case {
+    let count = if rng.chance(0.5) { 3 } else { 4 };
+    let size = rng.range(0.05, 2.0);
+    let centre = rng.point_in(DVec3::splat(-3.0), DVec3::splat(3.0));
+    let u = rng.unit_vector();
+    let mut w = rng.unit_vector().cross(u).normalize_or_zero();
+    if w == DVec3::ZERO {
+        w = u.any_orthonormal_vector();
+    }
+    let mut corners: Vec<DVec3> = (0..count)
+        .map(|k| {
+            let a = std::f64::consts::TAU * (k as f64 + rng.range(-0.3, 0.3)) / count as f64;
+            centre + size * (a.cos() * u + a.sin() * w)
+        })
+        .collect();
+    // Polygons whose plane holds the receiver's normal are not sensible
+    // sources of factors; the analytic twin handles them, the header's
+    // kinds come next.
+    match rng.below(6) {
+        // Grazing: a corner or two on the tangent plane.
+        0 => {
+            for c in corners.iter_mut().take(1 + rng.below(2)) {
+                *c -= normal * normal.dot(*c);
+            }
+        }
+        // Coplanar: all in the tangent plane.
+        1 => {
+            for c in &mut corners {
+                *c -= normal * normal.dot(*c);
+            }
+        }
+        // Behind: clipped to nothing.
+        2 => {
+            for c in &mut corners {
+                let d = normal.dot(*c);
+                *c -= normal * (d.abs() + rng.range(0.01, 1.0) + d);
+            }
+        }
+        // A sliver: two corners almost together.
+        3 => corners[1] = corners[0] + (corners[1] - corners[0]) * 1e-3,
+        _ => {}
+    }
+    // As the device reads them.
+    let corners: Vec<[f32; 4]> = corners.iter().map(|c| f32s(*c)).collect();
+    let back: Vec<DVec3> = corners.iter().map(|c| read(*c)).collect();
+    let source_normal = geometry::normal(&back).unwrap_or(normal);
+    let mut p = [[0.0; 4]; 4];
+    p[..count].copy_from_slice(&corners);
+    Case {
+        p,
+        normal: f32s(normal),
+        source_normal: f32s(source_normal),
+        count: count as u32,
+        tolerance: if rng.chance(0.5) {
+            0.0
+        } else {
+            (size * 1e-3) as f32
+        },
+        pad: [0; 2],
+    }
+}
+
+/// The clipper, Newell's normal, the centroid and the analytic factor on
+/// the device agree with their Rust twins on 8,000 random polygons, the
+/// grazing, coplanar, clipped-away and sliver ones included.
+#[test]
+fn the_polygon_rules_agree_with_their_rust_twins() {
+    let Some(gpu) = gpu() else {
+        return;
+    };
+    let mut rng = Rng(0x7_0715);
+    let cases: Vec<Case> = (0..8000)
+        .map(|_| {
+            let normal = if rng.chance(0.3) {
+                DVec3::Y
+            } else {
+                rng.unit_vector()
+            };
+            case(&mut rng, read(f32s(normal)).normalize())
+        })
+        .collect();
+    let outs = run(&gpu, &cases);
+    let (mut clipped_away, mut grazing, mut factors, mut compared) = (0, 0, 0, 0);
+    for (i, (c, o)) in cases.iter().zip(&outs).enumerate() {
+        let poly: Vec<DVec3> = c.p[..c.count as usize].iter().map(|p| read(*p)).collect();
+        let normal = read(c.normal);
+        let scale = poly.iter().map(|p| p.length()).fold(0.0, f64::max);
+        // Clip: the same corners, each within 16 round-offs of the scale
+        // (a crossing is interpolated from the end nearer the plane). A
+        // corner within round-off of the band's edge or of the plane (but
+        // not on it exactly, as corners projected on an axis-aligned plane
+        // are) may fall either way in f32: those cases are left out.
+        let tolerance = f64::from(c.tolerance);
+        let near = |edge: f64| {
+            poly.iter().any(|p| {
+                let d = normal.dot(*p) + edge;
+                d != 0.0 && d.abs() <= 8.0 * EPS * scale
+            })
+        };
+        let undecided = near(tolerance) || near(0.0);
+        let mut clipped = Vec::new();
+        clip_each(&poly, |p| normal.dot(p), tolerance, |v| clipped.push(v));
+        if !undecided {
+            assert_eq!(clipped.len(), o.clipped_count as usize, "case {i}: {c:?}");
+            for (k, p) in clipped.iter().enumerate() {
+                let got = read(o.clipped[k]);
+                assert!(
+                    (got - *p).length() <= 16.0 * EPS * scale,
+                    "case {i}: clipped corner {k}: {got} against {p}"
+                );
+            }
+            clipped_away += usize::from(clipped.is_empty());
+            compared += 1;
+        }
+        grazing += usize::from(poly.iter().any(|p| normal.dot(*p) == 0.0));
+        // Newell's normal: each of its count cross products within 8
+        // round-offs of scale^2.
+        let newell = geometry::newell_area_vector(&poly);
+        let got = read(o.newell);
+        assert!(
+            (got - newell).length() <= 8.0 * poly.len() as f64 * EPS * scale * scale,
+            "case {i}: newell {got} against {newell}"
+        );
+        // The centroid, where the polygon has an area (a sliver's centroid
+        // divides by it): within 64 round-offs of the scale.
+        if newell.length() >= 1e-2 * scale * scale {
+            let centroid = geometry::centroid(&poly);
+            let got = read(o.centroid);
+            assert!(
+                (got - centroid).length() <= 64.0 * EPS * scale,
+                "case {i}: centroid {got} against {centroid}"
+            );
+        }
+        // The factor: within 64 round-offs (each edge's angle is a few
+        // round-offs of pi), where no corner's side of the tangent plane is
+        // undecided (its clip's tolerance is ON_PLANE of the scale, below
+        // f32's resolution).
+        if !near(0.0) {
+            let source_normal = read(c.source_normal);
+            let factor = analytic_facing(DVec3::ZERO, normal, &poly, source_normal);
+            let got = f64::from(o.factor);
+            assert!(
+                (got - factor).abs() <= 64.0 * EPS,
+                "case {i}: factor {got} against {factor}: {c:?}"
+            );
+            factors += usize::from(factor > 0.0);
+        }
+    }
+    // The kinds drawn were met.
+    // (The rest are grazing and coplanar polygons about a tilted normal,
+    // whose corners' sides are round-off in f32; about an axis-aligned
+    // normal they are exact, and compared.)
+    assert!(compared > 5600, "{compared} clips compared of 8000");
+    assert!(clipped_away > 600, "{clipped_away} polygons clipped away");
+    assert!(
+        grazing > 400,
+        "{grazing} polygons touching the tangent plane"
+    );
+    assert!(factors > 1200, "{factors} positive factors");
+}
