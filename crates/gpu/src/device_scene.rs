@@ -2,7 +2,7 @@
 //! (fans of each convex polygon) relative to the scene's centre, each
 //! coordinate a pair of `f32`s (the nearest and its round-off), and the
 //! CPU's own BVH over them ([`FlatTree`]), in the layouts the kernels read
-//! (`trace.wgsl`, the gather kernels); built and uploaded once a scene and
+//! (`trace/walk.wgsl`, the trace and gather kernels); built and uploaded once a scene and
 //! shared by every solve on the same device.
 
 use std::sync::Arc;

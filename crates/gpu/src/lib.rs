@@ -12,7 +12,7 @@
 //! [`gather`] (the default method's transfers), [`trace`] (shadow
 //! segments against the scene: a binary
 //! bounding-volume hierarchy over the surfaces' triangles, the very tree
-//! the CPU's BVH builds, walked by the `occluded` kernel in `trace.wgsl`
+//! the CPU's BVH builds, walked by the `occluded` kernel (`trace/`)
 //! with a watertight triangle test). The CPU implementation is the oracle
 //! every kernel is tested against.
 

@@ -14,6 +14,7 @@ use std::fmt::Write as _;
 use radiosity::accel::SEGMENT_EPSILON;
 use radiosity::accel::bvh::FLAT_INTERIOR;
 use radiosity::form_factor::analytic::{DEGENERATE, ON_PLANE};
+use radiosity::photometry::LUMINANCE_WEIGHTS;
 use radiosity::solver::adaptive::FAR_FACTOR;
 use radiosity::solver::hierarchy::NONE;
 use radiosity::solver::hierarchy::transfer::{DIM_SHARE, FAR_RATIO, GRAZE, QUADRATURE_RATIO};
@@ -89,7 +90,138 @@ pub const SHARED: &[(&str, Value)] = &[
     ("VISITS", Value::U32(counter::VISITS as u32)),
     ("ELEMENTS", Value::U32(counter::ELEMENTS as u32)),
     ("ITEMS", Value::U32(counter::ITEMS as u32)),
+    ("COUNTERS", Value::U32(counter::COUNTERS as u32)),
+    ("LUMINANCE_R", Value::F32(LUMINANCE_WEIGHTS[0])),
+    ("LUMINANCE_G", Value::F32(LUMINANCE_WEIGHTS[1])),
+    ("LUMINANCE_B", Value::F32(LUMINANCE_WEIGHTS[2])),
 ];
+
+/// One binding of a module's group 0: its WGSL name, address space and
+/// type; its number is its place in its table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Binding {
+    /// The variable's name in WGSL.
+    pub name: &'static str,
+    /// `storage, read`, `storage, read_write` or `uniform`.
+    pub space: &'static str,
+    /// Its WGSL type.
+    pub ty: &'static str,
+}
+
+/// Declares a module's bindings once: an enum whose variants are the
+/// binding numbers (in order from 0, for the host's bind groups) and the
+/// table the WGSL declarations are generated from.
+macro_rules! bindings {
+    ($(#[$doc:meta])* $enum:ident, $table:ident {
+        $( $(#[$vdoc:meta])* $variant:ident = $name:literal : $space:literal $ty:literal, )*
+    }) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[repr(u32)]
+        pub enum $enum {
+            $( $(#[$vdoc])* $variant, )*
+        }
+
+        impl From<$enum> for u32 {
+            fn from(binding: $enum) -> u32 {
+                binding as u32
+            }
+        }
+
+        /// The bindings in the order of their numbers.
+        pub const $table: &[Binding] = &[
+            $( Binding { name: $name, space: $space, ty: $ty }, )*
+        ];
+    };
+}
+
+bindings! {
+    /// The trace kernel's bindings (`trace/kernel.wgsl`).
+    TraceBinding, TRACE_BINDINGS {
+        /// The BVH's nodes.
+        Nodes = "nodes": "storage, read" "array<Node>",
+        /// Its triangles.
+        Triangles = "triangles": "storage, read" "array<Triangle>",
+        /// The segments to trace.
+        Segments = "segments": "storage, read" "array<Segment>",
+        /// Whether each is blocked.
+        Blocked = "blocked": "storage, read_write" "array<u32>",
+        /// The dispatch's first segment and count.
+        Dispatch = "dispatch": "uniform" "Dispatch",
+    }
+}
+
+bindings! {
+    /// The transfer kernels' bindings (`gather/` and `book.wgsl`).
+    GatherBinding, GATHER_BINDINGS {
+        /// The BVH's nodes (the rays' walk, `trace/walk.wgsl`).
+        Nodes = "nodes": "storage, read" "array<Node>",
+        /// Its triangles.
+        Triangles = "triangles": "storage, read" "array<Triangle>",
+        /// The element tree's nodes.
+        Tree = "tree": "storage, read" "array<TreeNode>",
+        /// The surfaces.
+        Surfaces = "surfaces": "storage, read" "array<Surface>",
+        /// The elements.
+        Elements = "elements": "storage, read" "array<Element>",
+        /// The receivers.
+        Receivers = "receivers": "storage, read" "array<Receiver>",
+        /// Each receiver's irradiance so far (the device's order).
+        Total = "total": "storage, read_write" "array<vec4<f32>>",
+        /// The shooter's nodes' sources.
+        Sources = "sources": "storage, read" "array<NodeSource>",
+        /// Their bins.
+        Bins = "bins": "storage, read" "array<Bin>",
+        /// What each receiver gathers in this shot.
+        ShotIrradiance = "shot_irradiance": "storage, read_write" "array<vec4<f32>>",
+        /// The shot's parameters.
+        Shot = "shot": "uniform" "Shot",
+        /// What the walks counted ([`counter`]).
+        Counters = "counters": "storage, read_write" "array<atomic<u32>, COUNTERS>",
+        /// Glass: the panes' triangles (one of no area when there is none).
+        Panes = "panes": "storage, read" "array<Pane>",
+        /// The split walks of one chunk of receivers: first a header a
+        /// receiver of the chunk (x: its first item, y: how many), then the
+        /// items (before `gather_items`: x the subtree's node, y the
+        /// receiver; after it, xyz the bits of what the subtree sends).
+        Split = "split": "storage, read_write" "array<vec4<u32>>",
+        /// The workgroups `gather_items` is dispatched with (indirect).
+        ItemDispatch = "item_dispatch": "storage, read_write" "array<u32, 3>",
+        /// Each element's unshot radiosity.
+        Unshot = "unshot": "storage, read_write" "array<vec4<f32>>",
+        /// Each element's book-keeping data.
+        ElementBook = "element_book": "storage, read" "array<ElementBook>",
+        /// Each workgroup's share of the ledger.
+        Partials = "partials": "storage, read_write" "array<Partial>",
+        /// Each shooter's range of `items`.
+        ShooterItems = "shooter_items": "storage, read" "array<vec2<u32>>",
+        /// The shooters' elements.
+        Items = "items": "storage, read" "array<u32>",
+        /// Each shooter's unshot power.
+        Powers = "powers": "storage, read_write" "array<f32>",
+        /// The shooter's elements' unshot radiosity, for the host.
+        Staging = "staging": "storage, read_write" "array<vec4<f32>>",
+        /// The book-keeping pass's parameters.
+        Book = "book": "uniform" "Book",
+        /// Each receiver's direct irradiance: the lights' and the emitting
+        /// surfaces' first shots.
+        DirectTotal = "direct_total": "storage, read_write" "array<vec4<f32>>",
+    }
+}
+
+/// The WGSL declarations of `table`'s bindings, in group 0.
+#[must_use]
+pub fn declarations(table: &[Binding]) -> String {
+    let mut out = String::from("// Generated from shaders.rs's table: not by hand.\n");
+    for (i, b) in table.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "@group(0) @binding({i}) var<{}> {}: {};",
+            b.space, b.name, b.ty
+        );
+    }
+    out
+}
 
 /// The `const` declarations of [`SHARED`], one a line.
 #[must_use]
@@ -106,28 +238,45 @@ pub fn prelude() -> String {
     out
 }
 
-/// The trace kernel's files (shadow segments against the scene's BVH).
-pub const TRACE_FILES: [(&str, &str); 1] = [("trace.wgsl", include_str!("trace.wgsl"))];
+/// The trace kernel's files: the scene and its walk, the kernel.
+pub const TRACE_FILES: [(&str, &str); 2] = [
+    ("trace/walk.wgsl", include_str!("trace/walk.wgsl")),
+    ("trace/kernel.wgsl", include_str!("trace/kernel.wgsl")),
+];
 
-/// The transfer kernels' files: the trace kernel's walk, the polygon
-/// rules, the walk of the element tree, the book-keeping.
-pub const GATHER_FILES: [(&str, &str); 4] = [
-    ("trace.wgsl", include_str!("trace.wgsl")),
+/// The transfer kernels' files, one an idea: the rays' walk, the polygon
+/// rules (clipping, Newell's normal, the analytic factor), the buffers'
+/// structs, what passes along a ray (shadow, glass), the point and element
+/// factors, a node's placement and quadrature, the walk of the element
+/// tree and its entry points, the book-keeping.
+pub const GATHER_FILES: [(&str, &str); 8] = [
+    ("trace/walk.wgsl", include_str!("trace/walk.wgsl")),
     ("gather/polygon.wgsl", include_str!("gather/polygon.wgsl")),
-    ("gather/gather.wgsl", include_str!("gather/gather.wgsl")),
+    ("gather/structs.wgsl", include_str!("gather/structs.wgsl")),
+    (
+        "gather/visibility.wgsl",
+        include_str!("gather/visibility.wgsl"),
+    ),
+    ("gather/factors.wgsl", include_str!("gather/factors.wgsl")),
+    (
+        "gather/placement.wgsl",
+        include_str!("gather/placement.wgsl"),
+    ),
+    ("gather/walk.wgsl", include_str!("gather/walk.wgsl")),
     ("gather/book.wgsl", include_str!("gather/book.wgsl")),
 ];
 
-/// The trace kernel's module source.
+/// The trace kernel's module source: the prelude, its bindings, its files.
 #[must_use]
 pub fn trace_source() -> String {
-    prelude() + &TRACE_FILES.map(|f| f.1).concat()
+    prelude() + &declarations(TRACE_BINDINGS) + &TRACE_FILES.map(|f| f.1).concat()
 }
 
-/// The transfer kernels' module source.
+/// The transfer kernels' module source: the prelude, their bindings, their
+/// files.
 #[must_use]
 pub fn gather_source() -> String {
-    prelude() + &GATHER_FILES.map(|f| f.1).concat()
+    prelude() + &declarations(GATHER_BINDINGS) + &GATHER_FILES.map(|f| f.1).concat()
 }
 
 #[cfg(test)]
@@ -179,8 +328,15 @@ mod tests {
             }
         }
         let shared: Vec<&str> = SHARED.iter().map(|s| s.0).collect();
-        let all = GATHER_FILES.map(|f| f.1).concat();
-        for (file, text) in GATHER_FILES {
+        let all = GATHER_FILES.map(|f| f.1).concat()
+            + &TRACE_FILES.map(|f| f.1).concat()
+            + &declarations(GATHER_BINDINGS)
+            + &declarations(TRACE_BINDINGS);
+        for (file, text) in GATHER_FILES.iter().chain(&TRACE_FILES) {
+            assert!(
+                !text.contains("@binding("),
+                "{file} declares a binding by hand: bindings are shaders.rs's tables"
+            );
             for name in declared(text) {
                 assert!(
                     !shared.contains(&name.as_str()),
@@ -192,6 +348,14 @@ mod tests {
                      give it through shaders.rs"
                 );
             }
+        }
+        let files = GATHER_FILES.map(|f| f.1).concat() + &TRACE_FILES.map(|f| f.1).concat();
+        for b in GATHER_BINDINGS.iter().chain(TRACE_BINDINGS) {
+            assert!(
+                files.contains(&format!("{}[", b.name)) || files.contains(&format!("{}.", b.name)),
+                "the binding {} is declared but no kernel uses it",
+                b.name
+            );
         }
         for name in shared {
             let used = all.match_indices(name).any(|(i, _)| {

@@ -4,7 +4,7 @@
 //! cut into fans of triangles; the CPU's BVH build ([`FlatTree`](radiosity::accel::bvh::FlatTree), binned
 //! SAH, the very tree the CPU walks before it is widened) is made over
 //! their boxes; nodes and triangles, in leaf order, stay on the device; the
-//! `occluded` kernel of `trace.wgsl` walks the tree, one thread a segment,
+//! `occluded` kernel (`trace/kernel.wgsl`, its walk in `trace/walk.wgsl`) walks the tree, one thread a segment,
 //! with a watertight triangle test (Woop, Benthin & Wald 2013).
 //!
 //! Coordinates are relative to the scene's centre, each a pair of `f32`s
@@ -44,7 +44,7 @@ use crate::{Gpu, GpuError};
 /// The most segments one dispatch traces.
 pub const DISPATCH_SEGMENTS: usize = 1 << 18;
 
-use crate::shaders::WORKGROUP;
+use crate::shaders::{TraceBinding as T, WORKGROUP};
 
 /// A segment as the kernel reads it (WGSL `Segment`).
 #[repr(C)]
@@ -112,7 +112,7 @@ impl SceneTracer {
         let module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("trace.wgsl"),
+                label: Some("trace"),
                 source: wgpu::ShaderSource::Wgsl(crate::shaders::trace_source().into()),
             });
         let pipeline = gpu
@@ -273,11 +273,11 @@ impl SceneTracer {
                 label: Some("occluded"),
                 layout: &layout,
                 entries: &[
-                    entry(0, &self.scene.nodes),
-                    entry(1, &self.scene.triangles),
-                    entry(2, &segment_buffer),
-                    entry(3, &results),
-                    entry(4, &uniform),
+                    entry(T::Nodes, &self.scene.nodes),
+                    entry(T::Triangles, &self.scene.triangles),
+                    entry(T::Segments, &segment_buffer),
+                    entry(T::Blocked, &results),
+                    entry(T::Dispatch, &uniform),
                 ],
             });
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -77,9 +77,9 @@ pub(crate) fn storage<T: Pod>(gpu: &Gpu, label: &str, items: &[T]) -> wgpu::Buff
 }
 
 /// Binding `binding` of the kernel's group to all of `buffer`.
-pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+pub(crate) fn entry(binding: impl Into<u32>, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
-        binding,
+        binding: binding.into(),
         resource: buffer.as_entire_binding(),
     }
 }

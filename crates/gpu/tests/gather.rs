@@ -26,7 +26,7 @@ use radiosity_gpu::gather::{
 use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
 
 /// Size and member offsets of the WGSL struct `name` of the transfer
-/// kernel (trace.wgsl and gather.wgsl, as the device compiles them).
+/// kernel (its whole module, as the device compiles it).
 fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
     let source = radiosity_gpu::shaders::gather_source();
     let module = naga::front::wgsl::parse_str(&source).unwrap();
@@ -36,7 +36,7 @@ fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
         .types
         .iter()
         .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("no struct {name} in gather.wgsl"));
+        .unwrap_or_else(|| panic!("no struct {name} in the transfer module"));
     let naga::TypeInner::Struct { members, span } = &ty.inner else {
         panic!("{name} is not a struct");
     };

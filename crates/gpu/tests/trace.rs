@@ -38,7 +38,7 @@ fn gpu() -> Option<Gpu> {
     }
 }
 
-/// Size and member offsets of the WGSL struct `name` in trace.wgsl.
+/// Size and member offsets of the WGSL struct `name` in the trace module.
 fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
     let module = naga::front::wgsl::parse_str(&radiosity_gpu::shaders::trace_source()).unwrap();
     let mut layouter = naga::proc::Layouter::default();
@@ -47,7 +47,7 @@ fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
         .types
         .iter()
         .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("no struct {name} in trace.wgsl"));
+        .unwrap_or_else(|| panic!("no struct {name} in the trace module"));
     let naga::TypeInner::Struct { members, span } = &ty.inner else {
         panic!("{name} is not a struct");
     };

@@ -7,11 +7,15 @@
 
 use glam::DVec3;
 
+/// Rec. 709's weights of R, G and B in luminance ([`luminance`]).
+pub const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
 /// Luminance of a linear Rec. 709 / sRGB colour: the weight that ranks
 /// patches by unshot power and measures convergence.
 #[must_use]
 pub fn luminance(rgb: DVec3) -> f64 {
-    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
+    let [r, g, b] = LUMINANCE_WEIGHTS;
+    r * rgb.x + g * rgb.y + b * rgb.z
 }
 
 /// Radiance's luminous efficacy of white light, lm/W.

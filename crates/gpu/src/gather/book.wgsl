@@ -6,8 +6,8 @@
 // sums (power received, absorbed, unshot left, in sign and in magnitude)
 // per workgroup in a fixed order, each shooter's unshot power (in
 // magnitude). An overshooting shot that sends negative light books it in
-// a second pass, its irradiance times the sign -1. Appended to trace.wgsl
-// and gather.wgsl. No float atomics: a rerun gives the same result to the
+// a second pass, its irradiance times the sign -1. After the gather files;
+// its bindings are declared by shaders.rs. No float atomics: a rerun gives the same result to the
 // last bit.
 
 // An element's book-keeping data (by element id).
@@ -43,19 +43,6 @@ struct Book {
     direct: vec3<f32>,
     pad3: u32,
 }
-
-@group(0) @binding(15) var<storage, read_write> unshot: array<vec4<f32>>;
-@group(0) @binding(16) var<storage, read> element_book: array<ElementBook>;
-@group(0) @binding(17) var<storage, read_write> partials: array<Partial>;
-@group(0) @binding(18) var<storage, read> shooter_items: array<vec2<u32>>;
-@group(0) @binding(19) var<storage, read> items: array<u32>;
-@group(0) @binding(20) var<storage, read_write> powers: array<f32>;
-@group(0) @binding(21) var<storage, read_write> staging: array<vec4<f32>>;
-@group(0) @binding(22) var<uniform> book: Book;
-// Each receiver's direct irradiance: the lights' and the emitting
-// surfaces' first shots (Solver::direct_irradiance).
-@group(0) @binding(26) var<storage, read_write> direct_total: array<vec4<f32>>;
-
 
 var<workgroup> sum_incident: array<vec3<f32>, BOOK_WORKGROUP>;
 var<workgroup> sum_absorbed: array<vec3<f32>, BOOK_WORKGROUP>;

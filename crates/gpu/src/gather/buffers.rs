@@ -1,4 +1,4 @@
-//! The buffers of the transfer kernel (`gather.wgsl`, beyond the paper:
+//! The buffers of the transfer kernel (`gather/structs.wgsl`, beyond the paper:
 //! the per-receiver source subdivision of Wallace, Elmquist & Haines 1989
 //! on the GPU): each `#[repr(C)]` struct is the twin of a WGSL struct, its
 //! sizes and offsets checked against naga's layout of the shader by a

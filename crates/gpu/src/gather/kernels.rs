@@ -81,7 +81,7 @@ impl Pipelines {
         let module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("gather.wgsl"),
+                label: Some("gather"),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
             });
         let pipeline = |entry: &str| {

@@ -3,8 +3,8 @@
 //! section 4, with the analytic factor of the paper's equation (2) at the
 //! elements, as the CPU's `radiosity::solver::adaptive` does it): one
 //! thread a receiver walks the shooting node's subtree with the CPU's
-//! acceptance rules, its shadow rays answered by the `trace.wgsl` walk of
-//! the scene's BVH in the same kernel (`gather.wgsl`). A receiver whose
+//! acceptance rules, its shadow rays answered by the `trace/walk.wgsl` walk of
+//! the scene's BVH in the same kernel (`gather/walk.wgsl`). A receiver whose
 //! walk is long (near the shooter) leaves the subtrees of its frontier to
 //! other threads, whose sums are joined in the frontier's order
 //! ([`FRONTIER`]), so a shot does not last as long as one thread's walk of
@@ -55,7 +55,7 @@ pub const MAX_WORKGROUPS: u32 = 65_535;
 
 /// Nodes a receiver's walk may leave to other threads: once the nodes it
 /// has still to visit, breadth first, are this many, each is an item of
-/// its own (`gather_items` in `gather.wgsl`). The receivers near a
+/// its own (`gather_items` in `gather/walk.wgsl`). The receivers near a
 /// shooter walk most of its subtree, one thread each, and a shot lasts as
 /// long as its longest walk; split, their work spreads over the device.
 /// At most [`MAX_FRONTIER`].

@@ -1,8 +1,9 @@
 // Polygons as the transfer kernel sees them, relative to the receiver:
 // the one clipper (geometry::clip), Newell's normal, the centroid, and the
 // paper's equation (2) by Baum et al.'s contour integral
-// (form_factor::analytic), each the CPU's rule in f32. Concatenated with
-// trace.wgsl, gather.wgsl and book.wgsl into one module.
+// (form_factor::analytic), each the CPU's rule in f32, each tested against
+// it (tests/twins.rs). Put together with the other files of the transfer
+// module by shaders.rs.
 
 // Up to six corners (a quad clipped by one plane).
 struct Polygon {

@@ -4,7 +4,7 @@
 //! CPU): the scene, the element tree, the elements and the receivers go to
 //! the device once; so do each receiver's irradiance and each element's
 //! unshot radiosity, which then stay there. A shot uploads its sources,
-//! runs the walk (`gather.wgsl`) and the book-keeping (`book.wgsl`) in one
+//! runs the walk (`gather/walk.wgsl`) and the book-keeping (`book.wgsl`) in one
 //! submission, and reads back the ledger's sums per workgroup (added on the
 //! host in `f64`, in a fixed order), the shooters' powers and the walks'
 //! counts; the state comes back only when asked ([`AdaptiveTransfers::state`]).
@@ -27,8 +27,8 @@ use crate::Gpu;
 use crate::device_scene::{DeviceScene, split};
 use crate::wgpu_io::{catch_uncaptured, entry, nonempty, read_back, storage};
 
-use crate::shaders::BOOK_WORKGROUP;
 use crate::shaders::counter::{self, COUNTERS};
+use crate::shaders::{BOOK_WORKGROUP, GatherBinding as G};
 
 /// A solve on the GPU.
 pub(super) struct GpuTransfers {
@@ -395,40 +395,44 @@ impl GpuTransfers {
             );
             // What the walks and the split walks' items both read.
             let walk_entries = [
-                entry(0, &self.scene.nodes),
-                entry(1, &self.scene.triangles),
-                entry(5, &self.tree),
-                entry(6, &self.surfaces),
-                entry(7, &self.element_buffer),
-                entry(8, &self.receivers),
-                entry(9, &self.total),
-                entry(10, &self.sources.buffer),
-                entry(11, &self.bins.buffer),
-                entry(13, &uniform),
-                entry(14, &self.counters),
-                entry(23, &self.panes),
-                entry(24, &self.split),
+                entry(G::Nodes, &self.scene.nodes),
+                entry(G::Triangles, &self.scene.triangles),
+                entry(G::Tree, &self.tree),
+                entry(G::Surfaces, &self.surfaces),
+                entry(G::Elements, &self.element_buffer),
+                entry(G::Receivers, &self.receivers),
+                entry(G::Total, &self.total),
+                entry(G::Sources, &self.sources.buffer),
+                entry(G::Bins, &self.bins.buffer),
+                entry(G::Shot, &uniform),
+                entry(G::Counters, &self.counters),
+                entry(G::Panes, &self.panes),
+                entry(G::Split, &self.split),
             ];
             let group = self.bind(
                 &self.pipelines.gather,
-                &[&walk_entries[..], &[entry(12, &self.shot_irradiance)]].concat(),
+                &[
+                    &walk_entries[..],
+                    &[entry(G::ShotIrradiance, &self.shot_irradiance)],
+                ]
+                .concat(),
             );
             let items = self.bind(&self.pipelines.gather_items, &walk_entries);
             let size = self.bind(
                 &self.pipelines.size_items,
                 &[
-                    entry(13, &uniform),
-                    entry(14, &self.counters),
-                    entry(25, &self.item_dispatch),
+                    entry(G::Shot, &uniform),
+                    entry(G::Counters, &self.counters),
+                    entry(G::ItemDispatch, &self.item_dispatch),
                 ],
             );
             let join = self.bind(
                 &self.pipelines.join_items,
                 &[
-                    entry(12, &self.shot_irradiance),
-                    entry(13, &uniform),
-                    entry(14, &self.counters),
-                    entry(24, &self.split),
+                    entry(G::ShotIrradiance, &self.shot_irradiance),
+                    entry(G::Shot, &uniform),
+                    entry(G::Counters, &self.counters),
+                    entry(G::Split, &self.split),
                 ],
             );
             groups.push([
@@ -440,41 +444,41 @@ impl GpuTransfers {
         let leave = self.bind(
             &self.pipelines.leave_shooter,
             &[
-                entry(15, &self.unshot),
-                entry(19, &self.items),
-                entry(21, &self.staging),
-                entry(22, &book),
+                entry(G::Unshot, &self.unshot),
+                entry(G::Items, &self.items),
+                entry(G::Staging, &self.staging),
+                entry(G::Book, &book),
             ],
         );
         let receive = self.bind(
             &self.pipelines.receive,
             &[
-                entry(7, &self.element_buffer),
-                entry(12, &self.shot_irradiance),
-                entry(15, &self.unshot),
-                entry(16, &self.element_book),
-                entry(17, &self.partials),
-                entry(22, &book),
+                entry(G::Elements, &self.element_buffer),
+                entry(G::ShotIrradiance, &self.shot_irradiance),
+                entry(G::Unshot, &self.unshot),
+                entry(G::ElementBook, &self.element_book),
+                entry(G::Partials, &self.partials),
+                entry(G::Book, &book),
             ],
         );
         let accumulate = self.bind(
             &self.pipelines.accumulate,
             &[
-                entry(9, &self.total),
-                entry(12, &self.shot_irradiance),
-                entry(22, &book),
-                entry(26, &self.direct),
+                entry(G::Total, &self.total),
+                entry(G::ShotIrradiance, &self.shot_irradiance),
+                entry(G::Book, &book),
+                entry(G::DirectTotal, &self.direct),
             ],
         );
         let powers = self.bind(
             &self.pipelines.shooter_powers,
             &[
-                entry(15, &self.unshot),
-                entry(16, &self.element_book),
-                entry(18, &self.shooter_items),
-                entry(19, &self.items),
-                entry(20, &self.powers),
-                entry(22, &book),
+                entry(G::Unshot, &self.unshot),
+                entry(G::ElementBook, &self.element_book),
+                entry(G::ShooterItems, &self.shooter_items),
+                entry(G::Items, &self.items),
+                entry(G::Powers, &self.powers),
+                entry(G::Book, &book),
             ],
         );
         let kernel_start = Instant::now();
@@ -672,10 +676,10 @@ impl AdaptiveTransfers for GpuTransfers {
             let group = self.bind(
                 &self.pipelines.collect,
                 &[
-                    entry(15, &self.unshot),
-                    entry(19, &self.items),
-                    entry(21, &self.staging),
-                    entry(22, &book),
+                    entry(G::Unshot, &self.unshot),
+                    entry(G::Items, &self.items),
+                    entry(G::Staging, &self.staging),
+                    entry(G::Book, &book),
                 ],
             );
             let mut encoder = self.encoder("collect");

@@ -8,7 +8,9 @@
 // a segment through an edge or a vertex shared by two triangles is found
 // by one of them, never slips between. Coordinates are relative to the
 // scene's centre, each a pair of f32s. The Rust twins of these structs are in trace.rs,
-// checked against them by a test.
+// checked against them by a test. This file: the scene's structs and the
+// walk (`segment_blocked`), which the transfer kernels use too; its
+// bindings (`nodes`, `triangles`) are declared by shaders.rs.
 
 struct Node {
     lo: vec3<f32>,
@@ -41,32 +43,6 @@ struct Triangle {
     normal: vec3<f32>,
     pad5: u32,
 }
-
-struct Segment {
-    // Start and end (`from` and `to` are WGSL keywords).
-    p0: vec3<f32>,
-    skip0: u32,
-    p1: vec3<f32>,
-    skip1: u32,
-    p0_lo: vec3<f32>,
-    pad0: u32,
-    p1_lo: vec3<f32>,
-    pad1: u32,
-}
-
-struct Dispatch {
-    // The first segment of this dispatch, and how many it has.
-    first: u32,
-    count: u32,
-    pad0: u32,
-    pad1: u32,
-}
-
-@group(0) @binding(0) var<storage, read> nodes: array<Node>;
-@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(2) var<storage, read> segments: array<Segment>;
-@group(0) @binding(3) var<storage, read_write> blocked: array<u32>;
-@group(0) @binding(4) var<uniform> dispatch: Dispatch;
 
 // STACK_SIZE: the CPU's build bounds the depth by bvh::MAX_DEPTH.
 
@@ -208,14 +184,4 @@ fn segment_blocked(p0: vec3<f32>, p0_lo: vec3<f32>, p1: vec3<f32>, p1_lo: vec3<f
         node = stack[depth];
     }
     return false;
-}
-
-@compute @workgroup_size(WORKGROUP)
-fn occluded(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= dispatch.count) {
-        return;
-    }
-    let i = dispatch.first + id.x;
-    let s = segments[i];
-    blocked[i] = select(0u, 1u, segment_blocked(s.p0, s.p0_lo, s.p1, s.p1_lo, s.skip0, s.skip1));
 }
