@@ -149,6 +149,36 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
     assert_eq!(gpu["device_shots"], gpu["shots"]);
     assert_eq!(gpu["coarse_device_shots"], gpu["coarse_shots"]);
     assert_eq!(gpu["stop_reason"], "converged");
+    // What crossed between host and device, counted the same on any
+    // adapter: none on the CPU; on the GPU every shot waits for the device
+    // at least once (its ledger) and at most three times (the shooter's
+    // unshot light, two passes of an overshooting shot) beside the
+    // checkpoints; its critical path is at least its mean walk.
+    for key in [
+        "device_host_waits",
+        "device_submissions",
+        "device_bytes_read",
+    ] {
+        assert_eq!(cpu[key], 0, "{key}");
+    }
+    let count = |key: &str| {
+        gpu[key]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{key}: {}", gpu[key]))
+    };
+    let shots = count("device_shots") + count("coarse_device_shots");
+    let waits = count("device_host_waits");
+    assert!(
+        (count("device_shots")..=3 * shots + 64).contains(&waits),
+        "{waits} host waits for {shots} shots"
+    );
+    assert!(count("device_submissions") >= waits);
+    assert!(count("device_bytes_read") > 0);
+    let mean = gpu["device_mean_visits"].as_f64().unwrap();
+    assert!(
+        mean > 0.0 && count("device_longest_visits") as f64 >= mean,
+        "{mean}"
+    );
     // Where a shot's time went, by the device's clock: none on the CPU;
     // on an adapter with timestamps, each stage's seconds.
     assert!(cpu["device_stage_seconds"].is_null());

@@ -51,7 +51,11 @@ pub mod counter {
     pub const ELEMENTS: usize = 4;
     /// The items the chunk's split walks hold so far.
     pub const ITEMS: usize = 5;
-    /// Counters in all (the buffer's length; two spare).
+    /// The most nodes one thread of the receivers' walks visited.
+    pub const LONGEST_WALK: usize = 6;
+    /// The most nodes one thread of the split walks' items visited.
+    pub const LONGEST_ITEM: usize = 7;
+    /// Counters in all (the buffer's length).
     pub const COUNTERS: usize = 8;
 }
 
@@ -90,6 +94,8 @@ pub const SHARED: &[(&str, Value)] = &[
     ("VISITS", Value::U32(counter::VISITS as u32)),
     ("ELEMENTS", Value::U32(counter::ELEMENTS as u32)),
     ("ITEMS", Value::U32(counter::ITEMS as u32)),
+    ("LONGEST_WALK", Value::U32(counter::LONGEST_WALK as u32)),
+    ("LONGEST_ITEM", Value::U32(counter::LONGEST_ITEM as u32)),
     ("COUNTERS", Value::U32(counter::COUNTERS as u32)),
     ("LUMINANCE_R", Value::F32(LUMINANCE_WEIGHTS[0])),
     ("LUMINANCE_G", Value::F32(LUMINANCE_WEIGHTS[1])),

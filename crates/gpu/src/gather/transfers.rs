@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use radiosity::solver::device::{
-    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError,
+    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, Traffic,
 };
 use radiosity::solver::hierarchy::NONE;
 use radiosity::solver::method::Received;
@@ -82,6 +82,8 @@ pub(super) struct GpuTransfers {
     bins: Growing,
     readback: wgpu::Buffer,
     uncaptured: Arc<Mutex<Option<String>>>,
+    /// What crossed between host and device so far.
+    traffic: std::cell::Cell<Traffic>,
 }
 
 impl GpuTransfers {
@@ -194,6 +196,7 @@ impl GpuTransfers {
                 mapped_at_creation: false,
             }),
             uncaptured,
+            traffic: std::cell::Cell::default(),
             gpu,
         };
         let out_of_memory = pollster::block_on(memory.pop());
@@ -251,6 +254,11 @@ impl GpuTransfers {
     fn finish(&self, encoder: wgpu::CommandEncoder, bytes: u64) -> Result<Vec<u8>, DeviceError> {
         let gpu = &self.gpu;
         gpu.queue.submit([encoder.finish()]);
+        let mut traffic = self.traffic.get();
+        traffic.host_waits += 1;
+        traffic.submissions += 1;
+        traffic.bytes_read += bytes;
+        self.traffic.set(traffic);
         read_back(gpu, &self.readback, bytes, &self.uncaptured)
             .map_err(|e| DeviceError(e.to_string()))
     }
@@ -528,6 +536,9 @@ impl GpuTransfers {
                 p.dispatch_workgroups(*join_groups, 1, 1);
             }
             gpu.queue.submit([chunk.finish()]);
+            let mut traffic = self.traffic.get();
+            traffic.submissions += 1;
+            self.traffic.set(traffic);
         }
         let mut encoder = self.encoder("book");
         let stages: [(&wgpu::ComputePipeline, &wgpu::BindGroup, u32); 4] = [
@@ -627,6 +638,8 @@ impl GpuTransfers {
             walks: u64::from(counts[counter::WALKS]),
             node_visits: u64::from(counts[counter::VISITS]),
             element_sources: u64::from(counts[counter::ELEMENTS]),
+            longest_walk: u64::from(counts[counter::LONGEST_WALK]),
+            longest_item: u64::from(counts[counter::LONGEST_ITEM]),
             upload_time: kernel_start - upload_start,
             kernel_time: readback_start - kernel_start,
             readback_time: readback_start.elapsed(),
@@ -636,6 +649,10 @@ impl GpuTransfers {
 }
 
 impl AdaptiveTransfers for GpuTransfers {
+    fn traffic(&self) -> Traffic {
+        self.traffic.get()
+    }
+
     fn begin(
         &mut self,
         irradiance: &[DVec3],

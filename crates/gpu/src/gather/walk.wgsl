@@ -137,6 +137,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     atomicAdd(&counters[RAYS], rays);
     atomicAdd(&counters[WALKS], walked);
     atomicAdd(&counters[VISITS], visits);
+    atomicMax(&counters[LONGEST_WALK], visits);
     atomicAdd(&counters[ELEMENTS], element_sources);
 }
 
@@ -175,6 +176,7 @@ fn gather_items(
     atomicAdd(&counters[PAIRS], pairs);
     atomicAdd(&counters[RAYS], rays);
     atomicAdd(&counters[VISITS], visits);
+    atomicMax(&counters[LONGEST_ITEM], visits);
     atomicAdd(&counters[ELEMENTS], element_sources);
 }
 

@@ -239,6 +239,19 @@ pub struct StatsFile {
     /// Why the device stopped being used, when it failed (`null`
     /// otherwise): the solve went on on the CPU.
     pub device_fault: Option<String>,
+    /// Times the host waited for the device (blocking readbacks) over the
+    /// solve: the same count on any adapter.
+    pub device_host_waits: u64,
+    /// Command buffers submitted to the device over the solve.
+    pub device_submissions: u64,
+    /// Bytes read back from the device over the solve.
+    pub device_bytes_read: u64,
+    /// The device's shots' critical paths summed: each shot's most source
+    /// nodes visited by one thread (walks, then split items).
+    pub device_longest_visits: u64,
+    /// The device's shots' mean walks summed (node visits over walks):
+    /// against `device_longest_visits`, how evenly a shot's work spreads.
+    pub device_mean_visits: f64,
     /// The device's shots' time preparing and sending their data, seconds.
     pub device_upload_seconds: f64,
     /// The device's shots' kernel time (waited for), seconds.
@@ -318,6 +331,11 @@ impl StatsFile {
                 .unwrap_or_else(|| "cpu".to_string()),
             device_shots: outcome.device.device_shots,
             device_fault: outcome.device.fault.clone(),
+            device_host_waits: outcome.device.traffic.host_waits,
+            device_submissions: outcome.device.traffic.submissions,
+            device_bytes_read: outcome.device.traffic.bytes_read,
+            device_longest_visits: outcome.device.longest_visits,
+            device_mean_visits: outcome.device.mean_visits,
             device_upload_seconds: outcome.device.upload_time.as_secs_f64(),
             device_kernel_seconds: outcome.device.kernel_time.as_secs_f64(),
             device_readback_seconds: outcome.device.readback_time.as_secs_f64(),

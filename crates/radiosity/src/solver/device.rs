@@ -166,6 +166,24 @@ pub trait AdaptiveTransfers: Send {
         direct: &mut [DVec3],
         unshot: &mut [DVec3],
     ) -> Result<(), DeviceError>;
+
+    /// What crossed between host and device since the solve began: the
+    /// same counts on any adapter, so the cost of the loop on the host is
+    /// measured without a fast GPU. Zero for a device that does not count.
+    fn traffic(&self) -> Traffic {
+        Traffic::default()
+    }
+}
+
+/// What crossed between host and device ([`AdaptiveTransfers::traffic`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Traffic {
+    /// Times the host waited for the device (a blocking readback).
+    pub host_waits: u64,
+    /// Command buffers submitted.
+    pub submissions: u64,
+    /// Bytes read back from the device.
+    pub bytes_read: u64,
 }
 
 /// What one adaptive shot sends.
@@ -223,6 +241,13 @@ pub struct Booked {
     pub node_visits: u64,
     /// Elements taken as exact sources.
     pub element_sources: u64,
+    /// The most source nodes one thread of the receivers' walks visited:
+    /// with [`Booked::longest_item`], the shot's critical path, against
+    /// the mean walk's `node_visits / walks`.
+    pub longest_walk: u64,
+    /// The most source nodes one thread of the split walks' items visited
+    /// (0 where no walk was split).
+    pub longest_item: u64,
     /// Time preparing and sending the shot's data (host clock).
     pub upload_time: Duration,
     /// Time the kernels took, waited for (host clock).
@@ -300,6 +325,9 @@ impl Booked {
             walks: self.walks + second.walks,
             node_visits: self.node_visits + second.node_visits,
             element_sources: self.element_sources + second.element_sources,
+            // The passes run one after the other: their critical paths add.
+            longest_walk: self.longest_walk + second.longest_walk,
+            longest_item: self.longest_item + second.longest_item,
             upload_time: self.upload_time + second.upload_time,
             kernel_time: self.kernel_time + second.kernel_time,
             readback_time: self.readback_time + second.readback_time,
@@ -419,7 +447,7 @@ impl PartialEq for Device {
 }
 
 /// Where a solve's shots ran.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct DeviceReport {
     /// The device asked for (`None`: the CPU).
     pub name: Option<String>,
@@ -436,4 +464,14 @@ pub struct DeviceReport {
     /// Its shots' time by stage, by the device's clock
     /// ([`Booked::stages`]; `None` where it does not say).
     pub stages: Option<StageTimes>,
+    /// What crossed between host and device ([`AdaptiveTransfers::traffic`]).
+    pub traffic: Traffic,
+    /// Its shots' critical paths summed: each shot's most nodes visited by
+    /// one thread of the walks plus one of the split items
+    /// ([`Booked::longest_walk`], [`Booked::longest_item`]).
+    pub longest_visits: u64,
+    /// Its shots' mean walks summed: each shot's node visits over its
+    /// walks. Against [`DeviceReport::longest_visits`], how unevenly the
+    /// work is spread over the device's threads.
+    pub mean_visits: f64,
 }

@@ -180,6 +180,11 @@ impl AdaptiveShooting {
         self.report.kernel_time += booked.kernel_time;
         self.report.readback_time += booked.readback_time;
         self.report.stages = StageTimes::add_known(self.report.stages, booked.stages);
+        self.report.traffic = device.traffic();
+        self.report.longest_visits += booked.longest_walk + booked.longest_item;
+        if booked.walks > 0 {
+            self.report.mean_visits += booked.node_visits as f64 / booked.walks as f64;
+        }
         if let Some(resident) = self.resident.as_mut() {
             resident.unshot_power = booked.unshot_power;
             resident.unshot_magnitude = booked.unshot_magnitude;
