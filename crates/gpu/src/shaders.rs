@@ -17,7 +17,7 @@ use radiosity::form_factor::analytic::{DEGENERATE, ON_PLANE};
 use radiosity::photometry::LUMINANCE_WEIGHTS;
 use radiosity::solver::adaptive::FAR_FACTOR;
 use radiosity::solver::hierarchy::NONE;
-use radiosity::solver::hierarchy::transfer::{DIM_SHARE, FAR_RATIO, GRAZE, QUADRATURE_RATIO};
+use radiosity::solver::hierarchy::transfer::{DIM_SHARE, FAR_RATIO, GRAZE, QUADRATURE_RATIO, Side};
 
 /// Threads of a workgroup of the trace and transfer kernels.
 pub const WORKGROUP: u32 = 64;
@@ -94,6 +94,9 @@ pub const SHARED: &[(&str, Value)] = &[
     ("VISITS", Value::U32(counter::VISITS as u32)),
     ("ELEMENTS", Value::U32(counter::ELEMENTS as u32)),
     ("ITEMS", Value::U32(counter::ITEMS as u32)),
+    ("SIDE_FRONT", Value::U32(Side::Front as u32)),
+    ("SIDE_BEHIND", Value::U32(Side::Behind as u32)),
+    ("SIDE_ACROSS", Value::U32(Side::Across as u32)),
     ("LONGEST_WALK", Value::U32(counter::LONGEST_WALK as u32)),
     ("LONGEST_ITEM", Value::U32(counter::LONGEST_ITEM as u32)),
     ("COUNTERS", Value::U32(counter::COUNTERS as u32)),

@@ -1,6 +1,8 @@
 //! Each WGSL rule against its Rust twin, through a small test kernel on the
-//! device (`polygon.wgsl`: the clipper, Newell's normal, the centroid and
-//! the analytic factor of the paper's equation (2)). The inputs are random
+//! device: `polygon.wgsl` (the clipper, Newell's normal, the centroid and
+//! the analytic factor of the paper's equation (2)) and `placement.wgsl`'s
+//! node placement and straddling (a node in front, behind or across a
+//! receiver's tangent plane, in front within GRAZE). The inputs are random
 //! triangles and quads around a receiver, with the cases that break naive
 //! code drawn on purpose: corners on the receiver's tangent plane and
 //! polygons crossing it (grazing), polygons in the plane (coplanar), behind
@@ -113,25 +115,25 @@ fn gpu() -> Option<Gpu> {
     }
 }
 
-/// The kernel's outputs for `cases`.
-fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
-    let source = radiosity_gpu::shaders::prelude()
-        + radiosity_gpu::shaders::GATHER_FILES
-            .iter()
-            .find(|f| f.0 == "gather/polygon.wgsl")
-            .unwrap()
-            .1
-        + KERNEL;
+/// The outputs of the entry point `entry` of `source` for `cases`: the
+/// cases at binding `bindings.0`, one output each at `bindings.1`.
+fn run_kernel<C: bytemuck::Pod, O: bytemuck::Pod>(
+    gpu: &Gpu,
+    source: &str,
+    entry: &str,
+    bindings: (u32, u32),
+    cases: &[C],
+) -> Vec<O> {
     let device = &gpu.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("twins"),
+        label: Some(entry),
         source: wgpu::ShaderSource::Wgsl(source.into()),
     });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("twins"),
+        label: Some(entry),
         layout: None,
         module: &module,
-        entry_point: Some("twins"),
+        entry_point: Some(entry),
         compilation_options: wgpu::PipelineCompilationOptions::default(),
         cache: None,
     });
@@ -140,7 +142,7 @@ fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
         contents: bytemuck::cast_slice(cases),
         usage: wgpu::BufferUsages::STORAGE,
     });
-    let bytes = (cases.len() * size_of::<Out>()) as u64;
+    let bytes = (cases.len() * size_of::<O>()) as u64;
     let output = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("outs"),
         size: bytes,
@@ -154,15 +156,15 @@ fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
         mapped_at_creation: false,
     });
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("twins"),
+        label: Some(entry),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &[
             wgpu::BindGroupEntry {
-                binding: 0,
+                binding: bindings.0,
                 resource: input.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
-                binding: 1,
+                binding: bindings.1,
                 resource: output.as_entire_binding(),
             },
         ],
@@ -180,7 +182,20 @@ fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
     let slice = readback.slice(..);
     slice.map_async(wgpu::MapMode::Read, |r| r.unwrap());
     device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    bytemuck::cast_slice::<u8, Out>(&slice.get_mapped_range().unwrap()).to_vec()
+    bytemuck::cast_slice::<u8, O>(&slice.get_mapped_range().unwrap()).to_vec()
+}
+
+/// The polygon kernel's outputs for `cases`: `polygon.wgsl` alone, with
+/// the prelude, and the test kernel.
+fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
+    let source = radiosity_gpu::shaders::prelude()
+        + radiosity_gpu::shaders::GATHER_FILES
+            .iter()
+            .find(|f| f.0 == "gather/polygon.wgsl")
+            .unwrap()
+            .1
+        + KERNEL;
+    run_kernel(gpu, &source, "twins", (0, 1), cases)
 }
 
 fn f32s(v: DVec3) -> [f32; 4] {
@@ -352,4 +367,175 @@ fn the_polygon_rules_agree_with_their_rust_twins() {
         "{grazing} polygons touching the tangent plane"
     );
     assert!(factors > 1200, "{factors} positive factors");
+}
+
+/// The placement test kernel: each (node, receiver) through `placement`
+/// and `straddles` (`gather/placement.wgsl`), the node and receiver made
+/// in the kernel as the transfer module's structs.
+const PLACEMENT_KERNEL: &str = r"
+struct PlacementCase {
+    centre: vec4<f32>,
+    centre_lo: vec4<f32>,
+    box_middle: vec4<f32>,
+    box_half: vec4<f32>,
+    point: vec4<f32>,
+    point_lo: vec4<f32>,
+    normal: vec4<f32>,
+    radius: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(64) var<storage, read> placement_cases: array<PlacementCase>;
+@group(0) @binding(65) var<storage, read_write> placement_outs: array<u32>;
+
+@compute @workgroup_size(WORKGROUP)
+fn placement_twins(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&placement_cases)) {
+        return;
+    }
+    let c = placement_cases[i];
+    var n: TreeNode;
+    n.centre = c.centre.xyz;
+    n.centre_lo = c.centre_lo.xyz;
+    n.radius = c.radius;
+    n.box_middle = c.box_middle.xyz;
+    n.box_half = c.box_half.xyz;
+    var r: Receiver;
+    r.point = c.point.xyz;
+    r.point_lo = c.point_lo.xyz;
+    r.normal = c.normal.xyz;
+    placement_outs[i] = placement(n, r) | (select(0u, 16u, straddles(n, r)));
+}
+";
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct PlacementCase {
+    centre: [f32; 4],
+    centre_lo: [f32; 4],
+    box_middle: [f32; 4],
+    box_half: [f32; 4],
+    point: [f32; 4],
+    point_lo: [f32; 4],
+    normal: [f32; 4],
+    radius: f32,
+    pad: [u32; 3],
+}
+
+/// `v` as the device holds a point: the nearest `f32` and its round-off.
+fn split(v: DVec3) -> ([f32; 4], [f32; 4]) {
+    let hi = f32s(v);
+    (hi, f32s(v - read(hi)))
+}
+
+/// A node's placement against a receiver's tangent plane and whether the
+/// plane cuts its sphere, on the device, agree with the Rust rules
+/// (`hierarchy::transfer::placement`, `straddles`) on 8,000 random nodes
+/// and receivers, many of them grazing: the plane through the sphere, or
+/// within GRAZE of the box's lowest corner.
+#[test]
+fn the_placement_rules_agree_with_their_rust_twins() {
+    use radiosity::solver::Receiver;
+    use radiosity::solver::hierarchy::transfer::{GRAZE, Side, placement, straddles};
+    use radiosity::solver::hierarchy::{NONE, Node};
+    let Some(gpu) = gpu() else {
+        return;
+    };
+    let mut rng = Rng(0x9_1ace);
+    let mut nodes = Vec::new();
+    let mut cases = Vec::new();
+    for _ in 0..8000 {
+        let half = DVec3::new(
+            rng.range(0.01, 2.0),
+            rng.range(0.0, 2.0),
+            rng.range(0.01, 2.0),
+        );
+        let middle = rng.point_in(DVec3::splat(-5.0), DVec3::splat(5.0));
+        let (lo, hi) = (middle - half, middle + half);
+        let centre = rng.point_in(lo, hi);
+        let radius = [lo, hi]
+            .iter()
+            .flat_map(|a| [lo, hi].map(move |b| (a, b)))
+            .flat_map(|(a, b)| [lo, hi].map(move |c| DVec3::new(a.x, b.y, c.z)))
+            .map(|corner| corner.distance(centre))
+            .fold(0.0, f64::max);
+        let normal = rng.unit_vector();
+        // The receiver's plane at a chosen height over the node: through
+        // the sphere, near its lowest box corner, or anywhere.
+        let reach = half.dot(normal.abs());
+        let low = normal.dot(middle) - reach;
+        let height = match rng.below(3) {
+            0 => normal.dot(centre) + rng.range(-1.2, 1.2) * radius,
+            1 => low + rng.range(-2.0, 2.0) * GRAZE * radius,
+            _ => rng.range(-8.0, 8.0),
+        };
+        let along = rng.unit_vector();
+        let point = normal * height + (along - normal * normal.dot(along)) * rng.range(0.0, 3.0);
+        // As the device reads them, and the Rust twin the same values.
+        let (centre_hi, centre_lo) = split(centre);
+        let (point_hi, point_lo) = split(point);
+        let normal32 = f32s(normal);
+        let receiver = Receiver {
+            point: read(point_hi) + read(point_lo),
+            normal: read(normal32),
+            surface: 0,
+            group: 0,
+        };
+        let node = Node {
+            first: 0,
+            last: 1,
+            end: 1,
+            second: NONE,
+            area: 1.0,
+            centre: read(centre_hi) + read(centre_lo),
+            radius: f64::from(radius as f32),
+            lo,
+            hi,
+            group: NONE,
+        };
+        cases.push(PlacementCase {
+            centre: centre_hi,
+            centre_lo,
+            box_middle: f32s(middle - node.centre),
+            box_half: f32s(half),
+            point: point_hi,
+            point_lo,
+            normal: normal32,
+            radius: radius as f32,
+            pad: [0; 3],
+        });
+        nodes.push((node, receiver));
+    }
+    let source = radiosity_gpu::shaders::gather_source() + PLACEMENT_KERNEL;
+    let outs: Vec<u32> = run_kernel(&gpu, &source, "placement_twins", (64, 65), &cases);
+    let (mut compared, mut across, mut grazing_front) = (0, 0, 0);
+    for (i, ((node, r), out)) in nodes.iter().zip(&outs).enumerate() {
+        // Each decision's margin in f64; one within f32's round-off of the
+        // values compared may tip either way and is left out.
+        let h = r.normal.dot(node.centre - r.point);
+        let middle = h + r.normal.dot((node.lo + node.hi) / 2.0 - node.centre);
+        let reach = r.normal.abs().dot((node.hi - node.lo) / 2.0);
+        let size = node.radius + h.abs() + reach + r.point.length() + node.centre.length();
+        let margins = [
+            h - node.radius,
+            h + node.radius,
+            middle - reach + GRAZE * node.radius,
+            middle + reach,
+        ];
+        if margins.iter().any(|m| m.abs() <= 64.0 * EPS * size) {
+            continue;
+        }
+        compared += 1;
+        let side = placement(node, r);
+        let expected = side as u32 | if straddles(node, r) { 16 } else { 0 };
+        assert_eq!(*out, expected, "case {i}: {node:?} {r:?}");
+        across += usize::from(side == Side::Across);
+        grazing_front += usize::from(side == Side::Front && middle - reach < 0.0);
+    }
+    assert!(compared > 7000, "{compared} of 8000 compared");
+    assert!(across > 500, "{across} across");
+    assert!(grazing_front > 200, "{grazing_front} in front within GRAZE");
 }

@@ -126,6 +126,3 @@ fn visible_element_factor(e: u32, r: Receiver) -> vec4<f32> {
     return vec4<f32>(through, analytic(poly, r.normal, surfaces[el.surface].normal));
 }
 
-const SIDE_FRONT: u32 = 0u;
-const SIDE_BEHIND: u32 = 1u;
-const SIDE_ACROSS: u32 = 2u;

@@ -659,7 +659,7 @@ impl Transfer<'_> {
 
 /// Where an element lies against a receiver's tangent plane.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Side {
+pub enum Side {
     /// Every corner in front of the plane.
     Front,
     /// Every corner on or behind it: the element sends nothing.
@@ -706,7 +706,7 @@ pub const GRAZE: f64 = 1.0 / 16.0;
 /// Which side of the receiver's tangent plane a node lies on, judged by
 /// its sphere and its box: [`Side::Front`] also when it reaches behind by
 /// no more than [`GRAZE`] of its radius.
-pub(crate) fn placement(node: &Node, r: &Receiver) -> Side {
+pub fn placement(node: &Node, r: &Receiver) -> Side {
     let h = r.normal.dot(node.centre - r.point);
     if h >= node.radius {
         return Side::Front;
@@ -728,7 +728,7 @@ pub(crate) fn placement(node: &Node, r: &Receiver) -> Side {
 /// part of the node may be behind the receiver and part in front, which no
 /// point source (whose centre is on one side) can stand for; such a node is
 /// refined down to elements, whose factors clip exactly.
-pub(crate) fn straddles(node: &Node, r: &Receiver) -> bool {
+pub fn straddles(node: &Node, r: &Receiver) -> bool {
     r.normal.dot(node.centre - r.point).abs() < node.radius
 }
 
