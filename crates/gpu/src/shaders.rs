@@ -215,6 +215,12 @@ bindings! {
         /// Each receiver's direct irradiance: the lights' and the emitting
         /// surfaces' first shots.
         DirectTotal = "direct_total": "storage, read_write" "array<vec4<f32>>",
+        /// The shooter the device chooses next (`choose_next`): its index
+        /// at 0, its first and last item at 1 and 2.
+        Next = "next": "storage, read_write" "array<u32, 4>",
+        /// Its elements' unshot radiosity, in the tree's order
+        /// (`collect_next`), read back with the shot's ledger.
+        NextUnshot = "next_unshot": "storage, read_write" "array<vec4<f32>>",
     }
 }
 

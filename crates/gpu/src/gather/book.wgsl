@@ -150,3 +150,59 @@ fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     powers[id.x] = power;
 }
+
+var<workgroup> best_power: array<f32, BOOK_WORKGROUP>;
+var<workgroup> best_index: array<u32, BOOK_WORKGROUP>;
+
+// The shooter with the most unshot power after the shot, as the host
+// chooses it (the first of the largest; a NaN never wins; the first
+// shooter when none is more than minus infinity), so that its elements'
+// unshot radiosity comes back with the shot's ledger (collect_next) and
+// the next shot needs no readback of its own. One workgroup.
+@compute @workgroup_size(BOOK_WORKGROUP)
+fn choose_next(@builtin(local_invocation_index) t: u32) {
+    var p = bitcast<f32>(0xff800000u);
+    var k = NONE;
+    for (var i = t; i < book.shooters; i += BOOK_WORKGROUP) {
+        let q = powers[i];
+        if (q > p) {
+            p = q;
+            k = i;
+        }
+    }
+    best_power[t] = p;
+    best_index[t] = k;
+    workgroupBarrier();
+    for (var s = BOOK_WORKGROUP / 2u; s > 0u; s /= 2u) {
+        if (t < s) {
+            let q = best_power[t + s];
+            let j = best_index[t + s];
+            let i = best_index[t];
+            if (j != NONE && (i == NONE || q > best_power[t] || (q == best_power[t] && j < i))) {
+                best_power[t] = q;
+                best_index[t] = j;
+            }
+        }
+        workgroupBarrier();
+    }
+    if (t == 0u) {
+        var chosen = best_index[0];
+        if (chosen == NONE) {
+            chosen = 0u;
+        }
+        let range = shooter_items[chosen];
+        next[0] = chosen;
+        next[1] = range.x;
+        next[2] = range.y;
+    }
+}
+
+// The chosen shooter's elements' unshot radiosity, in the tree's order.
+@compute @workgroup_size(BOOK_WORKGROUP)
+fn collect_next(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = next[1] + id.x;
+    if (i >= next[2]) {
+        return;
+    }
+    next_unshot[id.x] = unshot[items[i]];
+}

@@ -62,6 +62,8 @@ pub(crate) struct Pipelines {
     pub(super) receive: wgpu::ComputePipeline,
     pub(super) accumulate: wgpu::ComputePipeline,
     pub(super) shooter_powers: wgpu::ComputePipeline,
+    pub(super) choose_next: wgpu::ComputePipeline,
+    pub(super) collect_next: wgpu::ComputePipeline,
 }
 
 impl Pipelines {
@@ -105,6 +107,8 @@ impl Pipelines {
             receive: pipeline("receive"),
             accumulate: pipeline("accumulate"),
             shooter_powers: pipeline("shooter_powers"),
+            choose_next: pipeline("choose_next"),
+            collect_next: pipeline("collect_next"),
         }
     }
 }

@@ -28,6 +28,9 @@ use crate::device_scene::{DeviceScene, split};
 use crate::wgpu_io::{catch_uncaptured, entry, nonempty, read_back, storage};
 
 use crate::shaders::counter::{self, COUNTERS};
+
+/// Bytes of the next shooter's record (`next` in `book.wgsl`).
+const NEXT_BYTES: u64 = 16;
 use crate::shaders::{BOOK_WORKGROUP, GatherBinding as G};
 
 /// A solve on the GPU.
@@ -80,6 +83,12 @@ pub(super) struct GpuTransfers {
     staging: wgpu::Buffer,
     sources: Growing,
     bins: Growing,
+    /// The shooter the device chose next, and its elements' unshot
+    /// radiosity (`choose_next`, `collect_next`).
+    next: wgpu::Buffer,
+    next_unshot: wgpu::Buffer,
+    /// The most elements a shooter has.
+    largest_shooter: u32,
     readback: wgpu::Buffer,
     uncaptured: Arc<Mutex<Option<String>>>,
     /// What crossed between host and device so far.
@@ -138,6 +147,8 @@ impl GpuTransfers {
         let shot_readback = 4 * s
             + partial_count * size_of::<GpuPartial>() as u64
             + 4 * COUNTERS as u64
+            + NEXT_BYTES
+            + largest_shooter * vec4_bytes
             + 16 * u64::from(4 * chunks + 4);
         let readback_bytes = shot_readback
             .max((2 * r + e) * vec4_bytes)
@@ -187,6 +198,9 @@ impl GpuTransfers {
             ),
             powers: state_buffer(&gpu, "shooter powers", 4 * s),
             staging: state_buffer(&gpu, "staging", largest_shooter * vec4_bytes),
+            next: state_buffer(&gpu, "next shooter", NEXT_BYTES),
+            next_unshot: state_buffer(&gpu, "next shooter's unshot", largest_shooter * vec4_bytes),
+            largest_shooter: largest_shooter as u32,
             sources: Growing::new(&gpu, "sources"),
             bins: Growing::new(&gpu, "bins"),
             readback: gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -261,6 +275,21 @@ impl GpuTransfers {
         self.traffic.set(traffic);
         read_back(gpu, &self.readback, bytes, &self.uncaptured)
             .map_err(|e| DeviceError(e.to_string()))
+    }
+
+    /// [`Self::finish`] for a checkpoint: its wait counted apart, as the
+    /// checkpoints come by the clock, not by the shot.
+    fn finish_checkpoint(
+        &self,
+        encoder: wgpu::CommandEncoder,
+        bytes: u64,
+    ) -> Result<Vec<u8>, DeviceError> {
+        let out = self.finish(encoder, bytes);
+        let mut traffic = self.traffic.get();
+        traffic.host_waits -= 1;
+        traffic.checkpoints += 1;
+        self.traffic.set(traffic);
+        out
     }
 
     /// `f`, with the device's validation and memory errors caught.
@@ -489,6 +518,24 @@ impl GpuTransfers {
                 entry(G::Book, &book),
             ],
         );
+        let choose = self.bind(
+            &self.pipelines.choose_next,
+            &[
+                entry(G::ShooterItems, &self.shooter_items),
+                entry(G::Powers, &self.powers),
+                entry(G::Book, &book),
+                entry(G::Next, &self.next),
+            ],
+        );
+        let collect = self.bind(
+            &self.pipelines.collect_next,
+            &[
+                entry(G::Unshot, &self.unshot),
+                entry(G::Items, &self.items),
+                entry(G::Next, &self.next),
+                entry(G::NextUnshot, &self.next_unshot),
+            ],
+        );
         let kernel_start = Instant::now();
         // The walk, one submission a chunk of receivers: none runs long
         // enough to trip a driver's watchdog, and the shot can be
@@ -560,7 +607,7 @@ impl GpuTransfers {
             (
                 &self.pipelines.shooter_powers,
                 &powers,
-                self.shooters.div_ceil(64).max(1),
+                self.shooters.div_ceil(WORKGROUP).max(1),
             ),
         ];
         // A pass a stage: each reads what the one before wrote.
@@ -569,6 +616,25 @@ impl GpuTransfers {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("book"),
                 timestamp_writes: self.timestamps(book_base + j as u32),
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
+        }
+        // The next shooter and its elements' unshot radiosity, read back
+        // with the ledger: the next shot waits for nothing else.
+        let next_stages = [
+            (&self.pipelines.choose_next, &choose, 1),
+            (
+                &self.pipelines.collect_next,
+                &collect,
+                self.largest_shooter.div_ceil(BOOK_WORKGROUP).max(1),
+            ),
+        ];
+        for (pipeline, group, workgroups) in next_stages {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("next"),
+                timestamp_writes: None,
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, group, &[]);
@@ -595,8 +661,20 @@ impl GpuTransfers {
             powers_bytes + partial_bytes,
             counter_bytes,
         );
+        let next_at = powers_bytes + partial_bytes + counter_bytes;
+        let next_unshot_bytes = 16 * u64::from(self.largest_shooter);
+        encoder.copy_buffer_to_buffer(&self.next, 0, &self.readback, next_at, NEXT_BYTES);
+        if next_unshot_bytes > 0 {
+            encoder.copy_buffer_to_buffer(
+                &self.next_unshot,
+                0,
+                &self.readback,
+                next_at + NEXT_BYTES,
+                next_unshot_bytes,
+            );
+        }
         let passes = book_base + 4;
-        let timestamps_at = powers_bytes + partial_bytes + counter_bytes;
+        let timestamps_at = next_at + NEXT_BYTES + next_unshot_bytes;
         let mut read = timestamps_at;
         if let Some(timer) = &self.timer {
             encoder.resolve_query_set(&timer.set, 0..2 * passes, &timer.resolve, 0);
@@ -628,6 +706,20 @@ impl GpuTransfers {
         }
         let counts: &[u32] =
             bytemuck::cast_slice(&bytes[(powers_bytes + partial_bytes) as usize..]);
+        let next: &[u32] =
+            bytemuck::cast_slice(&bytes[next_at as usize..(next_at + NEXT_BYTES) as usize]);
+        let next_count = next[2].saturating_sub(next[1]) as usize;
+        let next_words: &[f32] =
+            bytemuck::cast_slice(&bytes[(next_at + NEXT_BYTES) as usize..timestamps_at as usize]);
+        let next_shooter = (next_count <= self.largest_shooter as usize).then(|| {
+            (
+                next[0] as usize,
+                next_words[..4 * next_count]
+                    .chunks_exact(4)
+                    .map(dvec3)
+                    .collect(),
+            )
+        });
         Ok(Some(Booked {
             received: Received { incident, absorbed },
             unshot_power,
@@ -640,6 +732,7 @@ impl GpuTransfers {
             element_sources: u64::from(counts[counter::ELEMENTS]),
             longest_walk: u64::from(counts[counter::LONGEST_WALK]),
             longest_item: u64::from(counts[counter::LONGEST_ITEM]),
+            next_shooter,
             upload_time: kernel_start - upload_start,
             kernel_time: readback_start - kernel_start,
             readback_time: readback_start.elapsed(),
@@ -758,7 +851,7 @@ impl AdaptiveTransfers for GpuTransfers {
             if e > 0 {
                 encoder.copy_buffer_to_buffer(&self.unshot, 0, &self.readback, 2 * r, e);
             }
-            self.finish(encoder, 2 * r + e)
+            self.finish_checkpoint(encoder, 2 * r + e)
         })?;
         let words: &[f32] = bytemuck::cast_slice(&data);
         let (total_words, rest) = words.split_at((r / 4) as usize);

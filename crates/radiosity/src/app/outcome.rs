@@ -240,8 +240,14 @@ pub struct StatsFile {
     /// otherwise): the solve went on on the CPU.
     pub device_fault: Option<String>,
     /// Times the host waited for the device (blocking readbacks) over the
-    /// solve: the same count on any adapter.
+    /// solve, but for checkpoints: the same count on any adapter.
     pub device_host_waits: u64,
+    /// Passes the device ran (one a shot, two for a shot that also sends
+    /// negative light): each waits once for its ledger.
+    pub device_passes: u64,
+    /// Checkpoints of the solve on the device (the state read back, every
+    /// quarter of a second of the clock).
+    pub device_checkpoints: u64,
     /// Command buffers submitted to the device over the solve.
     pub device_submissions: u64,
     /// Bytes read back from the device over the solve.
@@ -332,6 +338,8 @@ impl StatsFile {
             device_shots: outcome.device.device_shots,
             device_fault: outcome.device.fault.clone(),
             device_host_waits: outcome.device.traffic.host_waits,
+            device_checkpoints: outcome.device.traffic.checkpoints,
+            device_passes: outcome.device.passes,
             device_submissions: outcome.device.traffic.submissions,
             device_bytes_read: outcome.device.traffic.bytes_read,
             device_longest_visits: outcome.device.longest_visits,

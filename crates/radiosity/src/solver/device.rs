@@ -178,8 +178,13 @@ pub trait AdaptiveTransfers: Send {
 /// What crossed between host and device ([`AdaptiveTransfers::traffic`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Traffic {
-    /// Times the host waited for the device (a blocking readback).
+    /// Times the host waited for the device (a blocking readback), but
+    /// for checkpoints.
     pub host_waits: u64,
+    /// Checkpoints: the whole state read back, every
+    /// [`crate::solver::CHECKPOINT_INTERVAL`] of the clock (so their count
+    /// depends on the machine, the other counts do not).
+    pub checkpoints: u64,
     /// Command buffers submitted.
     pub submissions: u64,
     /// Bytes read back from the device.
@@ -248,6 +253,12 @@ pub struct Booked {
     /// The most source nodes one thread of the split walks' items visited
     /// (0 where no walk was split).
     pub longest_item: u64,
+    /// The shooter the device found with the most unshot power after the
+    /// shot (its index among the shooters, chosen as the host chooses) and
+    /// its elements' unshot radiosity in the tree's order, read back with
+    /// the shot: the next shot takes them instead of asking
+    /// ([`AdaptiveTransfers::unshot`]). `None` where the device does not say.
+    pub next_shooter: Option<(usize, Vec<DVec3>)>,
     /// Time preparing and sending the shot's data (host clock).
     pub upload_time: Duration,
     /// Time the kernels took, waited for (host clock).
@@ -466,6 +477,10 @@ pub struct DeviceReport {
     pub stages: Option<StageTimes>,
     /// What crossed between host and device ([`AdaptiveTransfers::traffic`]).
     pub traffic: Traffic,
+    /// Passes the device ran: one a shot, two for a shot that also sends
+    /// negative light (overshooting's, or unshot light left below zero by
+    /// round-off).
+    pub passes: u64,
     /// Its shots' critical paths summed: each shot's most nodes visited by
     /// one thread of the walks plus one of the split items
     /// ([`Booked::longest_walk`], [`Booked::longest_item`]).

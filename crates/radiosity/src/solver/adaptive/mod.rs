@@ -382,6 +382,11 @@ impl AdaptiveShooting {
     /// (the first of equals), in magnitude: negative power left by
     /// overshooting is shot back like positive.
     fn choose_shooting_node(&self) -> u32 {
+        self.hierarchy.shooters[self.choose_shooter()]
+    }
+
+    /// The index among the shooters of [`Self::choose_shooting_node`]'s.
+    fn choose_shooter(&self) -> usize {
         let (best, _) =
             self.shooter_power
                 .iter()
@@ -389,7 +394,7 @@ impl AdaptiveShooting {
                 .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
                     if p > best.1 { (i, p) } else { best }
                 });
-        self.hierarchy.shooters[best]
+        best
     }
 
     /// The negligible irradiance of each receiver-tree node: the smallest

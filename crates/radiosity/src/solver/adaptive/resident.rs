@@ -29,6 +29,9 @@ pub(super) struct Resident {
     saved: Vec<DVec3>,
     /// Shots on the device since then (undone if it fails).
     since_checkpoint: u64,
+    /// The shooter the device reported with the last shot as the next,
+    /// and its elements' unshot radiosity ([`Booked::next_shooter`]).
+    next: Option<(usize, Vec<DVec3>)>,
 }
 
 impl AdaptiveShooting {
@@ -80,11 +83,25 @@ impl AdaptiveShooting {
                     .sum(),
                 saved: self.unshot.clone(),
                 since_checkpoint: 0,
+                next: None,
             });
         }
-        let root = self.choose_shooting_node();
+        let shooter = self.choose_shooter();
+        let root = self.hierarchy.shooters[shooter];
         let node = self.hierarchy.tree.nodes[root as usize];
-        let fresh = device.unshot(node.first, node.last)?;
+        // Read back with the last shot when the device chose the same
+        // shooter (it chooses as the host does); else asked for.
+        let prefetched =
+            self.resident
+                .as_mut()
+                .and_then(|r| r.next.take())
+                .filter(|(s, values)| {
+                    *s == shooter && values.len() == (node.last - node.first) as usize
+                });
+        let fresh = match prefetched {
+            Some((_, values)) => values,
+            None => device.unshot(node.first, node.last)?,
+        };
         let items = self.hierarchy.tree.items_of(root);
         for (&e, u) in items.iter().zip(fresh) {
             // The device holds f32s: where its value is the host's rounded
@@ -137,6 +154,7 @@ impl AdaptiveShooting {
                 },
             };
             let result = device.shoot(&shot);
+            self.report.passes += 1;
             self.end_pass(root, sending);
             let Some(this) = result? else {
                 return Ok(None);
@@ -189,6 +207,7 @@ impl AdaptiveShooting {
             resident.unshot_power = booked.unshot_power;
             resident.unshot_magnitude = booked.unshot_magnitude;
             resident.since_checkpoint += 1;
+            resident.next = booked.next_shooter;
         }
         Ok(Some(Shot {
             irradiance: Vec::new(),
