@@ -13,8 +13,6 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
-
 fn run(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radiosity"))
         .env_remove("RADIOSITY_DEVICE")
@@ -24,18 +22,9 @@ fn run(dir: &Path, args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
-/// Whether there is an adapter to test on; without one, and none
-/// required, a note.
+/// Whether there is an adapter to test on ([`radiosity_gpu::test_adapter`]).
 fn adapter() -> bool {
-    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
-    match Gpu::open(DeviceChoice::Gpu) {
-        Ok(gpu) => gpu.is_some(),
-        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
-        Err(e) => {
-            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
-            false
-        }
-    }
+    radiosity_gpu::test_adapter().is_some()
 }
 
 /// Sensor points spread over every surface of the built-in Cornell box:

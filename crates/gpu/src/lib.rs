@@ -31,3 +31,23 @@ pub use gather::GpuBackend;
 /// set (to anything but `0`) they fail without one; unset they say they
 /// did not run. CI sets it, with Mesa's software Vulkan installed.
 pub const REQUIRE_ADAPTER: &str = "RADIOSITY_REQUIRE_GPU";
+
+/// The adapter the GPU tests run on: any (software ones included), or
+/// `None` with a note on standard error when there is none and
+/// [`REQUIRE_ADAPTER`] is not set.
+///
+/// # Panics
+///
+/// When [`REQUIRE_ADAPTER`] is set and no adapter opens.
+#[must_use]
+pub fn test_adapter() -> Option<Gpu> {
+    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
+    match Gpu::open(DeviceChoice::Gpu) {
+        Ok(gpu) => gpu,
+        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
+        Err(e) => {
+            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
+            None
+        }
+    }
+}

@@ -23,7 +23,7 @@ use radiosity_gpu::gather::{
     GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPane, GpuPartial, GpuReceiver,
     GpuShot, GpuSurface, GpuTreeNode,
 };
-use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend, REQUIRE_ADAPTER};
+use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend};
 
 /// Size and member offsets of the WGSL struct `name` of the transfer
 /// kernel (its whole module, as the device compiles it).
@@ -167,18 +167,9 @@ fn transfer_buffers_match_their_wgsl_twins() {
     }
 }
 
-/// A GPU adapter (software ones included), or `None` with a note when
-/// there is none and none is required.
+/// The tests' adapter ([`radiosity_gpu::test_adapter`]).
 fn gpu() -> Option<Gpu> {
-    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
-    match Gpu::open(DeviceChoice::Gpu) {
-        Ok(gpu) => gpu,
-        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
-        Err(e) => {
-            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
-            None
-        }
-    }
+    radiosity_gpu::test_adapter()
 }
 
 /// L1 difference of the vertices' radiosity (luminance) over the CPU's L1.

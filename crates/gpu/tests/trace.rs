@@ -18,24 +18,15 @@ use glam::DVec3;
 use radiosity::accel::Occluder;
 use radiosity::accel::brute::BruteForce;
 use radiosity::scene::Surface;
+use radiosity_gpu::Gpu;
 use radiosity_gpu::trace::{
     DISPATCH_SEGMENTS, GpuDispatch, GpuNode, GpuSegment, GpuTriangle, SceneTracer, Segment, grazes,
 };
-use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
 use rng::Rng;
 
-/// A GPU adapter (software ones included), or `None` with a note when
-/// there is none and none is required.
+/// The tests' adapter ([`radiosity_gpu::test_adapter`]).
 fn gpu() -> Option<Gpu> {
-    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
-    match Gpu::open(DeviceChoice::Gpu) {
-        Ok(gpu) => gpu,
-        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
-        Err(e) => {
-            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
-            None
-        }
-    }
+    radiosity_gpu::test_adapter()
 }
 
 /// Size and member offsets of the WGSL struct `name` in the trace module.

@@ -22,7 +22,7 @@ mod rng;
 use glam::DVec3;
 use radiosity::form_factor::analytic::analytic_facing;
 use radiosity::geometry::{self, clip::clip_each};
-use radiosity_gpu::{DeviceChoice, Gpu, REQUIRE_ADAPTER};
+use radiosity_gpu::Gpu;
 use rng::Rng;
 use wgpu::util::DeviceExt;
 
@@ -101,18 +101,9 @@ struct Out {
     pad: [u32; 2],
 }
 
-/// A GPU adapter (software ones included), or `None` with a note when
-/// there is none and none is required.
+/// The tests' adapter ([`radiosity_gpu::test_adapter`]).
 fn gpu() -> Option<Gpu> {
-    let required = std::env::var(REQUIRE_ADAPTER).is_ok_and(|v| v != "0");
-    match Gpu::open(DeviceChoice::Gpu) {
-        Ok(gpu) => gpu,
-        Err(e) if required => panic!("{REQUIRE_ADAPTER} is set: {e}"),
-        Err(e) => {
-            eprintln!("GPU test did not run: {e} (set {REQUIRE_ADAPTER} to require one)");
-            None
-        }
-    }
+    radiosity_gpu::test_adapter()
 }
 
 /// The outputs of the entry point `entry` of `source` for `cases`: the

@@ -157,17 +157,7 @@ fn direct_and_indirect_add_up_to_the_total_at_every_vertex() {
     let mut solver = Solver::new(&scene, &mesh, settings);
     solver.run(|_| radiosity::solver::Flow::Continue);
     let pass = FinalPass::new(&solver, FinalGather::Direct);
-    let points: Vec<Point> = mesh
-        .vertices
-        .iter()
-        .enumerate()
-        .map(|(i, v)| Point {
-            surface: v.surface,
-            position: v.position,
-            sample: None,
-            seed: i as u64,
-        })
-        .collect();
+    let points = common::vertex_points(&mesh);
     let evaluated = pass.direct(&points);
     let booked = &solver.direct_irradiance()[..mesh.vertices.len()];
     assert!(solver.direct_complete());

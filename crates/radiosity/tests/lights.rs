@@ -9,7 +9,7 @@ use std::path::Path;
 
 use approx::assert_relative_eq;
 use glam::DVec3;
-use radiosity::final_gather::{FinalGather, FinalPass, Point};
+use radiosity::final_gather::{FinalGather, FinalPass};
 use radiosity::mesh::Mesh;
 use radiosity::scene::light::cone;
 use radiosity::scene::sky::{self, Daylight, SkyModel, SkySpec, SunSpec};
@@ -879,17 +879,7 @@ fn a_lambertian_point_light_gives_its_closed_form_everywhere() {
     let mut solver = Solver::new(&scene, &mesh, settings);
     solver.run(|_| radiosity::solver::Flow::Continue);
     let pass = FinalPass::new(&solver, FinalGather::Direct);
-    let vertices: Vec<Point> = mesh
-        .vertices
-        .iter()
-        .enumerate()
-        .map(|(i, v)| Point {
-            surface: v.surface,
-            position: v.position,
-            sample: None,
-            seed: i as u64,
-        })
-        .collect();
+    let vertices = common::vertex_points(&mesh);
     for (v, e) in vertices.iter().zip(pass.direct(&vertices)) {
         // (The pass evaluates a hair off the surface, as the sensors do.)
         assert_relative_eq!(

@@ -196,3 +196,17 @@ pub fn assert_ledger_balances(solver: &radiosity::solver::Solver<'_>) {
         );
     }
 }
+
+/// The final pass's points at `mesh`'s vertices, each seeded by its index.
+pub fn vertex_points(mesh: &radiosity::mesh::Mesh) -> Vec<radiosity::final_gather::Point> {
+    mesh.vertices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| radiosity::final_gather::Point {
+            surface: v.surface,
+            position: v.position,
+            sample: None,
+            seed: i as u64,
+        })
+        .collect()
+}

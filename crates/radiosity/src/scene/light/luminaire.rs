@@ -60,12 +60,9 @@ impl LightModel for Luminaire {
 
     /// Its mean intensity over the sphere, in every direction.
     fn at_points(&self, unit: DVec3) -> AtPoints {
-        AtPoints::Located(Orientation {
-            power: crate::luminance(unit * self.profile.flux()) / (4.0 * std::f64::consts::PI),
-            axis: DVec3::Y,
-            theta_o: std::f64::consts::PI,
-            theta_e: std::f64::consts::FRAC_PI_2,
-        })
+        AtPoints::Located(Orientation::everywhere(
+            crate::luminance(unit * self.profile.flux()) / (4.0 * std::f64::consts::PI),
+        ))
     }
 
     /// A point light of the same flux: glTF has no intensity tables.

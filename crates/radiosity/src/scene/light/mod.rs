@@ -175,6 +175,20 @@ pub struct Orientation {
     pub theta_e: f64,
 }
 
+impl Orientation {
+    /// A light of `power` sending light every way (a point light, a
+    /// luminaire by its mean intensity).
+    #[must_use]
+    pub fn everywhere(power: f64) -> Orientation {
+        Orientation {
+            power,
+            axis: DVec3::Y,
+            theta_o: std::f64::consts::PI,
+            theta_e: std::f64::consts::FRAC_PI_2,
+        }
+    }
+}
+
 /// A light as `KHR_lights_punctual` gives it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Punctual {

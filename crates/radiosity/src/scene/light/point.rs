@@ -57,12 +57,7 @@ impl LightModel for Point {
     }
 
     fn at_points(&self, unit: DVec3) -> AtPoints {
-        AtPoints::Located(Orientation {
-            power: crate::luminance(unit),
-            axis: DVec3::Y,
-            theta_o: std::f64::consts::PI,
-            theta_e: std::f64::consts::FRAC_PI_2,
-        })
+        AtPoints::Located(Orientation::everywhere(crate::luminance(unit)))
     }
 
     fn punctual(&self, intensity: f64) -> Option<Punctual> {
