@@ -1,6 +1,8 @@
 //! `radiosity view`: serves the bake viewer page (`web/viewer/`, three.js
 //! embedded in the binary, nothing fetched from elsewhere) and one baked
-//! glTF file on 127.0.0.1, so a bake can be looked at in any browser.
+//! glTF file on 127.0.0.1, so a bake can be looked at in any browser
+//! (beyond the paper: its radiosity, baked as Wallace, Elmquist & Haines
+//! 1989 display it, shaded per vertex).
 //!
 //! The same server as the live view's (axum, [`super::http`]'s guard
 //! against other hosts and sites, the one table of embedded files,

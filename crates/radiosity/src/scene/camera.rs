@@ -1,6 +1,7 @@
 //! The camera a scene brings (`#@camera`, a glTF camera node) or a user
 //! gives (`--camera`): a pinhole with eye, target, up and vertical field of
-//! view (design.md section 7).
+//! view (design.md section 7), as the paper's figures view their room
+//! (Wong & Tsang 1993, section 5).
 
 use glam::DVec3;
 

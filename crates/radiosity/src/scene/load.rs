@@ -2,7 +2,9 @@
 //! (OBJ with its MTL, glTF), read within [`Limits`] after checking it is a
 //! regular file of a sane size, with the options of [`LoadOptions`]; every
 //! error names the file and line ([`Location`], [`SceneError`]). The
-//! loaded scene is checked for light and for portals without a sky.
+//! loaded scene is checked for light and for portals without a sky. The
+//! paper reads one room of patches; reading real files, bounded and with
+//! clear errors, goes beyond it.
 
 use std::fmt;
 use std::path::{Path, PathBuf};

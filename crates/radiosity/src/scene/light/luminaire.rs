@@ -2,6 +2,9 @@
 //! ([`crate::scene::ies`], IESNA LM-63), placed by its nadir and C0
 //! direction (`#@light ies FILE.ies X Y Z [DX DY DZ] [MULTIPLIER]`, an
 //! `.ies` on a glTF light); the light's intensity multiplies its candela.
+//! Beyond the paper, whose sources are surfaces: shot as Wallace, Elmquist
+//! & Haines (1989) send a point source's light, with the measured intensity
+//! in each receiver's direction.
 
 use std::sync::Arc;
 

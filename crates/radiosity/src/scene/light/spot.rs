@@ -2,7 +2,9 @@
 //! `#@light spot X Y Z DX DY DZ CANDELA INNER_DEG OUTER_DEG [R G B]`). Its
 //! intensity falls from full inside the inner cone to nothing at the outer
 //! one as the `KHR_lights_punctual` specification recommends
-//! ([`spot_falloff`]).
+//! ([`spot_falloff`]). Beyond the paper, whose sources are surfaces: shot
+//! as Wallace, Elmquist & Haines (1989) send a point source's light to each
+//! receiver, with the cone's intensity in that direction.
 
 use glam::DVec3;
 

@@ -1,6 +1,8 @@
 //! The sun: parallel light from far away (glTF's `directional`, `--sun`,
 //! `#@light sun DX DY DZ LUX [R G B]`), `E cos(theta)` at every point the
-//! sky sees along its direction.
+//! sky sees along its direction. Beyond the paper, whose sources are
+//! surfaces: one shadow ray a receiver, as Wallace, Elmquist & Haines
+//! (1989) test a point source's visibility.
 
 use glam::DVec3;
 
