@@ -599,29 +599,6 @@ mod tests {
     }
 
     #[test]
-    fn spot_falloff_is_the_specifications() {
-        let (inner, outer) = cone(20.0, 40.0).unwrap();
-        let (ci, co) = (inner.cos(), outer.cos());
-        assert_eq!(spot_falloff(1.0, ci, co), 1.0);
-        assert_eq!(spot_falloff(19f64.to_radians().cos(), ci, co), 1.0);
-        assert_eq!(spot_falloff(41f64.to_radians().cos(), ci, co), 0.0);
-        let mid = 30f64.to_radians().cos();
-        let s = (mid - co) / (ci - co);
-        assert_relative_eq!(spot_falloff(mid, ci, co), s * s);
-        // The solid angle integrates the falloff (midpoint rule in cos).
-        let n = 200_000;
-        let numeric: f64 = (0..n)
-            .map(|i| {
-                let c = -1.0 + (i as f64 + 0.5) * 2.0 / n as f64;
-                spot_falloff(c, ci, co) * 2.0 / n as f64
-            })
-            .sum::<f64>()
-            * 2.0
-            * std::f64::consts::PI;
-        assert_relative_eq!(spot_solid_angle(ci, co), numeric, max_relative = 1e-6);
-    }
-
-    #[test]
     fn flux_of_a_point_light_is_four_pi_intensity() {
         let flux = point(179.0).flux().unwrap();
         assert_relative_eq!(flux.x, 4.0 * std::f64::consts::PI, max_relative = 1e-12);

@@ -148,3 +148,33 @@ pub fn spot_falloff(cos_angle: f64, cos_inner: f64, cos_outer: f64) -> f64 {
 pub fn spot_solid_angle(cos_inner: f64, cos_outer: f64) -> f64 {
     2.0 * std::f64::consts::PI * ((1.0 - cos_inner) + (cos_inner - cos_outer) / 3.0)
 }
+
+#[cfg(test)]
+mod tests {
+    use approx::assert_relative_eq;
+
+    use super::*;
+
+    #[test]
+    fn spot_falloff_is_the_specifications() {
+        let (inner, outer) = cone(20.0, 40.0).unwrap();
+        let (ci, co) = (inner.cos(), outer.cos());
+        assert_eq!(spot_falloff(1.0, ci, co), 1.0);
+        assert_eq!(spot_falloff(19f64.to_radians().cos(), ci, co), 1.0);
+        assert_eq!(spot_falloff(41f64.to_radians().cos(), ci, co), 0.0);
+        let mid = 30f64.to_radians().cos();
+        let s = (mid - co) / (ci - co);
+        assert_relative_eq!(spot_falloff(mid, ci, co), s * s);
+        // The solid angle integrates the falloff (midpoint rule in cos).
+        let n = 200_000;
+        let numeric: f64 = (0..n)
+            .map(|i| {
+                let c = -1.0 + (i as f64 + 0.5) * 2.0 / n as f64;
+                spot_falloff(c, ci, co) * 2.0 / n as f64
+            })
+            .sum::<f64>()
+            * 2.0
+            * std::f64::consts::PI;
+        assert_relative_eq!(spot_solid_angle(ci, co), numeric, max_relative = 1e-6);
+    }
+}
