@@ -88,7 +88,8 @@ keys = ["total_seconds", "load_seconds", "mesh_seconds", "solve_seconds", "accel
         "write_seconds", "final_gather_seconds", "device_upload_seconds",
         "device_kernel_seconds", "device_readback_seconds"]
 print("run | device | stop | unshot | shots: coarse+all (coarse stop) | dev shots | " + " | ".join(k.replace("_seconds", "") for k in keys)
-      + " | kernel ms/shot | rest of solve ms/shot | device walk/items/join/book s | peak host MiB | peak GPU MiB (over idle)")
+      + " | kernel ms/shot | rest of solve ms/shot | device walk/items/join/book s | passes | host waits | checkpoints"
+      + " | submissions | MB read | critical/mean visits | peak host MiB | peak GPU MiB (over idle)")
 for path in sorted(glob.glob(os.path.join(out, "*.json"))):
     name = os.path.basename(path)[:-5]
     try:
@@ -108,7 +109,11 @@ for path in sorted(glob.glob(os.path.join(out, "*.json"))):
     print(f"{name} | {s.get('device')} | {s.get('stop_reason')} | {s.get('unshot_fraction'):.4f} | "
           f"{s.get('coarse_shots')}+{s.get('shots')} ({s.get('coarse_stop_reason')}) | {s.get('device_shots')} | "
           + " | ".join(f"{s.get(k, float('nan')):.2f}" for k in keys)
-          + f" | {kernel:.2f} | {rest:.2f} | {stages} | {host:.0f} | {peak_gpu:.0f}")
+          + f" | {kernel:.2f} | {rest:.2f} | {stages} | {s.get('device_passes', '-')} | {s.get('device_host_waits', '-')}"
+          + f" | {s.get('device_checkpoints', '-')} | {s.get('device_submissions', '-')}"
+          + f" | {(s.get('device_bytes_read') or 0) / 1e6:.1f}"
+          + f" | {s.get('device_longest_visits', 0)}/{s.get('device_mean_visits', 0):.0f}"
+          + f" | {host:.0f} | {peak_gpu:.0f}")
 PY
 
 }
