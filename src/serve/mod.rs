@@ -177,25 +177,36 @@ pub struct Server {
     serving: tokio::task::JoinHandle<std::io::Result<()>>,
 }
 
+/// A one-thread runtime named `thread` and a listener bound to `address`
+/// (port 0: any free port) on it, with the address it got: what both
+/// servers (the live view, the bake viewer) start from.
+pub(crate) fn listen(
+    address: SocketAddr,
+    thread: &str,
+) -> Result<(tokio::runtime::Runtime, tokio::net::TcpListener, SocketAddr), Error> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .thread_name(thread)
+        .enable_io()
+        .enable_time()
+        .build()
+        .map_err(Error::Runtime)?;
+    let listener = runtime
+        .block_on(tokio::net::TcpListener::bind(address))
+        .map_err(|source| Error::Bind { address, source })?;
+    let local = listener
+        .local_addr()
+        .map_err(|source| Error::Bind { address, source })?;
+    Ok((runtime, listener, local))
+}
+
 impl Server {
     /// Binds `address` (port 0: any free port) and starts serving; the
     /// page shows "loading" until [`Server::observer`] is told the mesh.
     /// The solve pauses by itself once it has made each of `pause_at`
     /// shots (0: before the first).
     pub fn start(address: SocketAddr, display: Display, pause_at: &[u64]) -> Result<Server, Error> {
-        let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .thread_name("radiosity-serve")
-            .enable_io()
-            .enable_time()
-            .build()
-            .map_err(Error::Runtime)?;
-        let listener = runtime
-            .block_on(tokio::net::TcpListener::bind(address))
-            .map_err(|source| Error::Bind { address, source })?;
-        let local = listener
-            .local_addr()
-            .map_err(|source| Error::Bind { address, source })?;
+        let (runtime, listener, local) = listen(address, "radiosity-serve")?;
         let shared = Arc::new(state::Shared::new(display, pause_at));
         let router = http::router(shared.clone(), local);
         let mut closing = shared.closing();

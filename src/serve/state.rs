@@ -574,6 +574,17 @@ mod tests {
     use radiosity::mesh::MeshSettings;
     use radiosity::solver::Settings;
 
+    /// The page's defaults: the scene's view, the ambient term shown, no
+    /// stops, the default final pass.
+    fn plain_display() -> Display {
+        Display {
+            camera: None,
+            ambient: true,
+            exposure: 0.0,
+            final_gather: FinalGather::Direct,
+        }
+    }
+
     /// Snapshots while solving: the first shot's, then one once the
     /// interval of solve time has passed since the last, whatever took it.
     #[test]
@@ -599,13 +610,7 @@ mod tests {
     /// at or past them, in any order given.
     #[test]
     fn holds_pause_once_at_their_shot_counts() {
-        let display = Display {
-            camera: None,
-            ambient: true,
-            exposure: 0.0,
-            final_gather: FinalGather::Direct,
-        };
-        let shared = Shared::new(display, &[5, 0, 9, 5]);
+        let shared = Shared::new(plain_display(), &[5, 0, 9, 5]);
         let paused = |shared: &Shared| shared.pause_flag.load(Ordering::SeqCst);
         shared.hold_at(0);
         assert!(paused(&shared));
@@ -630,13 +635,7 @@ mod tests {
     /// the newest each time.
     #[test]
     fn the_final_pass_progress_is_in_the_status() {
-        let display = Display {
-            camera: None,
-            ambient: true,
-            exposure: 0.0,
-            final_gather: FinalGather::Direct,
-        };
-        let shared = Arc::new(Shared::new(display, &[]));
+        let shared = Arc::new(Shared::new(plain_display(), &[]));
         assert_eq!(shared.current().0.final_pass, None);
         let mut observer = LiveObserver::new(Arc::clone(&shared));
         observer.final_pass("picture", 10, 40, Duration::ZERO);
@@ -660,13 +659,7 @@ mod tests {
     /// while the outputs are made ends the final pass.
     #[test]
     fn a_stop_in_the_final_pass_ends_it() {
-        let display = Display {
-            camera: None,
-            ambient: true,
-            exposure: 0.0,
-            final_gather: FinalGather::Direct,
-        };
-        let shared = Arc::new(Shared::new(display, &[]));
+        let shared = Arc::new(Shared::new(plain_display(), &[]));
         let observer = LiveObserver::new(Arc::clone(&shared));
         let abort = observer.abort().unwrap();
         let interrupt = observer.interrupt().unwrap();
@@ -683,13 +676,7 @@ mod tests {
     /// keeps the solve paused; pressing pause while paused changes nothing.
     #[test]
     fn a_pause_right_after_resume_is_not_lost() {
-        let display = Display {
-            camera: None,
-            ambient: true,
-            exposure: 0.0,
-            final_gather: FinalGather::Direct,
-        };
-        let shared = Shared::new(display, &[]);
+        let shared = Shared::new(plain_display(), &[]);
         shared.set_phase(Phase::Solving);
         shared.pause();
         assert!(shared.current().0.pause_requested);

@@ -83,19 +83,8 @@ impl Viewer {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .thread_name("radiosity-view")
-            .enable_io()
-            .build()
-            .map_err(Error::Runtime)?;
         let address = SocketAddr::from((Ipv4Addr::LOCALHOST, port));
-        let listener = runtime
-            .block_on(tokio::net::TcpListener::bind(address))
-            .map_err(|source| Error::Bind { address, source })?;
-        let local = listener
-            .local_addr()
-            .map_err(|source| Error::Bind { address, source })?;
+        let (runtime, listener, local) = super::listen(address, "radiosity-view")?;
         Ok(Viewer {
             runtime,
             listener,

@@ -157,9 +157,8 @@ pub fn direct_at(
     reach: f64,
     cache: &mut ShadowCache,
 ) -> DVec3 {
-    if light.sky().is_some() {
-        return DVec3::ZERO;
-    }
+    // A sky's light comes from many directions, none of them this one:
+    // its `transfer` is zero.
     let (unblocked, from) = light.irradiance(r.point, r.normal, reach);
     if unblocked == DVec3::ZERO {
         return DVec3::ZERO;
