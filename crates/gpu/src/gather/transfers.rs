@@ -277,8 +277,9 @@ impl GpuTransfers {
             .map_err(|e| DeviceError(e.to_string()))
     }
 
-    /// [`Self::finish`] for a checkpoint: its wait counted apart, as the
-    /// checkpoints come by the clock, not by the shot.
+    /// [`Self::finish`] for a checkpoint: counted apart (its wait, its
+    /// submission, its bytes), as the checkpoints come by the clock, not by
+    /// the shot.
     fn finish_checkpoint(
         &self,
         encoder: wgpu::CommandEncoder,
@@ -287,6 +288,8 @@ impl GpuTransfers {
         let out = self.finish(encoder, bytes);
         let mut traffic = self.traffic.get();
         traffic.host_waits -= 1;
+        traffic.submissions -= 1;
+        traffic.bytes_read -= bytes;
         traffic.checkpoints += 1;
         self.traffic.set(traffic);
         out

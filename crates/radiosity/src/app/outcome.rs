@@ -248,9 +248,10 @@ pub struct StatsFile {
     /// Checkpoints of the solve on the device (the state read back, every
     /// quarter of a second of the clock).
     pub device_checkpoints: u64,
-    /// Command buffers submitted to the device over the solve.
+    /// Command buffers submitted to the device over the solve, but for
+    /// checkpoints.
     pub device_submissions: u64,
-    /// Bytes read back from the device over the solve.
+    /// Bytes read back from the device over the solve, but for checkpoints.
     pub device_bytes_read: u64,
     /// The device's shots' critical paths summed: each shot's most source
     /// nodes visited by one thread (walks, then split items).

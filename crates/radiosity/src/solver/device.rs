@@ -175,7 +175,9 @@ pub trait AdaptiveTransfers: Send {
     }
 }
 
-/// What crossed between host and device ([`AdaptiveTransfers::traffic`]).
+/// What crossed between host and device ([`AdaptiveTransfers::traffic`]),
+/// the checkpoints counted apart: they come by the clock, the rest by the
+/// shot, the same on any machine.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Traffic {
     /// Times the host waited for the device (a blocking readback), but
@@ -185,9 +187,9 @@ pub struct Traffic {
     /// [`crate::solver::CHECKPOINT_INTERVAL`] of the clock (so their count
     /// depends on the machine, the other counts do not).
     pub checkpoints: u64,
-    /// Command buffers submitted.
+    /// Command buffers submitted, but for checkpoints.
     pub submissions: u64,
-    /// Bytes read back from the device.
+    /// Bytes read back from the device, but for checkpoints.
     pub bytes_read: u64,
 }
 

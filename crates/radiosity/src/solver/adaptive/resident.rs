@@ -227,7 +227,9 @@ impl AdaptiveShooting {
         let (Some(device), Some(_)) = (self.device.as_mut(), self.resident.as_ref()) else {
             return Checkpoint::Host;
         };
-        match device.state(irradiance, direct, &mut self.unshot) {
+        let read = device.state(irradiance, direct, &mut self.unshot);
+        self.report.traffic = device.traffic();
+        match read {
             Ok(()) => {
                 if let Some(resident) = self.resident.as_mut() {
                     resident.saved.clone_from(&self.unshot);
