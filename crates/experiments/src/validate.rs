@@ -194,8 +194,23 @@ pub fn overshooting() -> Settings {
     settings
 }
 
-/// [`presets`], the default with overshooting ([`OVERSHOOT`]), and the
-/// default on the GPU when `--device` opens one.
+/// The name of the default preset's row with `--round 1`: one shooter at
+/// a time, as the paper's loop.
+pub const ONE_BY_ONE: &str = "adaptive-round-1";
+
+/// The default preset shooting one shooter a round (`--round 1`).
+#[must_use]
+pub fn one_by_one() -> Settings {
+    let mut settings = Preset::Adaptive.settings();
+    if let radiosity::solver::MethodSettings::Adaptive(a) = &mut settings.method {
+        a.round = 1.0;
+    }
+    settings
+}
+
+/// [`presets`], the default with overshooting ([`OVERSHOOT`]) and one
+/// shooter a round ([`ONE_BY_ONE`]), and the default on the GPU when
+/// `--device` opens one.
 ///
 /// # Errors
 ///
@@ -203,6 +218,7 @@ pub fn overshooting() -> Settings {
 pub fn presets_on(context: &Context) -> Result<Vec<(&'static str, Settings)>, Error> {
     let mut presets = presets().to_vec();
     presets.push((OVERSHOOT, overshooting()));
+    presets.push((ONE_BY_ONE, one_by_one()));
     if let Some(device) = crate::gpu_device(context)? {
         presets.push((
             ON_GPU,
@@ -660,8 +676,8 @@ pub fn validate(context: &Context) -> Result<Report, Error> {
     };
     for mut scene in by_scene(&results) {
         // The pictures show the default and the paper's; overshooting's
-        // row is in the table.
-        scene.retain(|v| v.preset != OVERSHOOT);
+        // and one shooter a round's rows are in the table.
+        scene.retain(|v| v.preset != OVERSHOOT && v.preset != ONE_BY_ONE);
         let path = context.path(&picture_file(&scene[0].case));
         validate_plot(&scene, size)?
             .write_png(&path)
@@ -692,11 +708,13 @@ pub fn validate_report(context: &Context, harness: &Harness, results: &[Validate
         "presets",
         if results.iter().any(|v| v.preset == ON_GPU) {
             "adaptive (the default) and wong-tsang93 (the paper's), each at its default \
-             settings; adaptive-overshoot: the default with --overshoot 1; adaptive-gpu: the \
-             default on the GPU (--device)"
+             settings; adaptive-overshoot: the default with --overshoot 1; adaptive-round-1: \
+             the default with --round 1 (one shooter a round); adaptive-gpu: the default on the \
+             GPU (--device)"
         } else {
             "adaptive (the default) and wong-tsang93 (the paper's), each at its default \
-             settings; adaptive-overshoot: the default with --overshoot 1"
+             settings; adaptive-overshoot: the default with --overshoot 1; adaptive-round-1: \
+             the default with --round 1 (one shooter a round)"
         },
     );
     report.setting("threads", rayon::current_num_threads());

@@ -55,8 +55,13 @@ pub mod counter {
     pub const LONGEST_WALK: usize = 6;
     /// The most nodes one thread of the split walks' items visited.
     pub const LONGEST_ITEM: usize = 7;
+    /// [`LONGEST_WALK`] summed over a round's passes, which run one after
+    /// another.
+    pub const ROUND_LONGEST_WALK: usize = 8;
+    /// [`LONGEST_ITEM`] likewise.
+    pub const ROUND_LONGEST_ITEM: usize = 9;
     /// Counters in all (the buffer's length).
-    pub const COUNTERS: usize = 8;
+    pub const COUNTERS: usize = 10;
 }
 
 /// A shared number's WGSL type and value.
@@ -99,6 +104,14 @@ pub const SHARED: &[(&str, Value)] = &[
     ("SIDE_ACROSS", Value::U32(Side::Across as u32)),
     ("LONGEST_WALK", Value::U32(counter::LONGEST_WALK as u32)),
     ("LONGEST_ITEM", Value::U32(counter::LONGEST_ITEM as u32)),
+    (
+        "ROUND_LONGEST_WALK",
+        Value::U32(counter::ROUND_LONGEST_WALK as u32),
+    ),
+    (
+        "ROUND_LONGEST_ITEM",
+        Value::U32(counter::ROUND_LONGEST_ITEM as u32),
+    ),
     ("COUNTERS", Value::U32(counter::COUNTERS as u32)),
     ("LUMINANCE_R", Value::F32(LUMINANCE_WEIGHTS[0])),
     ("LUMINANCE_G", Value::F32(LUMINANCE_WEIGHTS[1])),
@@ -208,18 +221,33 @@ bindings! {
         Items = "items": "storage, read" "array<u32>",
         /// Each shooter's unshot power.
         Powers = "powers": "storage, read_write" "array<f32>",
-        /// The shooter's elements' unshot radiosity, for the host.
+        /// The unshot radiosity of the elements the host asked for.
         Staging = "staging": "storage, read_write" "array<vec4<f32>>",
+        /// The elements whose unshot radiosity the host asks for.
+        Wanted = "wanted": "storage, read" "array<u32>",
+        /// What the round's shooters' elements are left with.
+        Leaves = "leaves": "storage, read" "array<Leave>",
+        /// What each receiver has gathered in this round so far.
+        RoundIrradiance = "round_irradiance": "storage, read_write" "array<vec4<f32>>",
+        /// Its direct part.
+        RoundDirect = "round_direct": "storage, read_write" "array<vec4<f32>>",
         /// The book-keeping pass's parameters.
         Book = "book": "uniform" "Book",
         /// Each receiver's direct irradiance: the lights' and the emitting
         /// surfaces' first shots.
         DirectTotal = "direct_total": "storage, read_write" "array<vec4<f32>>",
-        /// The shooter the device chooses next (`choose_next`): its index
-        /// at 0, its first and last item at 1 and 2.
+        /// The next round as the device chooses it (`choose_next`): the
+        /// brightest shooter at 0, the shooters chosen at 1, their
+        /// elements at 2.
         Next = "next": "storage, read_write" "array<u32, 4>",
-        /// Its elements' unshot radiosity, in the tree's order
-        /// (`collect_next`), read back with the shot's ledger.
+        /// Each chosen shooter's first element in the next round's list
+        /// (`NONE` for the others).
+        RoundOffsets = "round_offsets": "storage, read_write" "array<u32>",
+        /// The shooter of each of the element tree's items (`NONE` for
+        /// none).
+        ItemShooter = "item_shooter": "storage, read" "array<u32>",
+        /// The next round's elements' unshot radiosity (`collect_next`),
+        /// read back with the round's ledger.
         NextUnshot = "next_unshot": "storage, read_write" "array<vec4<f32>>",
     }
 }

@@ -20,8 +20,8 @@ use radiosity::scene;
 use radiosity::solver::device::Device;
 use radiosity::solver::{Flow, MethodSettings, Settings, Solver, StopReason};
 use radiosity_gpu::gather::{
-    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPane, GpuPartial, GpuReceiver,
-    GpuShot, GpuSurface, GpuTreeNode,
+    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuLeave, GpuNodeSource, GpuPane, GpuPartial,
+    GpuReceiver, GpuShot, GpuSurface, GpuTreeNode,
 };
 use radiosity_gpu::{DeviceChoice, Gpu, GpuBackend};
 
@@ -152,9 +152,10 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "Book",
             GpuBook,
             [
-                first, last, elements, receivers, shooters, sign, leave, pad2, direct, pad3
+                count, pad0, elements, receivers, shooters, sign, fraction, pad2, direct, pad3
             ]
         ),
+        layout!("Leave", GpuLeave, [value, element]),
     ];
     for (name, size, offsets) in cases {
         let (span, members) = wgsl_layout(name);

@@ -1,14 +1,17 @@
-// The book-keeping of a shot on the GPU (design.md section 2, step 5, as
-// radiosity::solver does it on the host for the CPU): each receiver's
-// irradiance accumulated, the shooter's unshot radiosity set to what it is
-// left with (zero, or minus its overshoot), each element's reflected share
-// rho * (mean of its corners' irradiance) added to its own, the ledger's
-// sums (power received, absorbed, unshot left, in sign and in magnitude)
-// per workgroup in a fixed order, each shooter's unshot power (in
-// magnitude). An overshooting shot that sends negative light books it in
-// a second pass, its irradiance times the sign -1. After the gather files;
-// its bindings are declared by shaders.rs. No float atomics: a rerun gives the same result to the
-// last bit.
+// The book-keeping of a round on the GPU (design.md section 2, step 5, as
+// radiosity::solver does it on the host for the CPU). Each pass of a
+// round's shooters adds what the receivers gathered, times its sign, to the
+// round's irradiance and its direct share to the round's direct part
+// (gathered); an overshooting shot that sends negative light does so in a
+// second pass, its irradiance times the sign -1. When the round ends: the
+// shooters' unshot radiosity set to what they are left with (zero, or minus
+// their overshoot), each element's reflected share rho * (mean of its
+// corners' round irradiance) added to its own, each receiver's irradiance
+// and direct part accumulated, the ledger's sums (power received,
+// absorbed, unshot left, in sign and in magnitude) per workgroup in a fixed
+// order, each shooter's unshot power (in magnitude). After the gather
+// files; its bindings are declared by shaders.rs. No float atomics: a rerun
+// gives the same result to the last bit.
 
 // An element's book-keeping data (by element id).
 struct ElementBook {
@@ -26,17 +29,24 @@ struct Partial {
     magnitude: vec4<f32>,
 }
 
+// What an element of a round's shooter is left with.
+struct Leave {
+    value: vec3<f32>,
+    element: u32,
+}
+
 struct Book {
-    // The shooter's elements: items[first..last].
-    first: u32,
-    last: u32,
+    // Elements whose unshot radiosity the host asked for (collect), or
+    // that are left with a value (leave_shooters).
+    count: u32,
+    pad0: u32,
     elements: u32,
     receivers: u32,
     shooters: u32,
     // 1, or -1 for a pass of negative light sent negated.
     sign: f32,
-    // 1: set the shooter's elements to the staging buffer's values first.
-    leave: u32,
+    // A round takes the shooters above this fraction of the brightest.
+    fraction: f32,
     pad2: u32,
     // The share of the gathered irradiance that is direct, per channel
     // (the shooter's own emission's share of its power).
@@ -49,27 +59,45 @@ var<workgroup> sum_absorbed: array<vec3<f32>, BOOK_WORKGROUP>;
 var<workgroup> sum_unshot: array<vec3<f32>, BOOK_WORKGROUP>;
 var<workgroup> sum_magnitude: array<vec3<f32>, BOOK_WORKGROUP>;
 
-// The shooter's elements' unshot radiosity, in the tree's order, for the
-// host to prepare its sources.
+// The unshot radiosity of the elements the host asks for (wanted), in
+// that order, for it to prepare their sources.
 @compute @workgroup_size(BOOK_WORKGROUP)
 fn collect(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = book.first + id.x;
-    if (i >= book.last) {
+    if (id.x >= book.count) {
         return;
     }
-    staging[id.x] = unshot[items[i]];
+    staging[id.x] = unshot[wanted[id.x]];
 }
 
-// The shooter has shot: its elements are left with what the host wrote
-// into the staging buffer (zero, or minus their overshoot); a second pass
-// leaves them.
+// A pass of one of the round's shooters: what the receivers gathered,
+// times its sign, into the round's irradiance, its direct share into the
+// round's direct part. The walks' longest threads are added to the round's
+// (the passes run one after another).
 @compute @workgroup_size(BOOK_WORKGROUP)
-fn leave_shooter(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = book.first + id.x;
-    if (i >= book.last || book.leave == 0u) {
+fn gathered(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x == 0u) {
+        atomicAdd(&counters[ROUND_LONGEST_WALK], atomicExchange(&counters[LONGEST_WALK], 0u));
+        atomicAdd(&counters[ROUND_LONGEST_ITEM], atomicExchange(&counters[LONGEST_ITEM], 0u));
+    }
+    if (id.x >= book.receivers) {
         return;
     }
-    unshot[items[i]] = staging[id.x];
+    let g = book.sign * shot_irradiance[id.x];
+    round_irradiance[id.x] += g;
+    if (any(book.direct != vec3<f32>(0.0))) {
+        round_direct[id.x] += vec4<f32>(book.direct, 0.0) * g;
+    }
+}
+
+// The round has shot: its shooters' elements are left with what the host
+// listed (zero, or minus their overshoot).
+@compute @workgroup_size(BOOK_WORKGROUP)
+fn leave_shooters(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= book.count) {
+        return;
+    }
+    let l = leaves[id.x];
+    unshot[l.element] = vec4<f32>(l.value, 0.0);
 }
 
 // Each element's mean irradiance from its corners: its reflected share
@@ -87,9 +115,9 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
         let count = elements[e].count;
         var sum = vec3<f32>(0.0);
         for (var k = 0u; k < count; k += 1u) {
-            sum += shot_irradiance[b.corners[k]].xyz;
+            sum += round_irradiance[b.corners[k]].xyz;
         }
-        let mean = book.sign * (sum / f32(count));
+        let mean = sum / f32(count);
         let u = unshot[e].xyz + b.rho * mean;
         unshot[e] = vec4<f32>(u, 0.0);
         incident = mean * b.area;
@@ -121,18 +149,17 @@ fn receive(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocati
     }
 }
 
-// Each receiver's irradiance: what it had, plus the shot's; its direct
-// part, plus the shot's direct share.
+// Each receiver's irradiance and its direct part: what it had, plus the
+// round's; the round's cleared for the next.
 @compute @workgroup_size(BOOK_WORKGROUP)
 fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.receivers) {
         return;
     }
-    let gathered = book.sign * shot_irradiance[id.x];
-    total[id.x] += gathered;
-    if (any(book.direct != vec3<f32>(0.0))) {
-        direct_total[id.x] += vec4<f32>(book.direct, 0.0) * gathered;
-    }
+    total[id.x] += round_irradiance[id.x];
+    direct_total[id.x] += round_direct[id.x];
+    round_irradiance[id.x] = vec4<f32>(0.0);
+    round_direct[id.x] = vec4<f32>(0.0);
 }
 
 // Each shooter's unshot power (luminance, element by element in
@@ -153,12 +180,22 @@ fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
 
 var<workgroup> best_power: array<f32, BOOK_WORKGROUP>;
 var<workgroup> best_index: array<u32, BOOK_WORKGROUP>;
+var<workgroup> round_best: u32;
+var<workgroup> round_bar: f32;
+var<workgroup> scan_elements: array<u32, BOOK_WORKGROUP>;
+var<workgroup> scan_shooters: array<u32, BOOK_WORKGROUP>;
+// Shooters and elements taken by the blocks before.
+var<workgroup> running: vec2<u32>;
 
-// The shooter with the most unshot power after the shot, as the host
-// chooses it (the first of the largest; a NaN never wins; the first
-// shooter when none is more than minus infinity), so that its elements'
-// unshot radiosity comes back with the shot's ledger (collect_next) and
-// the next shot needs no readback of its own. One workgroup.
+// The next round as the host chooses it (round.rs): the shooter with the
+// most unshot power after this round (the first of the largest; a NaN
+// never wins; the first shooter when none is more than minus infinity)
+// and, when the fraction is below 1 and that power above 0, every shooter
+// whose power is more than the fraction of it (compared in f32, as the
+// host compares the powers the device reports). Each chosen shooter's
+// first element in the round's list, by shooter index (an exclusive scan,
+// block by block), into round_offsets (NONE for the others); next holds
+// the brightest, the shooters chosen and their elements. One workgroup.
 @compute @workgroup_size(BOOK_WORKGROUP)
 fn choose_next(@builtin(local_invocation_index) t: u32) {
     var p = bitcast<f32>(0xff800000u);
@@ -187,22 +224,83 @@ fn choose_next(@builtin(local_invocation_index) t: u32) {
     }
     if (t == 0u) {
         var chosen = best_index[0];
+        var top = best_power[0];
         if (chosen == NONE) {
             chosen = 0u;
+            top = 0.0;
         }
-        let range = shooter_items[chosen];
+        round_best = chosen;
+        // Above every power: the brightest alone.
+        round_bar = bitcast<f32>(0x7f800000u);
+        if (book.fraction < 1.0 && top > 0.0) {
+            round_bar = book.fraction * top;
+        }
+        running = vec2<u32>(0u);
         next[0] = chosen;
-        next[1] = range.x;
-        next[2] = range.y;
+    }
+    workgroupBarrier();
+    let best = round_best;
+    let bar = round_bar;
+    for (var base = 0u; base < book.shooters; base += BOOK_WORKGROUP) {
+        let i = base + t;
+        var size = 0u;
+        var flag = 0u;
+        if (i < book.shooters && (i == best || powers[i] > bar)) {
+            let range = shooter_items[i];
+            size = range.y - range.x;
+            flag = 1u;
+        }
+        scan_elements[t] = size;
+        scan_shooters[t] = flag;
+        workgroupBarrier();
+        // An inclusive scan over the block (Hillis & Steele).
+        for (var s = 1u; s < BOOK_WORKGROUP; s *= 2u) {
+            var a = 0u;
+            var b = 0u;
+            if (t >= s) {
+                a = scan_elements[t - s];
+                b = scan_shooters[t - s];
+            }
+            workgroupBarrier();
+            scan_elements[t] += a;
+            scan_shooters[t] += b;
+            workgroupBarrier();
+        }
+        if (i < book.shooters) {
+            var offset = NONE;
+            if (flag == 1u) {
+                offset = running.y + scan_elements[t] - size;
+            }
+            round_offsets[i] = offset;
+        }
+        workgroupBarrier();
+        if (t == BOOK_WORKGROUP - 1u) {
+            running += vec2<u32>(scan_shooters[t], scan_elements[t]);
+        }
+        workgroupBarrier();
+    }
+    if (t == 0u) {
+        next[1] = running.x;
+        next[2] = running.y;
     }
 }
 
-// The chosen shooter's elements' unshot radiosity, in the tree's order.
+// The next round's shooters' elements' unshot radiosity, shooter by
+// shooter in index order, each in the tree's order: the list the host
+// prepares their sources from.
 @compute @workgroup_size(BOOK_WORKGROUP)
 fn collect_next(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = next[1] + id.x;
-    if (i >= next[2]) {
+    let i = id.x;
+    if (i >= book.elements) {
         return;
     }
-    next_unshot[id.x] = unshot[items[i]];
+    let s = item_shooter[i];
+    if (s == NONE) {
+        return;
+    }
+    let offset = round_offsets[s];
+    if (offset == NONE) {
+        return;
+    }
+    next_unshot[offset + i - shooter_items[s].x] = unshot[items[i]];
 }

@@ -223,10 +223,11 @@ pub struct GpuPartial {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuBook {
-    /// The shooter's first item in the element tree's order.
-    pub first: u32,
-    /// One past its last.
-    pub last: u32,
+    /// Elements the host asked for (`collect`), or left with a value
+    /// (`leave_shooters`).
+    pub count: u32,
+    /// Padding.
+    pub pad0: u32,
     /// Elements.
     pub elements: u32,
     /// Receivers.
@@ -236,14 +237,23 @@ pub struct GpuBook {
     /// 1, or -1 for a pass sending negative light negated: the gathered
     /// irradiance is booked times this.
     pub sign: f32,
-    /// 1: the shooter's elements are first set to the values the host
-    /// wrote into the staging buffer (what they are left with); 0: a
-    /// shot's second pass, which leaves them.
-    pub leave: u32,
+    /// A round takes the shooters whose power is above this fraction of
+    /// the brightest's (`choose_next`).
+    pub fraction: f32,
     /// Padding.
     pub pad2: u32,
     /// The share of the gathered irradiance that is direct, per channel.
     pub direct: [f32; 3],
     /// Padding.
     pub pad3: u32,
+}
+
+/// What an element of a round's shooter is left with (WGSL `Leave`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLeave {
+    /// Its unshot radiosity from the round's end.
+    pub value: [f32; 3],
+    /// The element.
+    pub element: u32,
 }

@@ -40,7 +40,8 @@ impl Growing {
         })
     }
 
-    /// Writes `bytes` at the start, growing the buffer first if need be.
+    /// Writes `bytes` at the start, growing the buffer first if need be
+    /// (a new buffer: commands already submitted read the old one).
     pub(super) fn write(&mut self, gpu: &Gpu, bytes: &[u8]) {
         let size = (bytes.len() as u64).max(16).next_multiple_of(4);
         if size > self.capacity {
@@ -58,7 +59,8 @@ pub(crate) struct Pipelines {
     pub(super) gather_items: wgpu::ComputePipeline,
     pub(super) join_items: wgpu::ComputePipeline,
     pub(super) collect: wgpu::ComputePipeline,
-    pub(super) leave_shooter: wgpu::ComputePipeline,
+    pub(super) gathered: wgpu::ComputePipeline,
+    pub(super) leave_shooters: wgpu::ComputePipeline,
     pub(super) receive: wgpu::ComputePipeline,
     pub(super) accumulate: wgpu::ComputePipeline,
     pub(super) shooter_powers: wgpu::ComputePipeline,
@@ -103,7 +105,8 @@ impl Pipelines {
             gather_items: pipeline("gather_items"),
             join_items: pipeline("join_items"),
             collect: pipeline("collect"),
-            leave_shooter: pipeline("leave_shooter"),
+            gathered: pipeline("gathered"),
+            leave_shooters: pipeline("leave_shooters"),
             receive: pipeline("receive"),
             accumulate: pipeline("accumulate"),
             shooter_powers: pipeline("shooter_powers"),
@@ -113,68 +116,98 @@ impl Pipelines {
     }
 }
 
-/// The device's timestamps around each pass of a shot.
+/// Which stage a timed pass belongs to ([`StageTimes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Stage {
+    Walk,
+    Items,
+    Join,
+    Book,
+}
+
+/// The device's timestamps around each pass of a round, a begin and an
+/// end a slot, slots given out in the order the passes are encoded.
 pub(super) struct Timer {
     pub(super) set: wgpu::QuerySet,
     /// Where they are resolved, to be copied into the readback.
     pub(super) resolve: wgpu::Buffer,
     /// Nanoseconds a tick.
     pub(super) period: f64,
+    /// The stage of each slot given out this round.
+    pub(super) slots: Vec<Stage>,
+    /// Passes this round found no slot for (its stages are then unknown).
+    pub(super) missed: bool,
 }
 
 impl Timer {
-    /// Timestamps around the passes of a shot whose walk takes `chunks`
-    /// dispatches, on `gpu`: `None` where the device has none, or a shot
-    /// would take more than a query set holds.
-    pub(super) fn on(gpu: &Gpu, chunks: u32) -> Option<Timer> {
-        let count = 2 * (4 * chunks + 4);
+    /// Passes a round can time: as many as a query set holds.
+    pub(super) const SLOTS: u32 = wgpu::QUERY_SET_MAX_QUERIES / 2;
+
+    /// Timestamps around the passes of a round on `gpu`: `None` where the
+    /// device has none.
+    pub(super) fn on(gpu: &Gpu) -> Option<Timer> {
+        let count = 2 * Timer::SLOTS;
         if !gpu
             .device
             .features()
             .contains(wgpu::Features::TIMESTAMP_QUERY)
-            || count > wgpu::QUERY_SET_MAX_QUERIES
         {
             return None;
         }
         Some(Timer {
             set: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("shot timestamps"),
+                label: Some("round timestamps"),
                 ty: wgpu::QueryType::Timestamp,
                 count,
             }),
             resolve: gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("shot timestamps"),
+                label: Some("round timestamps"),
                 size: 8 * u64::from(count),
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
             period: f64::from(gpu.queue.get_timestamp_period()),
+            slots: Vec::new(),
+            missed: false,
         })
     }
 
-    /// The stages' time from the timestamps read back (`bytes`), a begin
-    /// and an end a pass: `chunks` chunks' walk, items' size, items and
-    /// join, then the book-keeping's four.
-    pub(super) fn stages(&self, bytes: &[u8], chunks: u32) -> StageTimes {
+    /// A slot for a pass of `stage`, its begin and end query; `None` when
+    /// the round has used them all.
+    pub(super) fn slot(&mut self, stage: Stage) -> Option<u32> {
+        let index = self.slots.len() as u32;
+        if index >= Timer::SLOTS {
+            self.missed = true;
+            return None;
+        }
+        self.slots.push(stage);
+        Some(index)
+    }
+
+    /// The stages' time from the round's timestamps read back (`bytes`, a
+    /// begin and an end a slot); `None` when some pass went untimed. The
+    /// slots are given out afresh for the next round.
+    pub(super) fn stages(&mut self, bytes: &[u8]) -> Option<StageTimes> {
         let tick = |k: usize| {
             bytes
                 .get(8 * k..8 * k + 8)
                 .map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
         };
         let mut stages = StageTimes::default();
-        for pass in 0..4 * chunks + 4 {
-            let k = 2 * pass as usize;
-            let ticks = tick(k + 1).saturating_sub(tick(k));
+        for (i, stage) in self.slots.iter().enumerate() {
+            let ticks = tick(2 * i + 1).saturating_sub(tick(2 * i));
             let time = Duration::from_nanos((ticks as f64 * self.period) as u64);
-            let slot = match (pass < 4 * chunks, pass % 4) {
-                (false, _) => &mut stages.book,
-                (true, 0) => &mut stages.walk,
-                (true, 3) => &mut stages.join,
-                (true, _) => &mut stages.items,
+            let slot = match stage {
+                Stage::Walk => &mut stages.walk,
+                Stage::Items => &mut stages.items,
+                Stage::Join => &mut stages.join,
+                Stage::Book => &mut stages.book,
             };
             *slot += time;
         }
-        stages
+        self.slots.clear();
+        let known = !std::mem::take(&mut self.missed);
+        known.then_some(stages)
     }
 }
 

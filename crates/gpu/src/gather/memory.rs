@@ -22,10 +22,10 @@ impl DeviceMemory {
     /// scene's triangles and their tree (at most two nodes a triangle), the
     /// element tree (at most two nodes an element), the elements with their
     /// book-keeping data and unshot radiosity, the surfaces, the receivers
-    /// with their irradiance, a shot's and the readback, and a shot's
-    /// sources (at most the whole tree, one bin a node; the shooters'
-    /// powers and the staging of a shooter's elements at most one an
-    /// element), and the split walks of a dispatch of `dispatch_receivers`
+    /// with their irradiance, a shot's, a round's and the readback, and a
+    /// shot's sources (at most the whole tree, one bin a node; the
+    /// shooters' powers, the staging of a round's shooters' elements and
+    /// what they are left with at most one an element), and the split walks of a dispatch of `dispatch_receivers`
     /// receivers, each split into at most `frontier` items.
     #[must_use]
     pub fn of(
@@ -75,6 +75,8 @@ impl DeviceMemory {
             ),
             ("irradiance", bytes(receivers, 16)),
             ("shot irradiance", bytes(receivers, 16)),
+            ("round irradiance", bytes(receivers, 16)),
+            ("round direct irradiance", bytes(receivers, 16)),
             ("direct irradiance", bytes(receivers, 16)),
             (
                 "split walks",
@@ -88,6 +90,11 @@ impl DeviceMemory {
             ),
             ("shooter powers", bytes(elements, 4)),
             ("staging", bytes(elements, 16)),
+            ("wanted elements", bytes(elements, 4)),
+            ("round leaves", bytes(elements, 16)),
+            ("next round's unshot", bytes(elements, 16)),
+            ("next round's offsets", bytes(elements, 4)),
+            ("item shooters", bytes(elements, 4)),
             ("readback", bytes(2 * receivers + elements, 16)),
             ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
             ("bins", bytes(2 * elements, size_of::<GpuBin>())),

@@ -41,8 +41,8 @@ mod scene;
 mod transfers;
 
 pub use self::buffers::{
-    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuNodeSource, GpuPane, GpuPartial, GpuReceiver,
-    GpuShot, GpuSurface, GpuTreeNode,
+    GpuBin, GpuBook, GpuElement, GpuElementBook, GpuLeave, GpuNodeSource, GpuPane, GpuPartial,
+    GpuReceiver, GpuShot, GpuSurface, GpuTreeNode,
 };
 pub(crate) use self::kernels::Pipelines;
 pub use self::memory::DeviceMemory;

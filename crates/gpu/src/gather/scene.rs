@@ -30,6 +30,8 @@ pub(super) struct SceneData {
     pub(super) element_book: Vec<GpuElementBook>,
     /// Each shooter's items in the element tree's order, `first..last`.
     pub(super) shooter_items: Vec<[u32; 2]>,
+    /// The shooter of each of the element tree's items (`NONE` for none).
+    pub(super) item_shooter: Vec<u32>,
     /// The glass panes' triangles (fans of their polygons).
     pub(super) panes: Vec<GpuPane>,
 }
@@ -141,7 +143,12 @@ impl SceneData {
                 [node.first, node.last]
             })
             .collect();
+        let mut item_shooter = vec![NONE; tree.items.len()];
+        for (s, &[first, last]) in shooter_items.iter().enumerate() {
+            item_shooter[first as usize..last as usize].fill(s as u32);
+        }
         SceneData {
+            item_shooter,
             tree: gpu_tree,
             leaf_element,
             surfaces,

@@ -14,13 +14,15 @@ use std::time::Instant;
 
 use glam::DVec3;
 use radiosity::solver::device::{
-    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, Traffic,
+    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, NextRound, Traffic,
 };
 use radiosity::solver::hierarchy::NONE;
 use radiosity::solver::method::Received;
 
-use super::buffers::{GpuBin, GpuBook, GpuNodeSource, GpuPartial, GpuShot};
-use super::kernels::{Growing, Pipelines, Timer, dvec3, split_bytes, state_buffer, uniform, vec4};
+use super::buffers::{GpuBin, GpuBook, GpuLeave, GpuNodeSource, GpuPartial, GpuShot};
+use super::kernels::{
+    Growing, Pipelines, Stage, Timer, dvec3, split_bytes, state_buffer, uniform, vec4,
+};
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, WORKGROUP, depth};
 use crate::Gpu;
@@ -44,6 +46,8 @@ pub(super) struct GpuTransfers {
     leaf_element: Vec<u32>,
     /// Each tree node's items, `first..last`.
     ranges: Vec<[u32; 2]>,
+    /// The element tree's items (elements in the tree's order).
+    tree_items: Vec<u32>,
     elements: u32,
     shooters: u32,
     /// Receivers a dispatch of the walk takes at most.
@@ -71,9 +75,22 @@ pub(super) struct GpuTransfers {
     /// Each element's unshot radiosity (state).
     unshot: wgpu::Buffer,
     shot_irradiance: wgpu::Buffer,
+    /// What each receiver gathered in the round so far.
+    round_irradiance: wgpu::Buffer,
+    /// Its direct part.
+    round_direct: wgpu::Buffer,
+    /// What the round's shooters' elements are left with, at its end.
+    leaves: Vec<GpuLeave>,
+    leave_buffer: Growing,
+    /// The elements whose unshot radiosity the host asks for.
+    wanted: Growing,
+    /// Passes sent in the round so far.
+    round_passes: u32,
+    /// Time preparing and sending them (host clock).
+    round_upload: std::time::Duration,
     /// A chunk's split walks: a header a receiver, then the items.
     split: wgpu::Buffer,
-    /// Timestamps around a shot's passes, where the device has them.
+    /// Timestamps around a round's passes, where the device has them.
     timer: Option<Timer>,
     /// `gather_items`' workgroups, an indirect dispatch's arguments.
     item_dispatch: wgpu::Buffer,
@@ -83,12 +100,17 @@ pub(super) struct GpuTransfers {
     staging: wgpu::Buffer,
     sources: Growing,
     bins: Growing,
-    /// The shooter the device chose next, and its elements' unshot
+    /// The next round as the device chose it, and its elements' unshot
     /// radiosity (`choose_next`, `collect_next`).
     next: wgpu::Buffer,
+    round_offsets: wgpu::Buffer,
+    item_shooter: wgpu::Buffer,
     next_unshot: wgpu::Buffer,
-    /// The most elements a shooter has.
-    largest_shooter: u32,
+    /// `--round` ([`AdaptiveSolve::round`]).
+    fraction: f32,
+    /// Elements of the next round read back with a round: twice the most
+    /// a round has taken (at least the largest shooter's, at most all).
+    prefetch: u32,
     readback: wgpu::Buffer,
     uncaptured: Arc<Mutex<Option<String>>>,
     /// What crossed between host and device so far.
@@ -132,6 +154,7 @@ impl GpuTransfers {
             receivers,
             element_book,
             shooter_items,
+            item_shooter,
             panes,
         } = SceneData::of(solve, origin);
         let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
@@ -142,23 +165,20 @@ impl GpuTransfers {
         let s = shooter_items.len() as u64;
         let vec4_bytes = 16u64;
         let partial_count = e.div_ceil(u64::from(BOOK_WORKGROUP)).max(1);
-        let chunks = (r as usize).div_ceil(dispatch_receivers).max(1) as u32;
-        let timer = Timer::on(&gpu, chunks);
-        let shot_readback = 4 * s
+        let timer = Timer::on(&gpu);
+        let round_readback = 4 * s
             + partial_count * size_of::<GpuPartial>() as u64
             + 4 * COUNTERS as u64
             + NEXT_BYTES
-            + largest_shooter * vec4_bytes
-            + 16 * u64::from(4 * chunks + 4);
-        let readback_bytes = shot_readback
-            .max((2 * r + e) * vec4_bytes)
-            .max(largest_shooter * vec4_bytes)
-            .max(16);
+            + e * vec4_bytes
+            + 16 * u64::from(Timer::SLOTS);
+        let readback_bytes = round_readback.max((2 * r + e) * vec4_bytes).max(16);
         let transfers = GpuTransfers {
             origin,
             order: solve.order.to_vec(),
             leaf_element,
             ranges: tree.nodes.iter().map(|n| [n.first, n.last]).collect(),
+            tree_items: tree.items.clone(),
             elements: e as u32,
             shooters: s as u32,
             dispatch_receivers,
@@ -179,6 +199,13 @@ impl GpuTransfers {
             direct: state_buffer(&gpu, "direct irradiance", r * vec4_bytes),
             unshot: state_buffer(&gpu, "unshot", e * vec4_bytes),
             shot_irradiance: state_buffer(&gpu, "shot irradiance", r * vec4_bytes),
+            round_irradiance: state_buffer(&gpu, "round irradiance", r * vec4_bytes),
+            round_direct: state_buffer(&gpu, "round direct irradiance", r * vec4_bytes),
+            leaves: Vec::new(),
+            leave_buffer: Growing::new(&gpu, "leaves"),
+            wanted: Growing::new(&gpu, "wanted"),
+            round_passes: 0,
+            round_upload: std::time::Duration::ZERO,
             split: state_buffer(
                 &gpu,
                 "split walks",
@@ -197,10 +224,13 @@ impl GpuTransfers {
                 partial_count * size_of::<GpuPartial>() as u64,
             ),
             powers: state_buffer(&gpu, "shooter powers", 4 * s),
-            staging: state_buffer(&gpu, "staging", largest_shooter * vec4_bytes),
-            next: state_buffer(&gpu, "next shooter", NEXT_BYTES),
-            next_unshot: state_buffer(&gpu, "next shooter's unshot", largest_shooter * vec4_bytes),
-            largest_shooter: largest_shooter as u32,
+            staging: state_buffer(&gpu, "staging", e * vec4_bytes),
+            next: state_buffer(&gpu, "next round", NEXT_BYTES),
+            round_offsets: state_buffer(&gpu, "next round's offsets", 4 * s),
+            item_shooter: storage(&gpu, "item shooters", &nonempty(item_shooter)),
+            next_unshot: state_buffer(&gpu, "next round's unshot", e * vec4_bytes),
+            fraction: solve.round as f32,
+            prefetch: largest_shooter as u32,
             sources: Growing::new(&gpu, "sources"),
             bins: Growing::new(&gpu, "bins"),
             readback: gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -241,23 +271,28 @@ impl GpuTransfers {
             })
     }
 
-    /// The book-keeping's uniform for the shooter `items[first..last]`,
-    /// booking the gathered light times `sign`, its elements first set to
-    /// the staging buffer's values when `leave`.
-    fn book(&self, first: u32, last: u32, sign: f64, leave: bool, direct: DVec3) -> wgpu::Buffer {
+    /// The book-keeping's parameters for a pass booked times `sign`,
+    /// `direct` its direct share.
+    fn book_data(&self, sign: f64, direct: DVec3) -> GpuBook {
+        GpuBook {
+            elements: self.elements,
+            receivers: self.order.len() as u32,
+            shooters: self.shooters,
+            sign: sign as f32,
+            direct: direct.as_vec3().to_array(),
+            ..GpuBook::default()
+        }
+    }
+
+    /// The book-keeping's uniform: `count` elements asked for, a pass
+    /// booked times `sign`, `direct` its direct share.
+    fn book_uniform(&self, count: u32, sign: f64, direct: DVec3) -> wgpu::Buffer {
         uniform(
             &self.gpu,
             "book",
             &GpuBook {
-                first,
-                last,
-                elements: self.elements,
-                receivers: self.order.len() as u32,
-                shooters: self.shooters,
-                sign: sign as f32,
-                leave: u32::from(leave),
-                direct: direct.as_vec3().to_array(),
-                ..GpuBook::default()
+                count,
+                ..self.book_data(sign, direct)
             },
         )
     }
@@ -379,10 +414,9 @@ impl GpuTransfers {
         (nodes, bins)
     }
 
-    /// The timestamps around the shot's pass `index` (its chunks' four
-    /// passes each, then the book-keeping's four), where the device has
-    /// them.
-    fn timestamps(&self, index: u32) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+    /// The timestamps around a pass given `slot` ([`Timer::slot`]).
+    fn timestamps(&self, slot: Option<u32>) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let index = slot?;
         self.timer
             .as_ref()
             .map(|timer| wgpu::ComputePassTimestampWrites {
@@ -392,9 +426,12 @@ impl GpuTransfers {
             })
     }
 
-    /// One shot's commands and readback (inside an error scope); `None`
-    /// when abandoned between two chunks of the walk, nothing booked.
-    fn shot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError> {
+    /// One pass's commands (inside an error scope): the walk in chunks of
+    /// receivers, a submission each (none runs long enough to trip a
+    /// driver's watchdog, and the round can be abandoned between them),
+    /// the last one also adding what the receivers gathered to the
+    /// round's. False when abandoned: the round is dropped.
+    fn pass(&mut self, shot: &AdaptiveShot<'_>) -> Result<bool, DeviceError> {
         let gpu = self.gpu.clone();
         let upload_start = Instant::now();
         let (nodes, bins) = self.sources(shot);
@@ -405,14 +442,19 @@ impl GpuTransfers {
         let count = self.order.len();
         let [first, last] = self.ranges[shot.root as usize];
         if let Some(leave) = shot.leave {
-            // What the shooter's elements are left with, for leave_shooter.
-            let leave: Vec<[f32; 4]> = leave.iter().map(|&u| vec4(u)).collect();
-            gpu.queue
-                .write_buffer(&self.staging, 0, bytemuck::cast_slice(&nonempty(leave)));
+            // What the shooter's elements are left with, at the round's end.
+            let elements = &self.tree_items[first as usize..last as usize];
+            self.leaves
+                .extend(leave.iter().zip(elements).map(|(u, &element)| GpuLeave {
+                    value: u.as_vec3().to_array(),
+                    element,
+                }));
         }
-        let book = self.book(first, last, shot.sign, shot.leave.is_some(), shot.direct);
-        let mut encoder = self.encoder("shot");
-        encoder.clear_buffer(&self.counters, 0, None);
+        let book = self.book_uniform(0, shot.sign, shot.direct);
+        let mut encoder = self.encoder("pass");
+        if self.round_passes == 0 {
+            encoder.clear_buffer(&self.counters, 0, None);
+        }
         let mut groups = Vec::new();
         let mut item_binds = Vec::new();
         for start in (0..count).step_by(self.dispatch_receivers) {
@@ -481,12 +523,119 @@ impl GpuTransfers {
             ]);
             item_binds.push([items, size]);
         }
+        let gathered = self.bind(
+            &self.pipelines.gathered,
+            &[
+                entry(G::ShotIrradiance, &self.shot_irradiance),
+                entry(G::RoundIrradiance, &self.round_irradiance),
+                entry(G::RoundDirect, &self.round_direct),
+                entry(G::Counters, &self.counters),
+                entry(G::Book, &book),
+            ],
+        );
+        let kernel_start = Instant::now();
+        let chunks = groups.len();
+        let mut encoder = Some(encoder);
+        for (k, chunk_groups) in groups.iter().enumerate() {
+            if k > 0 && shot.abort.fired() {
+                self.drop_round();
+                return Ok(false);
+            }
+            let mut chunk = encoder.take().unwrap_or_else(|| self.encoder("walk"));
+            // A pass each: the walks, the items' workgroups, the items
+            // the walks left, the joins.
+            let [(walk, walk_groups), (join, join_groups)] = chunk_groups;
+            let slots = [Stage::Walk, Stage::Items, Stage::Items, Stage::Join]
+                .map(|stage| self.timer.as_mut().and_then(|t| t.slot(stage)));
+            let gathered_slot = if k + 1 == chunks {
+                self.timer.as_mut().and_then(|t| t.slot(Stage::Book))
+            } else {
+                None
+            };
+            let pass = |chunk: &mut wgpu::CommandEncoder, label: &str, slot: Option<u32>| {
+                chunk
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(label),
+                        timestamp_writes: self.timestamps(slot),
+                    })
+                    .forget_lifetime()
+            };
+            {
+                let mut p = pass(&mut chunk, "walk", slots[0]);
+                p.set_pipeline(&self.pipelines.gather);
+                p.set_bind_group(0, walk, &[]);
+                p.dispatch_workgroups(*walk_groups, 1, 1);
+            }
+            {
+                let mut p = pass(&mut chunk, "size items", slots[1]);
+                p.set_pipeline(&self.pipelines.size_items);
+                p.set_bind_group(0, &item_binds[k][1], &[]);
+                p.dispatch_workgroups(1, 1, 1);
+            }
+            {
+                let mut p = pass(&mut chunk, "items", slots[2]);
+                p.set_pipeline(&self.pipelines.gather_items);
+                p.set_bind_group(0, &item_binds[k][0], &[]);
+                p.dispatch_workgroups_indirect(&self.item_dispatch, 0);
+            }
+            {
+                let mut p = pass(&mut chunk, "join", slots[3]);
+                p.set_pipeline(&self.pipelines.join_items);
+                p.set_bind_group(0, join, &[]);
+                p.dispatch_workgroups(*join_groups, 1, 1);
+            }
+            if k + 1 == chunks {
+                let mut p = pass(&mut chunk, "gathered", gathered_slot);
+                p.set_pipeline(&self.pipelines.gathered);
+                p.set_bind_group(0, &gathered, &[]);
+                p.dispatch_workgroups((count as u32).div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
+            }
+            gpu.queue.submit([chunk.finish()]);
+            let mut traffic = self.traffic.get();
+            traffic.submissions += 1;
+            self.traffic.set(traffic);
+        }
+        self.round_passes += 1;
+        self.round_upload += kernel_start - upload_start;
+        Ok(true)
+    }
+
+    /// Drops the round sent so far: the round's sums zeroed (a submission,
+    /// not waited for), nothing of it left to book.
+    fn drop_round(&mut self) {
+        let mut encoder = self.encoder("drop round");
+        encoder.clear_buffer(&self.round_irradiance, 0, None);
+        encoder.clear_buffer(&self.round_direct, 0, None);
+        self.gpu.queue.submit([encoder.finish()]);
+        let mut traffic = self.traffic.get();
+        traffic.submissions += 1;
+        self.traffic.set(traffic);
+        self.leaves.clear();
+        self.round_passes = 0;
+        self.round_upload = std::time::Duration::ZERO;
+        if let Some(timer) = self.timer.as_mut() {
+            timer.stages(&[]);
+        }
+    }
+
+    /// The round's book-keeping and readback (inside an error scope).
+    fn book_round(&mut self) -> Result<Booked, DeviceError> {
+        let gpu = self.gpu.clone();
+        let upload_start = Instant::now();
+        let leaves = std::mem::take(&mut self.leaves);
+        self.leave_buffer
+            .write(&gpu, bytemuck::cast_slice(&nonempty(leaves.clone())));
+        let book = GpuBook {
+            count: leaves.len() as u32,
+            fraction: self.fraction,
+            ..self.book_data(1.0, DVec3::ZERO)
+        };
+        let book = uniform(&self.gpu, "book", &book);
         let leave = self.bind(
-            &self.pipelines.leave_shooter,
+            &self.pipelines.leave_shooters,
             &[
                 entry(G::Unshot, &self.unshot),
-                entry(G::Items, &self.items),
-                entry(G::Staging, &self.staging),
+                entry(G::Leaves, &self.leave_buffer.buffer),
                 entry(G::Book, &book),
             ],
         );
@@ -494,7 +643,7 @@ impl GpuTransfers {
             &self.pipelines.receive,
             &[
                 entry(G::Elements, &self.element_buffer),
-                entry(G::ShotIrradiance, &self.shot_irradiance),
+                entry(G::RoundIrradiance, &self.round_irradiance),
                 entry(G::Unshot, &self.unshot),
                 entry(G::ElementBook, &self.element_book),
                 entry(G::Partials, &self.partials),
@@ -505,7 +654,8 @@ impl GpuTransfers {
             &self.pipelines.accumulate,
             &[
                 entry(G::Total, &self.total),
-                entry(G::ShotIrradiance, &self.shot_irradiance),
+                entry(G::RoundIrradiance, &self.round_irradiance),
+                entry(G::RoundDirect, &self.round_direct),
                 entry(G::Book, &book),
                 entry(G::DirectTotal, &self.direct),
             ],
@@ -528,6 +678,7 @@ impl GpuTransfers {
                 entry(G::Powers, &self.powers),
                 entry(G::Book, &book),
                 entry(G::Next, &self.next),
+                entry(G::RoundOffsets, &self.round_offsets),
             ],
         );
         let collect = self.bind(
@@ -535,67 +686,21 @@ impl GpuTransfers {
             &[
                 entry(G::Unshot, &self.unshot),
                 entry(G::Items, &self.items),
-                entry(G::Next, &self.next),
+                entry(G::ShooterItems, &self.shooter_items),
+                entry(G::ItemShooter, &self.item_shooter),
+                entry(G::RoundOffsets, &self.round_offsets),
+                entry(G::Book, &book),
                 entry(G::NextUnshot, &self.next_unshot),
             ],
         );
         let kernel_start = Instant::now();
-        // The walk, one submission a chunk of receivers: none runs long
-        // enough to trip a driver's watchdog, and the shot can be
-        // abandoned between them, before anything is booked.
-        let mut encoder = Some(encoder);
-        for (k, chunk_groups) in groups.iter().enumerate() {
-            if k > 0 && shot.abort.fired() {
-                return Ok(None);
-            }
-            let mut chunk = encoder.take().unwrap_or_else(|| self.encoder("walk"));
-            // A pass each: the walks, the items' workgroups, the items
-            // the walks left, the joins.
-            let [(walk, walk_groups), (join, join_groups)] = chunk_groups;
-            let base = 4 * k as u32;
-            let pass = |chunk: &mut wgpu::CommandEncoder, label: &str, index: u32| {
-                chunk
-                    .begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(label),
-                        timestamp_writes: self.timestamps(index),
-                    })
-                    .forget_lifetime()
-            };
-            {
-                let mut p = pass(&mut chunk, "walk", base);
-                p.set_pipeline(&self.pipelines.gather);
-                p.set_bind_group(0, walk, &[]);
-                p.dispatch_workgroups(*walk_groups, 1, 1);
-            }
-            {
-                let mut p = pass(&mut chunk, "size items", base + 1);
-                p.set_pipeline(&self.pipelines.size_items);
-                p.set_bind_group(0, &item_binds[k][1], &[]);
-                p.dispatch_workgroups(1, 1, 1);
-            }
-            {
-                let mut p = pass(&mut chunk, "items", base + 2);
-                p.set_pipeline(&self.pipelines.gather_items);
-                p.set_bind_group(0, &item_binds[k][0], &[]);
-                p.dispatch_workgroups_indirect(&self.item_dispatch, 0);
-            }
-            {
-                let mut p = pass(&mut chunk, "join", base + 3);
-                p.set_pipeline(&self.pipelines.join_items);
-                p.set_bind_group(0, join, &[]);
-                p.dispatch_workgroups(*join_groups, 1, 1);
-            }
-            gpu.queue.submit([chunk.finish()]);
-            let mut traffic = self.traffic.get();
-            traffic.submissions += 1;
-            self.traffic.set(traffic);
-        }
         let mut encoder = self.encoder("book");
+        let count = self.order.len() as u32;
         let stages: [(&wgpu::ComputePipeline, &wgpu::BindGroup, u32); 4] = [
             (
-                &self.pipelines.leave_shooter,
+                &self.pipelines.leave_shooters,
                 &leave,
-                (last - first).div_ceil(BOOK_WORKGROUP).max(1),
+                (leaves.len() as u32).div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.receive,
@@ -605,7 +710,7 @@ impl GpuTransfers {
             (
                 &self.pipelines.accumulate,
                 &accumulate,
-                (count as u32).div_ceil(BOOK_WORKGROUP).max(1),
+                count.div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.shooter_powers,
@@ -614,24 +719,24 @@ impl GpuTransfers {
             ),
         ];
         // A pass a stage: each reads what the one before wrote.
-        let book_base = 4 * groups.len() as u32;
-        for (j, (pipeline, group, workgroups)) in stages.into_iter().enumerate() {
+        for (pipeline, group, workgroups) in stages {
+            let slot = self.timer.as_mut().and_then(|t| t.slot(Stage::Book));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("book"),
-                timestamp_writes: self.timestamps(book_base + j as u32),
+                timestamp_writes: self.timestamps(slot),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(workgroups, 1, 1);
         }
-        // The next shooter and its elements' unshot radiosity, read back
-        // with the ledger: the next shot waits for nothing else.
+        // The next round and its elements' unshot radiosity, read back
+        // with the ledger: the next round waits for nothing else.
         let next_stages = [
             (&self.pipelines.choose_next, &choose, 1),
             (
                 &self.pipelines.collect_next,
                 &collect,
-                self.largest_shooter.div_ceil(BOOK_WORKGROUP).max(1),
+                self.elements.div_ceil(BOOK_WORKGROUP).max(1),
             ),
         ];
         for (pipeline, group, workgroups) in next_stages {
@@ -665,7 +770,7 @@ impl GpuTransfers {
             counter_bytes,
         );
         let next_at = powers_bytes + partial_bytes + counter_bytes;
-        let next_unshot_bytes = 16 * u64::from(self.largest_shooter);
+        let next_unshot_bytes = 16 * u64::from(self.prefetch);
         encoder.copy_buffer_to_buffer(&self.next, 0, &self.readback, next_at, NEXT_BYTES);
         if next_unshot_bytes > 0 {
             encoder.copy_buffer_to_buffer(
@@ -676,20 +781,24 @@ impl GpuTransfers {
                 next_unshot_bytes,
             );
         }
-        let passes = book_base + 4;
         let timestamps_at = next_at + NEXT_BYTES + next_unshot_bytes;
         let mut read = timestamps_at;
-        if let Some(timer) = &self.timer {
-            encoder.resolve_query_set(&timer.set, 0..2 * passes, &timer.resolve, 0);
-            let bytes = 16 * u64::from(passes);
+        if let Some(timer) = &self.timer
+            && !timer.slots.is_empty()
+        {
+            let queries = 2 * timer.slots.len() as u32;
+            encoder.resolve_query_set(&timer.set, 0..queries, &timer.resolve, 0);
+            let bytes = 8 * u64::from(queries);
             encoder.copy_buffer_to_buffer(&timer.resolve, 0, &self.readback, read, bytes);
             read += bytes;
         }
         let bytes = self.finish(encoder, read)?;
         let stages = self
             .timer
-            .as_ref()
-            .map(|timer| timer.stages(&bytes[timestamps_at as usize..], groups.len() as u32));
+            .as_mut()
+            .and_then(|timer| timer.stages(&bytes[timestamps_at as usize..]));
+        let upload_time = std::mem::take(&mut self.round_upload) + (kernel_start - upload_start);
+        self.round_passes = 0;
         let readback_start = Instant::now();
         let words: &[f32] = bytemuck::cast_slice(&bytes);
         let shooter_power = words[..self.shooters as usize]
@@ -711,19 +820,23 @@ impl GpuTransfers {
             bytemuck::cast_slice(&bytes[(powers_bytes + partial_bytes) as usize..]);
         let next: &[u32] =
             bytemuck::cast_slice(&bytes[next_at as usize..(next_at + NEXT_BYTES) as usize]);
-        let next_count = next[2].saturating_sub(next[1]) as usize;
+        let (next_shooters, next_count) = (next[1] as usize, next[2] as usize);
         let next_words: &[f32] =
             bytemuck::cast_slice(&bytes[(next_at + NEXT_BYTES) as usize..timestamps_at as usize]);
-        let next_shooter = (next_count <= self.largest_shooter as usize).then(|| {
-            (
-                next[0] as usize,
-                next_words[..4 * next_count]
-                    .chunks_exact(4)
-                    .map(dvec3)
-                    .collect(),
-            )
+        let next_round = (next_count <= self.prefetch as usize).then(|| NextRound {
+            shooters: next_shooters,
+            unshot: next_words[..4 * next_count]
+                .chunks_exact(4)
+                .map(dvec3)
+                .collect(),
         });
-        Ok(Some(Booked {
+        // Room for twice the largest round so far: rounds grow as the
+        // light spreads over more shooters of like power.
+        self.prefetch = self
+            .prefetch
+            .max(next[2].saturating_mul(2))
+            .min(self.elements);
+        Ok(Booked {
             received: Received { incident, absorbed },
             unshot_power,
             unshot_magnitude,
@@ -733,14 +846,14 @@ impl GpuTransfers {
             walks: u64::from(counts[counter::WALKS]),
             node_visits: u64::from(counts[counter::VISITS]),
             element_sources: u64::from(counts[counter::ELEMENTS]),
-            longest_walk: u64::from(counts[counter::LONGEST_WALK]),
-            longest_item: u64::from(counts[counter::LONGEST_ITEM]),
-            next_shooter,
-            upload_time: kernel_start - upload_start,
+            longest_walk: u64::from(counts[counter::ROUND_LONGEST_WALK]),
+            longest_item: u64::from(counts[counter::ROUND_LONGEST_ITEM]),
+            next_round,
+            upload_time,
             kernel_time: readback_start - kernel_start,
             readback_time: readback_start.elapsed(),
             stages,
-        }))
+        })
     }
 }
 
@@ -780,17 +893,19 @@ impl AdaptiveTransfers for GpuTransfers {
         })
     }
 
-    fn unshot(&mut self, first: u32, last: u32) -> Result<Vec<DVec3>, DeviceError> {
-        if last <= first {
+    fn unshot(&mut self, elements: &[u32]) -> Result<Vec<DVec3>, DeviceError> {
+        if elements.is_empty() {
             return Ok(Vec::new());
         }
+        let gpu = self.gpu.clone();
+        self.wanted.write(&gpu, bytemuck::cast_slice(elements));
         self.scoped(|| {
-            let book = self.book(first, last, 1.0, false, DVec3::ZERO);
+            let book = self.book_uniform(elements.len() as u32, 1.0, DVec3::ZERO);
             let group = self.bind(
                 &self.pipelines.collect,
                 &[
                     entry(G::Unshot, &self.unshot),
-                    entry(G::Items, &self.items),
+                    entry(G::Wanted, &self.wanted.buffer),
                     entry(G::Staging, &self.staging),
                     entry(G::Book, &book),
                 ],
@@ -803,9 +918,9 @@ impl AdaptiveTransfers for GpuTransfers {
                 });
                 pass.set_pipeline(&self.pipelines.collect);
                 pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups((last - first).div_ceil(BOOK_WORKGROUP), 1, 1);
+                pass.dispatch_workgroups((elements.len() as u32).div_ceil(BOOK_WORKGROUP), 1, 1);
             }
-            let bytes = 16 * u64::from(last - first);
+            let bytes = 16 * elements.len() as u64;
             encoder.copy_buffer_to_buffer(&self.staging, 0, &self.readback, 0, bytes);
             let data = self.finish(encoder, bytes)?;
             let words: &[f32] = bytemuck::cast_slice(&data);
@@ -813,9 +928,10 @@ impl AdaptiveTransfers for GpuTransfers {
         })
     }
 
-    fn shoot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError> {
+    fn send(&mut self, shot: &AdaptiveShot<'_>) -> Result<bool, DeviceError> {
         if shot.abort.fired() {
-            return Ok(None);
+            self.drop_round();
+            return Ok(false);
         }
         if self.order.is_empty() || shot.sources.nodes.is_empty() {
             return Err(DeviceError("a shot with no receivers or no sources".into()));
@@ -828,7 +944,25 @@ impl AdaptiveTransfers for GpuTransfers {
             .gpu
             .device
             .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let result = self.shot(shot);
+        let result = self.pass(shot);
+        let out_of_memory = pollster::block_on(memory.pop());
+        let invalid = pollster::block_on(scope.pop());
+        if let Some(e) = out_of_memory.or(invalid) {
+            return Err(self.failed(e));
+        }
+        result
+    }
+
+    fn book(&mut self) -> Result<Booked, DeviceError> {
+        let scope = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let result = self.book_round();
         let out_of_memory = pollster::block_on(memory.pop());
         let invalid = pollster::block_on(scope.pop());
         if let Some(e) = out_of_memory.or(invalid) {

@@ -108,6 +108,10 @@ pub struct AdaptiveSolve<'a> {
     /// The receivers' order on the device (neighbours together): each
     /// receiver's index, in that order.
     pub order: &'a [u32],
+    /// `--round`: a round takes, with the brightest shooter, those whose
+    /// power is more than this fraction of its (the device chooses the
+    /// next round by this rule, as the host does).
+    pub round: f64,
 }
 
 /// Adaptive shooting on a device that keeps the solve's state: each
@@ -130,29 +134,40 @@ pub trait AdaptiveTransfers: Send {
         unshot: &[DVec3],
     ) -> Result<(), DeviceError>;
 
-    /// The unshot radiosity the device holds for the elements
-    /// `tree.items[first..last]` of the element tree (a shooter's), in
-    /// that order.
+    /// The unshot radiosity the device holds for `elements` (element
+    /// ids), in that order: a round's shooters', for the host to prepare
+    /// their sources.
     ///
     /// # Errors
     ///
     /// When the device fails.
-    fn unshot(&mut self, first: u32, last: u32) -> Result<Vec<DVec3>, DeviceError>;
+    fn unshot(&mut self, elements: &[u32]) -> Result<Vec<DVec3>, DeviceError>;
 
-    /// One shot (or one pass of an overshooting shot): every receiver
-    /// gathers from the shooting node; the device sets the shooter's
-    /// unshot radiosity to [`AdaptiveShot::leave`], adds the irradiance
-    /// gathered (times [`AdaptiveShot::sign`]) to the receivers', its
-    /// [`AdaptiveShot::direct`] share to their direct part, and each
-    /// element's reflected share to its own.
-    /// `None` when the shot was abandoned ([`AdaptiveShot::abort`]), with
-    /// nothing changed.
+    /// One pass of one of a round's shooters (overshooting sends a shooter
+    /// in a pass per sign): every receiver gathers from the shooting node;
+    /// the device adds what it gathered (times [`AdaptiveShot::sign`]) to
+    /// the round's irradiance, its [`AdaptiveShot::direct`] share to the
+    /// round's direct part, and keeps [`AdaptiveShot::leave`] for the
+    /// round's end. Nothing of the solve's state changes until
+    /// [`AdaptiveTransfers::book`]. False when the pass was abandoned
+    /// ([`AdaptiveShot::abort`]): the whole round is then dropped.
     ///
     /// # Errors
     ///
     /// When the device fails; the solve then goes back to its last
     /// checkpoint on the CPU.
-    fn shoot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError>;
+    fn send(&mut self, shot: &AdaptiveShot<'_>) -> Result<bool, DeviceError>;
+
+    /// Ends the round its passes sent: the shooters' elements are set to
+    /// what they are left with, the round's irradiance is added to the
+    /// receivers' (its direct part to theirs) and each element's reflected
+    /// share to its unshot radiosity; the ledger's sums and the shooters'
+    /// powers are read back.
+    ///
+    /// # Errors
+    ///
+    /// When the device fails.
+    fn book(&mut self) -> Result<Booked, DeviceError>;
 
     /// The state, read back: each receiver's irradiance (the solver's
     /// order), its direct part, and each element's unshot radiosity.
@@ -214,9 +229,9 @@ pub struct AdaptiveShot<'a> {
     /// emission sent for the first time (zero for reflected light).
     pub direct: DVec3,
     /// What the shooter's elements (`items` of its node, in the tree's
-    /// order) are left with, set before the shot's light is booked: zero,
-    /// or minus their overshoot. `None` for a shot's second pass, which
-    /// leaves them as the first did.
+    /// order) are left with when the round is booked, before its light is:
+    /// zero, or minus their overshoot. `None` for a shot's second pass,
+    /// which leaves them as the first did.
     pub leave: Option<&'a [DVec3]>,
     /// A receiver's negligible irradiance (luminance) is this...
     pub negligible: f64,
@@ -255,12 +270,12 @@ pub struct Booked {
     /// The most source nodes one thread of the split walks' items visited
     /// (0 where no walk was split).
     pub longest_item: u64,
-    /// The shooter the device found with the most unshot power after the
-    /// shot (its index among the shooters, chosen as the host chooses) and
-    /// its elements' unshot radiosity in the tree's order, read back with
-    /// the shot: the next shot takes them instead of asking
-    /// ([`AdaptiveTransfers::unshot`]). `None` where the device does not say.
-    pub next_shooter: Option<(usize, Vec<DVec3>)>,
+    /// The next round as the device chose it after this one, by the
+    /// host's rule ([`AdaptiveSolve::round`], the powers compared in
+    /// `f32` as reported), read back with the round: the next round then
+    /// asks for nothing ([`AdaptiveTransfers::unshot`]). `None` where the
+    /// device does not say, or its elements were more than it read back.
+    pub next_round: Option<NextRound>,
     /// Time preparing and sending the shot's data (host clock).
     pub upload_time: Duration,
     /// Time the kernels took, waited for (host clock).
@@ -270,6 +285,16 @@ pub struct Booked {
     /// The device's own time for each stage of the shot, where it can
     /// measure it (timestamps).
     pub stages: Option<StageTimes>,
+}
+
+/// The next round as a device chose it ([`Booked::next_round`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NextRound {
+    /// How many shooters it takes.
+    pub shooters: usize,
+    /// Their elements' unshot radiosity: shooter by shooter in index
+    /// order, each's elements in the tree's order.
+    pub unshot: Vec<DVec3>,
 }
 
 /// A device's time for the stages of its shots, read from the device's
@@ -319,33 +344,6 @@ impl StageTimes {
         match (a, b) {
             (Some(a), Some(b)) => Some(a + b),
             (a, b) => a.or(b),
-        }
-    }
-}
-
-impl Booked {
-    /// Two passes of one shot as one: what they received and cost added,
-    /// the state as `second` left it.
-    #[must_use]
-    pub fn then(self, second: Booked) -> Booked {
-        Booked {
-            received: Received {
-                incident: self.received.incident + second.received.incident,
-                absorbed: self.received.absorbed + second.received.absorbed,
-            },
-            pairs: self.pairs + second.pairs,
-            rays: self.rays + second.rays,
-            walks: self.walks + second.walks,
-            node_visits: self.node_visits + second.node_visits,
-            element_sources: self.element_sources + second.element_sources,
-            // The passes run one after the other: their critical paths add.
-            longest_walk: self.longest_walk + second.longest_walk,
-            longest_item: self.longest_item + second.longest_item,
-            upload_time: self.upload_time + second.upload_time,
-            kernel_time: self.kernel_time + second.kernel_time,
-            readback_time: self.readback_time + second.readback_time,
-            stages: StageTimes::add_known(self.stages, second.stages),
-            ..second
         }
     }
 }

@@ -144,11 +144,12 @@ pub trait Shooter: Send {
         false
     }
 
-    /// Its kept shot `shot` (its own shots counted from 0) sent again to
-    /// `inputs.receivers`, which have gathered `inputs.irradiance` from the
-    /// shots before it: what they would have gathered from it had they
-    /// been there then. `None` when abandoned or not kept.
-    fn replay(&mut self, _inputs: &ShotInputs<'_>, _shot: usize) -> Option<Vec<DVec3>> {
+    /// Its kept round `shot` (its own rounds counted from 0) sent again
+    /// to `inputs.receivers`, which have gathered `inputs.irradiance` from
+    /// the rounds before it: what they would have gathered from it had
+    /// they been there then, and of that the direct part (as
+    /// [`Shot::direct`]). `None` when abandoned or not kept.
+    fn replay(&mut self, _inputs: &ShotInputs<'_>, _shot: usize) -> Option<Replayed> {
         None
     }
 
@@ -300,8 +301,11 @@ impl Counter {
 /// file's counters, the times in seconds under the names given below.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Stats {
-    /// Shooters shot.
+    /// Shooters shot (a light counts as one).
     pub shots: u64,
+    /// Rounds: the loop's steps, each a light's shot or a method's round
+    /// of one or more shooters shot together ([`Shot::shooters`]).
+    pub rounds: u64,
     /// The method's finest sources shot: a patch's subsources, or adaptive
     /// shooting's elements (`--max-subsources` counts them).
     pub subsources: u64,
@@ -358,24 +362,86 @@ pub struct ShotInputs<'s> {
 }
 
 /// What a shot produced: the irradiance each receiver gathered and the
-/// power that left the shooter.
+/// power that left the shooter (or, for a round, the shooters).
 pub struct Shot {
     /// One per receiver, in the order of [`ShotInputs::receivers`].
     pub irradiance: Vec<DVec3>,
+    /// Of `irradiance`, the part that is direct light: each shooter's own
+    /// emission sent for the first time ([`Emission::take`]), its share of
+    /// what the shooter sent, per channel, times what the shooter gave the
+    /// receiver; the loop books it apart
+    /// ([`super::Solver::direct_irradiance`]). Empty when none.
+    pub direct: Vec<DVec3>,
     /// Power shot, per channel (W).
     pub power: DVec3,
     /// Of `power`, the emitting surfaces' own emission shot for the first
-    /// time ([`Emission::take`]): the shot's direct light, which the loop
-    /// books apart ([`super::Solver::direct_irradiance`]) in proportion,
-    /// per channel.
+    /// time.
     pub emitted: DVec3,
+    /// Shooters shot together in it: 1, or a round's ([`Stats::rounds`]).
+    pub shooters: u64,
     /// Time spent choosing the shooter, for [`Stats::bookkeeping_time`].
     pub selection_time: Duration,
     /// Set by a method whose state lives on a device, which booked the
-    /// shot there: the power the elements received and absorbed.
-    /// [`Shot::irradiance`] is then empty and [`Shooter::receive`] is not
-    /// called.
+    /// shot there (its direct part included): the power the elements
+    /// received and absorbed. [`Shot::irradiance`] is then empty and
+    /// [`Shooter::receive`] is not called.
     pub booked: Option<Received>,
+}
+
+impl Shot {
+    /// One shooter's shot, booked on the host: `irradiance` from `power`,
+    /// of which `emitted` was emission shot for the first time (its share
+    /// of the irradiance is the direct part).
+    #[must_use]
+    pub fn single(
+        irradiance: Vec<DVec3>,
+        power: DVec3,
+        emitted: DVec3,
+        selection_time: Duration,
+    ) -> Shot {
+        let mut direct = Vec::new();
+        add_direct(&mut direct, &irradiance, emission_share(emitted, power));
+        Shot {
+            irradiance,
+            direct,
+            power,
+            emitted,
+            shooters: 1,
+            selection_time,
+            booked: None,
+        }
+    }
+}
+
+/// Adds `irradiance` times `share` to `direct` (empty until some share is
+/// not zero).
+pub fn add_direct(direct: &mut Vec<DVec3>, irradiance: &[DVec3], share: DVec3) {
+    if share == DVec3::ZERO {
+        return;
+    }
+    if direct.is_empty() {
+        direct.resize(irradiance.len(), DVec3::ZERO);
+    }
+    for (d, e) in direct.iter_mut().zip(irradiance) {
+        *d += *e * share;
+    }
+}
+
+/// The share of a shot's power that was emission, per channel (zero where
+/// it sent none).
+#[must_use]
+pub fn emission_share(emitted: DVec3, power: DVec3) -> DVec3 {
+    let share = emitted / power;
+    DVec3::select(share.is_finite_mask(), share, DVec3::ZERO)
+}
+
+/// What a kept round gave the receivers it was replayed to
+/// ([`Shooter::replay`]).
+pub struct Replayed {
+    /// Irradiance, one per receiver.
+    pub irradiance: Vec<DVec3>,
+    /// Of it, the direct part (empty when none).
+    pub direct: Vec<DVec3>,
 }
 
 /// Which elements (or patches) still hold their surface's emission unshot:
@@ -408,6 +474,20 @@ impl Emission {
                 .map(|i| scene.surfaces[surface(i) as usize].is_emitter())
                 .collect(),
         }
+    }
+
+    /// The emission power of `units` (unit, its surface, its area) still
+    /// pending, left pending ([`Emission::take`] takes it).
+    #[must_use]
+    pub fn pending_power(
+        &self,
+        scene: &Scene,
+        units: impl Iterator<Item = (usize, u32, f64)>,
+    ) -> DVec3 {
+        units
+            .filter(|&(i, _, _)| self.pending[i])
+            .map(|(_, surface, area)| scene.surfaces[surface as usize].emission * area)
+            .sum()
     }
 
     /// The emission power of `units` (unit, its surface, its area) still

@@ -660,9 +660,7 @@ impl<'a> Solver<'a> {
                 Err(e) => self.light_fault = Some(e.0),
             }
         }
-        // The share of the method's shot that is emission, per channel.
-        let mut emitted = DVec3::ZERO;
-        let (irradiance, element_means, power, selection_time) = match light {
+        let (irradiance, direct, element_means, power, selection_time, shooters) = match light {
             Some(index) => {
                 let light = &self.scene.lights[index];
                 let on_device = self.light_segments.as_deref();
@@ -681,11 +679,14 @@ impl<'a> Solver<'a> {
                 let Some(shot) = shot else {
                     return false;
                 };
+                // A light's shot is direct.
                 (
                     shot.irradiance,
+                    None,
                     shot.element_means,
                     light.flux(),
                     Duration::ZERO,
+                    1,
                 )
             }
             None => {
@@ -700,28 +701,32 @@ impl<'a> Solver<'a> {
                     return false;
                 };
                 if let Some(received) = shot.booked {
-                    self.keep(resume::Step::Method {
-                        share: resume::emission_share(shot.emitted, shot.power),
-                    });
+                    self.keep(resume::Step::Method);
                     let book_start = Instant::now();
-                    self.book_ledger(received, shot.power);
+                    self.book_ledger(received, shot.power, shot.shooters);
                     self.stats.bookkeeping_time +=
                         (Instant::now() - book_start) + shot.selection_time;
                     return true;
                 }
-                emitted = resume::emission_share(shot.emitted, shot.power);
-                (shot.irradiance, None, Some(shot.power), shot.selection_time)
+                (
+                    shot.irradiance,
+                    Some(shot.direct),
+                    None,
+                    Some(shot.power),
+                    shot.selection_time,
+                    shot.shooters,
+                )
             }
         };
         let book_start = Instant::now();
         let received_before = self.energy.received;
-        let sent = self.book(&irradiance, element_means.as_deref(), power);
-        // A light's shot is direct; of a method's, the emission's share.
-        let share = if light.is_some() { DVec3::ONE } else { emitted };
-        if share != DVec3::ZERO {
-            for (d, e) in self.direct.iter_mut().zip(&irradiance) {
-                *d += *e * share;
-            }
+        let sent = self.book(&irradiance, element_means.as_deref(), power, shooters);
+        for (d, e) in self
+            .direct
+            .iter_mut()
+            .zip(direct.as_ref().unwrap_or(&irradiance))
+        {
+            *d += *e;
         }
         if let Some(index) = light
             && self.scene.lights[index].sky().is_some()
@@ -737,7 +742,7 @@ impl<'a> Solver<'a> {
                     vertex: irradiance[..self.mesh.vertices.len()].to_vec(),
                     means: element_means,
                 },
-                None => resume::Step::Method { share },
+                None => resume::Step::Method,
             });
         }
         if let Some(index) = light {
@@ -753,12 +758,13 @@ impl<'a> Solver<'a> {
 
     /// The ledger's part of the book-keeping, for a shot booked on a
     /// device: the power sent, received, absorbed and escaped.
-    fn book_ledger(&mut self, received: Received, power: DVec3) {
+    fn book_ledger(&mut self, received: Received, power: DVec3, shooters: u64) {
         self.energy.shot += power;
         self.energy.received += received.incident;
         self.energy.absorbed += received.absorbed;
         self.energy.escaped += power - received.incident;
-        self.stats.shots += 1;
+        self.stats.shots += shooters;
+        self.stats.rounds += 1;
     }
 
     /// The book-keeping of design.md step 5 after a shot that gave the
@@ -770,6 +776,7 @@ impl<'a> Solver<'a> {
         irradiance: &[DVec3],
         element_means: Option<&[DVec3]>,
         power: Option<DVec3>,
+        shooters: u64,
     ) -> DVec3 {
         let vertices = self.mesh.vertices.len();
         for (i, e) in irradiance.iter().enumerate() {
@@ -789,7 +796,7 @@ impl<'a> Solver<'a> {
             self.energy.emitted += received.incident;
             received.incident
         });
-        self.book_ledger(received, power);
+        self.book_ledger(received, power, shooters);
         power
     }
 }

@@ -363,13 +363,12 @@ impl Shooter for PatchShooting {
         stats.subsources += subsources.len() as u64;
         self.counters.hemicube_time += gather_start - hemicube_start;
         stats.gather_time += gather_end - gather_start;
-        Some(Shot {
+        Some(Shot::single(
             irradiance,
-            power: unshot * patch.area,
+            unshot * patch.area,
             emitted,
-            selection_time: hemicube_start - start,
-            booked: None,
-        })
+            hemicube_start - start,
+        ))
     }
 
     /// Adds the reflected part of what the elements received to their

@@ -48,11 +48,8 @@ pub(super) enum Step {
         /// better than the corners ([`lights::element_means`]).
         means: Option<Vec<DVec3>>,
     },
-    /// One of the method's shots.
-    Method {
-        /// The share of its power that was emission, per channel.
-        share: DVec3,
-    },
+    /// One of the method's rounds (the method keeps what it sent).
+    Method,
 }
 
 /// A solve's state carried onto a refined mesh ([`Solver::go_on`]), from
@@ -132,13 +129,6 @@ struct LightMeans {
     parent: Vec<DVec3>,
     /// Each light's power received by the pieces less their parents'.
     delta: Vec<(usize, DVec3)>,
-}
-
-/// The share of a shot's power that was emission, per channel (zero where
-/// it sent none).
-pub(crate) fn emission_share(emitted: DVec3, power: DVec3) -> DVec3 {
-    let share = emitted / power;
-    DVec3::select(share.is_finite_mask(), share, DVec3::ZERO)
 }
 
 /// The mean of `values` over `element`'s corners.
@@ -250,7 +240,7 @@ impl<'a> Solver<'a> {
                 direct: &[],
                 abort: &abort,
             };
-            let (e, share) = match step {
+            let (e, d) = match step {
                 Step::Light { index, vertex, .. } => {
                     let light = &scene.lights[*index];
                     let e = lights::gather(light, &inputs(refined), None, stats).ok()??;
@@ -263,20 +253,22 @@ impl<'a> Solver<'a> {
                         }
                     }
                     light_vertex.push([vertex, &e[..new]].concat());
-                    (e, DVec3::ONE)
+                    (e.clone(), e)
                 }
-                Step::Method { share } => {
-                    let e = self.shooter.replay(&inputs(base), method_shots)?;
+                Step::Method => {
+                    let r = self.shooter.replay(&inputs(base), method_shots)?;
                     method_shots += 1;
-                    for (m, e) in method_vertex[old..].iter_mut().zip(&e) {
+                    for (m, e) in method_vertex[old..].iter_mut().zip(&r.irradiance) {
                         *m += *e;
                     }
-                    (e, *share)
+                    (r.irradiance, r.direct)
                 }
             };
-            for ((g, d), e) in gathered.iter_mut().zip(&mut direct).zip(&e) {
+            for (g, e) in gathered.iter_mut().zip(&e) {
                 *g += *e;
-                *d += *e * share;
+            }
+            for (t, e) in direct.iter_mut().zip(&d) {
+                *t += *e;
             }
         }
         Some(Replayed {
@@ -325,7 +317,7 @@ impl<'a> Solver<'a> {
                 vertex,
                 means,
             } => Some((*index, vertex, means)),
-            Step::Method { .. } => None,
+            Step::Method => None,
         });
         for ((index, vertex, means), all) in kept.zip(&replayed.light_vertex) {
             let light = &self.scene.lights[index];

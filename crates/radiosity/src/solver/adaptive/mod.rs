@@ -50,8 +50,7 @@ mod gather;
 mod overshoot;
 mod replay;
 mod resident;
-
-use std::time::Instant;
+mod round;
 
 use glam::DVec3;
 
@@ -63,7 +62,7 @@ pub use super::hierarchy::transfer::{DIM_SHARE, FAR_RATIO};
 use super::hierarchy::{self, Hierarchy, Tree};
 use super::method::{
     self, Checkpoint, Counter, ElementState, Emission, Kind, Method, MethodError, Parameter,
-    Received, SetError, Shooter, Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
+    Received, Replayed, SetError, Shooter, Shot, ShotInputs, Stats, VISIBILITY, Value, Visibility,
 };
 use super::{Receiver, Settings};
 use crate::luminance;
@@ -84,6 +83,10 @@ pub struct AdaptiveSettings {
     /// irradiance of the power still unshot elsewhere, light it is bound to
     /// receive and reflect; 0 shoots exactly what has arrived.
     pub overshoot: f64,
+    /// Rounds (`round.rs`): with the brightest shooter, every shooter whose
+    /// unshot power is more than this fraction of its shoots in the same
+    /// round; 1 shoots the brightest alone.
+    pub round: f64,
 }
 
 /// Default `--tolerance`.
@@ -95,11 +98,17 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-3;
 /// measured Cornell box: 0.73% against 0.68%).
 pub const DEFAULT_OVERSHOOT: f64 = 0.0;
 
+/// Default `--round`: on Sponza 83 rounds to the default stopping rule
+/// against 3,522 shooters one at a time, for 1.04 times the node visits
+/// and rays (EXPERIMENTS.md, "Shots in rounds").
+pub const DEFAULT_ROUND: f64 = 0.7;
+
 impl Default for AdaptiveSettings {
     fn default() -> Self {
         AdaptiveSettings {
             tolerance: DEFAULT_TOLERANCE,
             overshoot: DEFAULT_OVERSHOOT,
+            round: DEFAULT_ROUND,
         }
     }
 }
@@ -112,6 +121,17 @@ const OVERSHOOT: Parameter = Parameter {
            reflectance times the ambient irradiance of the power still unshot elsewhere, which \
            leaves it negative unshot radiosity that a later shot sends back; fewer shots to \
            converge. 0 (the default) is off",
+    kind: Kind::Number,
+};
+
+/// `--round`.
+const ROUND: Parameter = Parameter {
+    name: "round",
+    value_name: "FRACTION",
+    help: "Shots in rounds: with the brightest shooter, every shooter whose unshot power is more \
+           than FRACTION of its shoots in the same round, each sending what it held when the \
+           round began (fewer, larger steps for a parallel device). 1 shoots the brightest \
+           alone, as the paper's loop",
     kind: Kind::Number,
 };
 
@@ -134,6 +154,9 @@ pub enum AdaptiveSettingsError {
     /// Overshoot outside [0, 2].
     #[error("--overshoot must be a factor in [0, 2], not {0}")]
     Overshoot(f64),
+    /// Round fraction outside (0, 1].
+    #[error("--round must be a fraction in (0, 1], not {0}")]
+    Round(f64),
     /// The hemicube pre-test asked of adaptive shooting.
     #[error(
         "the hemicube pre-test places a hemicube at each subsource of a patch: use it with \
@@ -146,13 +169,14 @@ impl Method for AdaptiveSettings {
     /// Its tolerance, and visibility, which is rays only: it takes
     /// `--visibility ray` and refuses the pre-test.
     fn parameters(&self) -> &'static [Parameter] {
-        &[TOLERANCE, OVERSHOOT, VISIBILITY]
+        &[TOLERANCE, OVERSHOOT, ROUND, VISIBILITY]
     }
 
     fn set(&mut self, name: &str, value: &Value) -> Result<(), SetError> {
         match name {
             "tolerance" => self.tolerance = value.number(name)?,
             "overshoot" => self.overshoot = value.number(name)?,
+            "round" => self.round = value.number(name)?,
             "visibility" => match value.choice(name)? {
                 Visibility::Ray => {}
                 Visibility::HemicubePretest => {
@@ -170,6 +194,7 @@ impl Method for AdaptiveSettings {
         vec![
             ("tolerance", self.tolerance.into()),
             ("overshoot", self.overshoot.into()),
+            ("round", self.round.into()),
             ("visibility", Visibility::Ray.name().into()),
         ]
     }
@@ -184,6 +209,9 @@ impl Method for AdaptiveSettings {
             return Err(MethodError::new(AdaptiveSettingsError::Overshoot(
                 self.overshoot,
             )));
+        }
+        if !(self.round > 0.0 && self.round <= 1.0) {
+            return Err(MethodError::new(AdaptiveSettingsError::Round(self.round)));
         }
         Ok(())
     }
@@ -237,6 +265,8 @@ struct AdaptiveShooting {
     unshot: Vec<DVec3>,
     /// `--overshoot`.
     overshoot: f64,
+    /// `--round`.
+    round: f64,
     /// What the shooter's elements send in the current pass, zero
     /// elsewhere ([`overshoot`]).
     sending: Vec<DVec3>,
@@ -320,6 +350,7 @@ impl AdaptiveShooting {
             sending: vec![DVec3::ZERO; unshot.len()],
             unshot,
             overshoot: method.overshoot,
+            round: method.round,
             tolerance,
             power,
             per_watt,
@@ -342,6 +373,7 @@ impl AdaptiveShooting {
                 hierarchy: &shooting.hierarchy,
                 receivers,
                 order: &shooting.receiver_tree.items,
+                round: method.round,
             };
             match backend.adaptive(&solve) {
                 Ok(device) => shooting.device = Some(device),
@@ -376,25 +408,6 @@ impl AdaptiveShooting {
         {
             self.shooter_power[*s as usize] += luminance(*u).abs() * e.area;
         }
-    }
-
-    /// The node that shoots next: the shooter with the most unshot power
-    /// (the first of equals), in magnitude: negative power left by
-    /// overshooting is shot back like positive.
-    fn choose_shooting_node(&self) -> u32 {
-        self.hierarchy.shooters[self.choose_shooter()]
-    }
-
-    /// The index among the shooters of [`Self::choose_shooting_node`]'s.
-    fn choose_shooter(&self) -> usize {
-        let (best, _) =
-            self.shooter_power
-                .iter()
-                .enumerate()
-                .fold((0, f64::NEG_INFINITY), |best, (i, &p)| {
-                    if p > best.1 { (i, p) } else { best }
-                });
-        best
     }
 
     /// The negligible irradiance of each receiver-tree node: the smallest
@@ -464,18 +477,6 @@ fn subtree_negligible(
 }
 
 impl AdaptiveShooting {
-    /// The shot's transfers on the CPU: the receivers' tree refined
-    /// against the shooting node, in parallel; `None` when abandoned.
-    fn gather_on_cpu(
-        &self,
-        inputs: &ShotInputs<'_>,
-        root: u32,
-        unshot: &[DVec3],
-    ) -> Option<(Vec<DVec3>, Counters)> {
-        let negligible = self.receiver_negligible(inputs.irradiance);
-        self.gather_to(inputs, root, unshot, &self.receiver_tree, &negligible)
-    }
-
     /// The transfers from `root` (its elements sending `unshot`, its
     /// sources prepared) to `inputs.receivers`, over their tree `tree`
     /// whose nodes' negligible irradiance is `negligible`; `None` when
@@ -557,47 +558,14 @@ impl Shooter for AdaptiveShooting {
         self.unshot_sum(mesh, true)
     }
 
-    /// One shot of the chosen node: its elements' unshot radiosity and
-    /// overshoot ([`overshoot`]), in a pass per sign; what they leave is
-    /// minus the overshoot (zero without).
+    /// One round ([`round`]): each shooter's elements' unshot radiosity
+    /// and overshoot ([`overshoot`]), in a pass per sign; what they leave
+    /// is minus the overshoot (zero without).
     fn shoot(&mut self, inputs: &ShotInputs<'_>, stats: &mut Stats) -> Option<Shot> {
         if self.device.is_some() {
             return self.shoot_on_device(inputs, stats);
         }
-        if std::mem::take(&mut self.stale_powers) {
-            self.total_shooter_power(inputs.mesh);
-        }
-        let start = Instant::now();
-        let (scene, mesh) = (inputs.scene, inputs.mesh);
-        let root = self.choose_shooting_node();
-        let plan = overshoot::Plan::new(self, scene, mesh, root);
-        let elements = self.hierarchy.tree.items_of(root).len() as u64;
-        let gather_start = Instant::now();
-        let (irradiance, counters) = self.send(inputs, root, &plan)?;
-        self.keep_record(root, &plan);
-        let gather_end = Instant::now();
-        let emitted = self.take_emission(scene, mesh, root);
-        let power = plan.power;
-
-        self.counters += counters;
-        let cost = counters.cost;
-        stats.pairs += cost.pairs;
-        stats.rays_cast += cost.rays;
-        stats.ray_time += cost.ray_time;
-        stats.form_factor_time += cost.form_factor_time;
-        stats.pretest_time += (gather_end - gather_start)
-            .mul_f64(rayon::current_num_threads() as f64)
-            .saturating_sub(cost.ray_time + cost.form_factor_time);
-        plan.leave(self, root);
-        stats.subsources += elements;
-        stats.gather_time += gather_end - gather_start;
-        Some(Shot {
-            irradiance,
-            power,
-            emitted,
-            selection_time: gather_start - start,
-            booked: None,
-        })
+        self.shoot_round(inputs, stats)
     }
 
     /// Adds the reflected part of what the elements received to their
@@ -639,7 +607,7 @@ impl Shooter for AdaptiveShooting {
         true
     }
 
-    fn replay(&mut self, inputs: &ShotInputs<'_>, shot: usize) -> Option<Vec<DVec3>> {
+    fn replay(&mut self, inputs: &ShotInputs<'_>, shot: usize) -> Option<Replayed> {
         self.replay_shot(inputs, shot)
     }
 

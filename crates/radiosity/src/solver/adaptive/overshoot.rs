@@ -39,6 +39,7 @@ use super::{AdaptiveShooting, Counters};
 use crate::luminance;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::solver::hierarchy::Tree;
 use crate::solver::method::ShotInputs;
 
 /// What one shot's elements send.
@@ -121,12 +122,6 @@ impl Plan {
 }
 
 impl Plan {
-    /// Whether some element sends light of the pass's sign (`0`: positive,
-    /// `1`: negative), which the CPU's shot sends in a pass of its own.
-    pub(super) fn sends_sign(&self, pass: usize) -> bool {
-        self.signs[pass]
-    }
-
     /// Which passes the shot takes: `[positive, negative]` (the positive
     /// one alone when nothing is sent, a shot gathering nothing).
     pub(super) fn passes(&self) -> [bool; 2] {
@@ -184,14 +179,18 @@ impl AdaptiveShooting {
         self.sending = sending;
     }
 
-    /// The shot's transfers: one pass per sign the plan's elements send,
-    /// each an ordinary transfer of light of one sign, the negative pass's
-    /// irradiance subtracted; `None` when abandoned.
+    /// The shot's transfers to `inputs.receivers` (over their tree
+    /// `tree`, the solve's receivers' when `None`, whose nodes' negligible
+    /// irradiance is `negligible`): one pass per sign the plan's elements
+    /// send, each an ordinary transfer of light of one sign, the negative
+    /// pass's irradiance subtracted; `None` when abandoned.
     pub(super) fn send(
         &mut self,
         inputs: &ShotInputs<'_>,
         root: u32,
         plan: &Plan,
+        tree: Option<&Tree>,
+        negligible: &[f64],
     ) -> Option<(Vec<DVec3>, Counters)> {
         let (scene, mesh) = (inputs.scene, inputs.mesh);
         let mut total: Option<(Vec<DVec3>, Counters)> = None;
@@ -200,7 +199,8 @@ impl AdaptiveShooting {
                 continue;
             }
             let sending = self.begin_pass(scene, mesh, root, plan, sign);
-            let gathered = self.gather_on_cpu(inputs, root, &sending);
+            let tree = tree.unwrap_or(&self.receiver_tree);
+            let gathered = self.gather_to(inputs, root, &sending, tree, negligible);
             self.end_pass(root, sending);
             let (irradiance, counters) = gathered?;
             total = Some(match total {

@@ -12,10 +12,9 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::AdaptiveShooting;
 use super::gather::Counters;
-use super::{AdaptiveShooting, overshoot};
-use crate::solver::Abort;
-use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, Booked, DeviceError, StageTimes};
+use crate::solver::device::{AdaptiveShot, AdaptiveTransfers, DeviceError, NextRound, StageTimes};
 use crate::solver::hierarchy::transfer::Cost;
 use crate::solver::method::{Checkpoint, Shot, ShotInputs, Stats};
 
@@ -29,9 +28,14 @@ pub(super) struct Resident {
     saved: Vec<DVec3>,
     /// Shots on the device since then (undone if it fails).
     since_checkpoint: u64,
-    /// The shooter the device reported with the last shot as the next,
-    /// and its elements' unshot radiosity ([`Booked::next_shooter`]).
-    next: Option<(usize, Vec<DVec3>)>,
+    /// The next round as the device chose it with the last
+    /// ([`crate::solver::device::Booked::next_round`]).
+    next: Option<NextRound>,
+    /// The host's unshot radiosity is the device's: no round has been
+    /// booked since the device took the state over. (A checkpoint reads
+    /// it back too, but by the clock: the rounds after one still ask, so
+    /// the device's counts are the same on any machine.)
+    host_current: bool,
 }
 
 impl AdaptiveShooting {
@@ -84,26 +88,31 @@ impl AdaptiveShooting {
                 saved: self.unshot.clone(),
                 since_checkpoint: 0,
                 next: None,
+                host_current: true,
             });
         }
-        let shooter = self.choose_shooter();
-        let root = self.hierarchy.shooters[shooter];
-        let node = self.hierarchy.tree.nodes[root as usize];
-        // Read back with the last shot when the device chose the same
-        // shooter (it chooses as the host does); else asked for.
-        let prefetched =
-            self.resident
-                .as_mut()
-                .and_then(|r| r.next.take())
-                .filter(|(s, values)| {
-                    *s == shooter && values.len() == (node.last - node.first) as usize
-                });
+        let round = self.choose_round(inputs.settings, stats, true);
+        // The round's shooters' elements, in order.
+        let wanted: Vec<u32> = round
+            .iter()
+            .flat_map(|&s| self.hierarchy.tree.items_of(self.hierarchy.shooters[s]))
+            .copied()
+            .collect();
+        // Read back with the last round when the device chose the same
+        // (it chooses as the host does, but for --max-shots and
+        // --max-subsources); else asked for.
+        let resident = self.resident.as_mut();
+        let host_current = resident.as_ref().is_some_and(|r| r.host_current);
+        let prefetched = resident
+            .and_then(|r| r.next.take())
+            .filter(|n| n.shooters == round.len() && n.unshot.len() == wanted.len());
         let fresh = match prefetched {
-            Some((_, values)) => values,
-            None => device.unshot(node.first, node.last)?,
+            Some(next) => next.unshot,
+            // The host holds what the device does (to the f32 it keeps).
+            None if host_current => wanted.iter().map(|&e| self.unshot[e as usize]).collect(),
+            None => device.unshot(&wanted)?,
         };
-        let items = self.hierarchy.tree.items_of(root);
-        for (&e, u) in items.iter().zip(fresh) {
+        for (&e, u) in wanted.iter().zip(fresh) {
             // The device holds f32s: where its value is the host's rounded
             // (an emitter not yet lit by anything), the host's exact value
             // stands, so the sources are the CPU's to the last bit (a
@@ -116,60 +125,49 @@ impl AdaptiveShooting {
         // What each element sends, in a pass per sign (overshooting's,
         // as on the CPU: `overshoot.rs`); one pass of its unshot radiosity
         // without.
-        let plan = overshoot::Plan::new(self, scene, mesh, root);
-        let power = plan.power;
-        let emitted = self.emission.take(
-            scene,
-            items.iter().map(|&e| {
-                let element = &mesh.elements[e as usize];
-                (e as usize, element.surface, element.area)
-            }),
-        );
-        let elements = items.len() as u64;
-        let direct = crate::solver::resume::emission_share(emitted, power);
+        let members = self.members(inputs, &round);
         let gather_start = Instant::now();
-        let left = plan.left();
-        let mut booked: Option<Booked> = None;
-        // A second pass is not abandoned: the first is booked already.
-        let finish = Abort::default();
-        for (pass, sign) in [(0, 1.0), (1, -1.0)] {
-            if !plan.passes()[pass] {
-                continue;
+        // A round is abandoned only before it is booked.
+        for m in &members {
+            let node = self.hierarchy.tree.nodes[m.root as usize];
+            let left = m.plan.left();
+            let mut first = true;
+            for (pass, sign) in [(0, 1.0), (1, -1.0)] {
+                if !m.plan.passes()[pass] {
+                    continue;
+                }
+                let sending = self.begin_pass(scene, mesh, m.root, &m.plan, sign);
+                let shot = AdaptiveShot {
+                    root: m.root,
+                    origin: node.centre,
+                    sources: &self.sources,
+                    unshot: &sending,
+                    sign,
+                    direct: m.share,
+                    leave: first.then_some(left.as_slice()),
+                    negligible: self.negligible,
+                    mean_radiosity: self.mean_radiosity,
+                    abort: inputs.abort,
+                };
+                let sent = device.send(&shot);
+                self.report.passes += 1;
+                self.end_pass(m.root, sending);
+                if !sent? {
+                    return Ok(None);
+                }
+                first = false;
             }
-            let sending = self.begin_pass(scene, mesh, root, &plan, sign);
-            let shot = AdaptiveShot {
-                root,
-                origin: node.centre,
-                sources: &self.sources,
-                unshot: &sending,
-                sign,
-                direct,
-                leave: booked.is_none().then_some(left.as_slice()),
-                negligible: self.negligible,
-                mean_radiosity: self.mean_radiosity,
-                abort: if booked.is_none() {
-                    inputs.abort
-                } else {
-                    &finish
-                },
-            };
-            let result = device.shoot(&shot);
-            self.report.passes += 1;
-            self.end_pass(root, sending);
-            let Some(this) = result? else {
-                return Ok(None);
-            };
-            booked = Some(match booked {
-                None => this,
-                Some(first) => first.then(this),
-            });
         }
-        let Some(booked) = booked else {
-            return Ok(None);
-        };
+        let booked = device.book()?;
         let gather_end = Instant::now();
-        self.keep_record(root, &plan);
-        plan.leave(self, root);
+        self.keep_record(&members);
+        let (mut power, mut emitted, mut elements) = (DVec3::ZERO, DVec3::ZERO, 0);
+        for m in &members {
+            power += m.plan.power;
+            emitted += self.take_emission(scene, mesh, m.root);
+            elements += self.hierarchy.tree.items_of(m.root).len() as u64;
+            m.plan.leave(self, m.root);
+        }
         if booked.shooter_power.len() != self.shooter_power.len() {
             return Err(DeviceError(format!(
                 "the device reported {} shooters' powers, not {}",
@@ -193,7 +191,7 @@ impl AdaptiveShooting {
         stats.rays_cast += booked.rays;
         stats.subsources += elements;
         stats.gather_time += gather_end - gather_start;
-        self.report.device_shots += 1;
+        self.report.device_shots += members.len() as u64;
         self.report.upload_time += booked.upload_time;
         self.report.kernel_time += booked.kernel_time;
         self.report.readback_time += booked.readback_time;
@@ -206,13 +204,16 @@ impl AdaptiveShooting {
         if let Some(resident) = self.resident.as_mut() {
             resident.unshot_power = booked.unshot_power;
             resident.unshot_magnitude = booked.unshot_magnitude;
-            resident.since_checkpoint += 1;
-            resident.next = booked.next_shooter;
+            resident.since_checkpoint += members.len() as u64;
+            resident.next = booked.next_round;
+            resident.host_current = false;
         }
         Ok(Some(Shot {
             irradiance: Vec::new(),
+            direct: Vec::new(),
             power,
             emitted,
+            shooters: members.len() as u64,
             selection_time: gather_start - start,
             booked: Some(booked.received),
         }))

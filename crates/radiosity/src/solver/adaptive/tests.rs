@@ -39,6 +39,12 @@ struct StandTransfers {
     irradiance: Vec<DVec3>,
     direct: Vec<DVec3>,
     unshot: Vec<DVec3>,
+    /// The round sent so far: its irradiance, direct part and what its
+    /// shooters' elements are left with.
+    round: Vec<DVec3>,
+    round_direct: Vec<DVec3>,
+    leaves: Vec<(u32, DVec3)>,
+    counters: super::Counters,
 }
 
 impl Backend for Stand {
@@ -75,6 +81,10 @@ impl Backend for Stand {
             irradiance: Vec::new(),
             direct: Vec::new(),
             unshot: Vec::new(),
+            round: vec![DVec3::ZERO; solve.receivers.len()],
+            round_direct: vec![DVec3::ZERO; solve.receivers.len()],
+            leaves: Vec::new(),
+            counters: super::Counters::default(),
         }))
     }
 }
@@ -93,14 +103,11 @@ impl AdaptiveTransfers for StandTransfers {
         Ok(())
     }
 
-    fn unshot(&mut self, first: u32, last: u32) -> Result<Vec<DVec3>, DeviceError> {
-        Ok(self.hierarchy.tree.items[first as usize..last as usize]
-            .iter()
-            .map(|&e| self.unshot[e as usize])
-            .collect())
+    fn unshot(&mut self, elements: &[u32]) -> Result<Vec<DVec3>, DeviceError> {
+        Ok(elements.iter().map(|&e| self.unshot[e as usize]).collect())
     }
 
-    fn shoot(&mut self, shot: &AdaptiveShot<'_>) -> Result<Option<Booked>, DeviceError> {
+    fn send(&mut self, shot: &AdaptiveShot<'_>) -> Result<bool, DeviceError> {
         self.shots += 1;
         if self.fail_at == Some(self.shots) {
             return Err(DeviceError("device lost".into()));
@@ -142,24 +149,44 @@ impl AdaptiveTransfers for StandTransfers {
         for (&r, e) in tree.items.iter().zip(in_tree_order) {
             gathered[r as usize] = e;
         }
-        // The book-keeping the host does for the CPU, here on the
-        // "device".
-        for e in &mut gathered {
-            *e *= shot.sign;
+        // The round's sums, booked when it ends.
+        for ((round, direct), e) in self
+            .round
+            .iter_mut()
+            .zip(&mut self.round_direct)
+            .zip(&gathered)
+        {
+            let e = *e * shot.sign;
+            *round += e;
+            *direct += e * shot.direct;
         }
-        for ((total, direct), e) in self
+        if let Some(leave) = shot.leave {
+            let items = self.hierarchy.tree.items_of(shot.root);
+            self.leaves
+                .extend(items.iter().copied().zip(leave.iter().copied()));
+        }
+        self.counters += counters;
+        Ok(true)
+    }
+
+    /// The book-keeping the host does for the CPU, here on the "device".
+    fn book(&mut self) -> Result<Booked, DeviceError> {
+        for (e, l) in self.leaves.drain(..) {
+            self.unshot[e as usize] = l;
+        }
+        let gathered = std::mem::replace(&mut self.round, vec![DVec3::ZERO; self.receivers.len()]);
+        let direct = std::mem::replace(
+            &mut self.round_direct,
+            vec![DVec3::ZERO; self.receivers.len()],
+        );
+        for ((total, d), (e, g)) in self
             .irradiance
             .iter_mut()
             .zip(&mut self.direct)
-            .zip(&gathered)
+            .zip(gathered.iter().zip(&direct))
         {
             *total += *e;
-            *direct += *e * shot.direct;
-        }
-        if let Some(leave) = shot.leave {
-            for (&e, l) in self.hierarchy.tree.items_of(shot.root).iter().zip(leave) {
-                self.unshot[e as usize] = *l;
-            }
+            *d += *g;
         }
         let vertices = self.mesh.vertices.len();
         let unshot = &mut self.unshot;
@@ -180,7 +207,8 @@ impl AdaptiveTransfers for StandTransfers {
         {
             shooter_power[*s as usize] += luminance(*u).abs() * e.area;
         }
-        Ok(Some(Booked {
+        let counters = std::mem::take(&mut self.counters);
+        Ok(Booked {
             received,
             unshot_power: self
                 .mesh
@@ -203,7 +231,7 @@ impl AdaptiveTransfers for StandTransfers {
             node_visits: counters.node_visits,
             element_sources: counters.element_sources,
             ..Booked::default()
-        }))
+        })
     }
 
     fn state(

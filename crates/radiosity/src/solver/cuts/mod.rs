@@ -302,13 +302,12 @@ impl Shooter for CutShooting {
                 .enumerate()
                 .map(|(i, e)| (i, e.surface, e.area)),
         );
-        Some(Shot {
+        Some(Shot::single(
             irradiance,
             power,
             emitted,
-            selection_time: gather_start - start,
-            booked: None,
-        })
+            gather_start - start,
+        ))
     }
 
     fn receive(
