@@ -115,7 +115,12 @@ fn scale_on_the_builtin_scenes_measures_every_case() {
     );
     for case in &cases {
         let run = case.result.as_ref().unwrap();
-        assert!(run.gather_seconds <= run.solve_seconds, "{case:?}");
+        // The gathering counts the coarse pass of receiver refinement too,
+        // which the mesh's time holds.
+        assert!(
+            run.gather_seconds <= run.solve_seconds + run.mesh_seconds,
+            "{case:?}"
+        );
         let default = scenes.iter().any(|s| {
             s.spec.name == case.scene && configurations(s, true)[0].name == case.configuration
         });

@@ -539,11 +539,13 @@ fn refuses_other_hosts_and_origins() {
 /// precision, and a client connecting after the end gets the same state.
 /// The solve is held before its first shot, at shot 300 (unshot power
 /// below 2%) and at each of the three after: what the client is sent there
-/// is the same on any machine.
+/// is the same on any machine. One shooter a round (`--round 1`), so that
+/// the holds fall on those very counts (a round of several shooters goes
+/// past them together).
 #[test]
 fn live_frames_decode_to_the_solvers_colours() {
     let mut args = LONG_SOLVE.to_vec();
-    args.extend(["--pause-at", "0,300,301,302,303"]);
+    args.extend(["--pause-at", "0,300,301,302,303", "--round", "1"]);
     let served = Served::start(&args);
     let mut live = served.websocket();
     let (scene, mesh) = live.opening();

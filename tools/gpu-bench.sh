@@ -15,7 +15,8 @@
 # Usage: tools/gpu-bench.sh [CPU_TIME_LIMIT_SECONDS]   (default 60)
 # Environment: GPU_LIMIT (the GPU runs' --time-limit, default 90),
 # REPEAT (GPU runs of each scene, default 3, the later ones only where
-# the first took under 30 s), SKIP_RAYS=1, SKIP_CPU=1.
+# the first took under 30 s), SKIP_RAYS=1, SKIP_CPU=1, SKIP_ROUND1=1 (the
+# Sponza run of one shooter a round, --round 1).
 set -u
 OUT="${OUT:-./gpu-bench-out}"
 CPU_LIMIT="${1:-60}"
@@ -26,6 +27,8 @@ REPEAT="${REPEAT:-3}"
 
 run sponza-gpu-1 gpu "$GPU_LIMIT" "$SPONZA"
 run conference-gpu-1 gpu "$GPU_LIMIT" "$CONFERENCE"
+# One shooter a round, as before rounds: what rounds save on this GPU.
+[ "${SKIP_ROUND1:-0}" != 1 ] && run sponza-gpu-round1 gpu "$GPU_LIMIT" "$SPONZA" --round 1
 if [ "${SKIP_CPU:-0}" != 1 ]; then
   run sponza-cpu cpu "$CPU_LIMIT" "$SPONZA"
   run conference-cpu cpu "$CPU_LIMIT" "$CONFERENCE"

@@ -87,7 +87,7 @@ idle = float(open(os.path.join(out, "idle.gpumem")).read().strip() or 0)
 keys = ["total_seconds", "load_seconds", "mesh_seconds", "solve_seconds", "accel_build_seconds",
         "write_seconds", "final_gather_seconds", "device_upload_seconds",
         "device_kernel_seconds", "device_readback_seconds"]
-print("run | device | stop | unshot | shots: coarse+all (coarse stop) | dev shots | " + " | ".join(k.replace("_seconds", "") for k in keys)
+print("run | device | stop | unshot | shots: coarse+all (coarse stop) | rounds | dev shots | " + " | ".join(k.replace("_seconds", "") for k in keys)
       + " | kernel ms/shot | rest of solve ms/shot | device walk/items/join/book s | passes | host waits | checkpoints"
       + " | submissions | MB read | critical/mean visits | peak host MiB | peak GPU MiB (over idle)")
 for path in sorted(glob.glob(os.path.join(out, "*.json"))):
@@ -107,7 +107,7 @@ for path in sorted(glob.glob(os.path.join(out, "*.json"))):
     rest = 1000 * (s.get("solve_seconds", 0) - s.get("device_kernel_seconds", 0)
                    - s.get("device_upload_seconds", 0) - s.get("device_readback_seconds", 0)) / shots
     print(f"{name} | {s.get('device')} | {s.get('stop_reason')} | {s.get('unshot_fraction'):.4f} | "
-          f"{s.get('coarse_shots')}+{s.get('shots')} ({s.get('coarse_stop_reason')}) | {s.get('device_shots')} | "
+          f"{s.get('coarse_shots')}+{s.get('shots')} ({s.get('coarse_stop_reason')}) | {s.get('rounds', '-')} | {s.get('device_shots')} | "
           + " | ".join(f"{s.get(k, float('nan')):.2f}" for k in keys)
           + f" | {kernel:.2f} | {rest:.2f} | {stages} | {s.get('device_passes', '-')} | {s.get('device_host_waits', '-')}"
           + f" | {s.get('device_checkpoints', '-')} | {s.get('device_submissions', '-')}"

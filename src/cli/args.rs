@@ -73,8 +73,9 @@ pub struct ServeArgs {
     pub host: IpAddr,
 
     /// Pause the solve by itself once it has made this many shots (0:
-    /// before the first), as the pause button does; a list (10,100,1000)
-    /// pauses at each. Resume goes on to the next.
+    /// before the first), as the pause button does, at the end of the
+    /// round that reaches it (`--round`); a list (10,100,1000) pauses at
+    /// each. Resume goes on to the next.
     #[arg(long, value_name = "SHOTS", value_delimiter = ',')]
     pub pause_at: Vec<u64>,
 }

@@ -1,8 +1,10 @@
 //! Each WGSL rule against its Rust twin, through a small test kernel on the
 //! device: `polygon.wgsl` (the clipper, Newell's normal, the centroid and
-//! the analytic factor of the paper's equation (2)) and `placement.wgsl`'s
+//! the analytic factor of the paper's equation (2)), `placement.wgsl`'s
 //! node placement and straddling (a node in front, behind or across a
-//! receiver's tangent plane, in front within GRAZE). The inputs are random
+//! receiver's tangent plane, in front within GRAZE) and `factors.wgsl`'s
+//! point factor of a bin (the point-to-disk transfer of Wallace, Elmquist
+//! & Haines 1989 corrected for the bin's extent). The inputs are random
 //! triangles and quads around a receiver, with the cases that break naive
 //! code drawn on purpose: corners on the receiver's tangent plane and
 //! polygons crossing it (grazing), polygons in the plane (coplanar), behind
@@ -529,4 +531,211 @@ fn the_placement_rules_agree_with_their_rust_twins() {
     assert!(compared > 7000, "{compared} of 8000 compared");
     assert!(across > 500, "{across} across");
     assert!(grazing_front > 200, "{grazing_front} in front within GRAZE");
+}
+
+/// The point factor test kernel: each (bin, receiver) through
+/// `point_factor` (`gather/factors.wgsl`), the bin made in the kernel as
+/// the transfer module's struct.
+const POINT_FACTOR_KERNEL: &str = r"
+struct PointFactorCase {
+    centre: vec4<f32>,
+    normal: vec4<f32>,
+    diagonal: vec4<f32>,
+    off_diagonal: vec4<f32>,
+    from_origin: vec4<f32>,
+    receiver_normal: vec4<f32>,
+}
+
+@group(0) @binding(64) var<storage, read> factor_cases: array<PointFactorCase>;
+@group(0) @binding(65) var<storage, read_write> factor_outs: array<f32>;
+
+@compute @workgroup_size(WORKGROUP)
+fn point_factor_twins(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&factor_cases)) {
+        return;
+    }
+    let c = factor_cases[i];
+    var b: Bin;
+    b.centre = c.centre.xyz;
+    b.normal = c.normal.xyz;
+    b.length = c.normal.w;
+    b.diagonal = c.diagonal.xyz;
+    b.off_diagonal = c.off_diagonal.xyz;
+    factor_outs[i] = point_factor(b, c.from_origin.xyz, c.receiver_normal.xyz);
+}
+";
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct PointFactorCase {
+    centre: [f32; 4],
+    /// The bin's mean normal, its length in `w`.
+    normal: [f32; 4],
+    diagonal: [f32; 4],
+    off_diagonal: [f32; 4],
+    from_origin: [f32; 4],
+    receiver_normal: [f32; 4],
+}
+
+/// A bin's point factor, the second-order expansion of its extent
+/// (`hierarchy::sources::point_factor`), on the device against its Rust
+/// twin on 8,000 random bins (triangles and quads up to 2 m across, flat
+/// or with their normals spread) and receivers: far, near (the expansion
+/// clamped), grazing the bin's plane or the receiver's own, and behind
+/// either. The Rust twin reads the device's `f32` inputs in `f64`. The
+/// factor's round-off is that of `f32` in its terms, each at most the
+/// bin's `length a b / (pi q^2)` or `length |C| / (pi q^2)` (`a`, `b` the
+/// distances off the two planes, `q` the squared distance, `|C|` the
+/// covariance's largest entry, six of them summed), times the cosines'
+/// conditioning `1 + |d| / a + |d| / b` (an `f32` round-off of the offset
+/// `d` moves `a` by `|d|` round-offs): the two agree within 8 `f32`
+/// round-offs of that scale. Cases whose sign tests (in front of
+/// the bin, the receiver facing it) are within round-off of zero are left
+/// out: either answer is right there.
+#[test]
+fn the_point_factor_agrees_with_its_rust_twin() {
+    use radiosity::solver::hierarchy::sources::PointSource;
+    let Some(gpu) = gpu() else {
+        return;
+    };
+    let mut rng = Rng(0xfac_7025);
+    let mut cases = Vec::new();
+    let mut twins = Vec::new();
+    for _ in 0..8000 {
+        // A polygon about the node's centre, in its own plane.
+        let normal = rng.unit_vector();
+        let u = normal.any_orthonormal_vector();
+        let v = normal.cross(u);
+        let size = rng.range(0.01, 2.0);
+        let corners = 3 + rng.below(2);
+        let centre = rng.point_in(DVec3::splat(-1.0), DVec3::splat(1.0));
+        let polygon: Vec<DVec3> = (0..corners)
+            .map(|k| {
+                let angle =
+                    std::f64::consts::TAU * (k as f64 + rng.range(0.0, 0.6)) / corners as f64;
+                centre + (u * angle.cos() + v * angle.sin()) * size * rng.range(0.3, 1.0)
+            })
+            .collect();
+        let Some((mut source, _)) = PointSource::of_polygon(&polygon, normal) else {
+            continue;
+        };
+        // A bin of spread normals is shorter than one.
+        source.length = if rng.chance(0.5) {
+            1.0
+        } else {
+            rng.range(0.3, 1.0)
+        };
+        // The receiver: far, near, grazing either plane, or anywhere.
+        let reach = size
+            * match rng.below(3) {
+                0 => rng.range(5.0, 50.0),
+                1 => rng.range(0.3, 3.0),
+                _ => rng.range(0.01, 10.0),
+            };
+        let direction = match rng.below(4) {
+            // Grazing the bin's plane.
+            0 => {
+                let along = rng.unit_vector();
+                (along - normal * normal.dot(along) + normal * rng.range(-0.02, 0.05)).normalize()
+            }
+            _ => rng.unit_vector(),
+        };
+        let point = source.centre + direction * reach;
+        let facing = (source.centre - point).normalize();
+        let receiver_normal = match rng.below(4) {
+            // Grazing its own plane: the bin near the horizon.
+            0 => {
+                let side = facing.any_orthonormal_vector();
+                (side + facing * rng.range(-0.02, 0.05)).normalize()
+            }
+            1 => (facing + rng.unit_vector() * 0.5).normalize(),
+            _ => rng.unit_vector(),
+        };
+        let c = source.covariance;
+        let case = PointFactorCase {
+            centre: f32s(source.centre),
+            normal: {
+                let mut n = f32s(source.normal);
+                n[3] = source.length as f32;
+                n
+            },
+            diagonal: [c.x_axis.x as f32, c.y_axis.y as f32, c.z_axis.z as f32, 0.0],
+            off_diagonal: [c.y_axis.x as f32, c.z_axis.x as f32, c.z_axis.y as f32, 0.0],
+            from_origin: f32s(point),
+            receiver_normal: f32s(receiver_normal),
+        };
+        // The Rust twin of the very values the device reads.
+        let covariance = glam::DMat3::from_cols(
+            DVec3::new(
+                f64::from(case.diagonal[0]),
+                f64::from(case.off_diagonal[0]),
+                f64::from(case.off_diagonal[1]),
+            ),
+            DVec3::new(
+                f64::from(case.off_diagonal[0]),
+                f64::from(case.diagonal[1]),
+                f64::from(case.off_diagonal[2]),
+            ),
+            DVec3::new(
+                f64::from(case.off_diagonal[1]),
+                f64::from(case.off_diagonal[2]),
+                f64::from(case.diagonal[2]),
+            ),
+        );
+        let s = read(case.normal);
+        let twin = PointSource {
+            centre: read(case.centre),
+            normal: s,
+            length: f64::from(case.normal[3]),
+            covariance,
+            spread: covariance * s,
+            trace: covariance.x_axis.x + covariance.y_axis.y + covariance.z_axis.z,
+        };
+        cases.push(case);
+        twins.push((twin, read(case.from_origin), read(case.receiver_normal)));
+    }
+    let source = radiosity_gpu::shaders::gather_source() + POINT_FACTOR_KERNEL;
+    let outs: Vec<f32> = run_kernel(&gpu, &source, "point_factor_twins", (64, 65), &cases);
+    let (mut compared, mut lit, mut clamped, mut worst) = (0, 0, 0, 0.0_f64);
+    for ((twin, point, normal), &out) in twins.iter().zip(&outs) {
+        let d = *point - twin.centre;
+        let q = d.length_squared();
+        let (a, b) = (twin.normal.dot(d), normal.dot(d));
+        let length = d.length();
+        if a.abs() <= 64.0 * EPS * length || b.abs() <= 64.0 * EPS * length {
+            continue;
+        }
+        let expected = twin.factor(DVec3::ZERO, *point, *normal);
+        let c = twin.covariance;
+        let largest = c
+            .x_axis
+            .abs()
+            .max(c.y_axis.abs())
+            .max(c.z_axis.abs())
+            .max_element();
+        // The cosines' conditioning: an f32 round-off of `d` moves `a` by
+        // `|d|` round-offs, which is `|d| / a` of it.
+        let conditioning = 1.0 + length / a.abs() + length / b.abs();
+        let scale = twin.length * ((a * b).abs() + 6.0 * largest) / (std::f64::consts::PI * q * q)
+            * conditioning;
+        let error = (f64::from(out) - expected).abs() / (EPS * scale);
+        assert!(
+            error <= 8.0,
+            "point factor {out} against the Rust twin's {expected}: {error} round-offs of \
+             {scale} (bin {twin:?}, receiver at {point} facing {normal})"
+        );
+        worst = worst.max(error);
+        compared += 1;
+        lit += usize::from(expected != 0.0);
+        // The expansion clamped: near, or seen almost edge-on.
+        let terms = (twin.covariance * d).length() / (a * b).abs().max(f64::MIN_POSITIVE);
+        clamped += usize::from(expected != 0.0 && terms > 0.5);
+    }
+    println!(
+        "{compared} compared, {lit} lit, {clamped} near or edge-on; worst {worst:.1} round-offs"
+    );
+    assert!(compared > 7000, "{compared} compared");
+    assert!(lit > 1000, "{lit} lit");
+    assert!(clamped > 100, "{clamped} near or edge-on");
 }

@@ -39,7 +39,8 @@ fn relative(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
 
-/// After every shot, per channel: emitted = unshot + absorbed + escaped,
+/// After every shot (one shooter a round, and in the default's rounds),
+/// per channel: emitted = unshot + absorbed + escaped,
 /// to 1e-9 of the emitted power (the sums are of thousands of terms, each
 /// exact to round-off). In the closed furnace almost nothing may escape:
 /// what does is the difference between the exact transfer and its estimate
@@ -48,9 +49,15 @@ fn relative(a: f64, b: f64) -> f64 {
 fn energy_is_conserved_to_round_off() {
     let furnace = common::furnace(1.0, 0.5, 1.0);
     let cornell = scene::load("cornell").unwrap();
-    for (name, scene, shots, closed) in [
-        ("furnace", &furnace, 300, true),
-        ("cornell", &cornell, 200, false),
+    let default_round = match Settings::adaptive().method {
+        MethodSettings::Adaptive(a) => a.round,
+        _ => unreachable!("the default method is adaptive shooting"),
+    };
+    for (name, scene, shots, closed, round) in [
+        ("furnace", &furnace, 300, true, 1.0),
+        ("cornell", &cornell, 200, false, 1.0),
+        ("furnace in rounds", &furnace, 300, true, default_round),
+        ("cornell in rounds", &cornell, 200, false, default_round),
     ] {
         let sizes = scene.default_mesh_sizes();
         let (settings, mesh) = if closed {
@@ -58,11 +65,14 @@ fn energy_is_conserved_to_round_off() {
         } else {
             adaptive(scene, sizes.patch_size, sizes.element_size)
         };
-        let settings = Settings {
+        let mut settings = Settings {
             max_shots: Some(shots),
             converge: 1e-9,
             ..settings
         };
+        if let MethodSettings::Adaptive(a) = &mut settings.method {
+            a.round = round;
+        }
         let mut solver = Solver::new(scene, &mesh, settings);
         let mut checked = 0;
         let reason = solver.run(|s| {
@@ -80,7 +90,17 @@ fn energy_is_conserved_to_round_off() {
             checked += 1;
             Flow::Continue
         });
-        assert!(checked > 50, "{name}: {checked} shots, {reason:?}");
+        // Checked after every round: one shooter each, or several.
+        assert_eq!(checked, solver.stats().rounds, "{name}");
+        assert_eq!(solver.stats().shots, shots, "{name}: {reason:?}");
+        if round == 1.0 {
+            assert!(checked > 50, "{name}: {checked} shots, {reason:?}");
+        } else {
+            assert!(
+                checked > 3 && checked < shots / 4,
+                "{name}: {checked} rounds"
+            );
+        }
         let e = solver.energy();
         if closed {
             assert!(

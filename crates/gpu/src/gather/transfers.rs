@@ -3,11 +3,14 @@
 //! Haines 1989, section 4, as `radiosity::solver::adaptive` makes it on the
 //! CPU): the scene, the element tree, the elements and the receivers go to
 //! the device once; so do each receiver's irradiance and each element's
-//! unshot radiosity, which then stay there. A shot uploads its sources,
-//! runs the walk (`gather/walk.wgsl`) and the book-keeping (`book.wgsl`) in one
-//! submission, and reads back the ledger's sums per workgroup (added on the
-//! host in `f64`, in a fixed order), the shooters' powers and the walks'
-//! counts; the state comes back only when asked ([`AdaptiveTransfers::state`]).
+//! unshot radiosity, which then stay there. Each pass of a round's shooters
+//! uploads its sources and runs the walk (`gather/walk.wgsl`), adding what
+//! the receivers gathered to the round's sums (`book.wgsl`), submitted
+//! without waiting; the round's end runs the book-keeping and the choice of
+//! the next round in one submission and reads back the ledger's sums per
+//! workgroup (added on the host in `f64`, in a fixed order), the shooters'
+//! powers, the walks' counts and the next round's unshot light; the state
+//! comes back only when asked ([`AdaptiveTransfers::state`]).
 
 use std::sync::{Arc, Mutex};
 use std::time::Instant;

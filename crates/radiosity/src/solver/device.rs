@@ -1,16 +1,18 @@
 //! The seam between a method and the device its shots run on, beyond the
 //! paper (whose shooting loop, Wallace, Elmquist & Haines 1989, ran on the
 //! CPU). The loop's rules (stopping, the ledger, the lights first), the
-//! choice of shooter and the preparation of its sources stay on the host,
-//! written once for both; a [`Backend`] (the GPU back end in the
-//! `radiosity-gpu` crate) keeps the state that grows with the scene, each
-//! receiver's irradiance and each element's unshot radiosity, and makes
-//! each shot's work there: every receiver's walk of the shooting node's
-//! tree, the book-keeping of design.md section 2 step 5, the sums of the
-//! ledger. A shot sends the device its sources and reads back only the
-//! ledger's sums and the shooters' powers; the whole state comes back at
-//! checkpoints (a few times a second, and at the end). The CPU is the
-//! oracle the device is tested against.
+//! choice of a round's shooters and the preparation of their sources stay
+//! on the host, written once for both; a [`Backend`] (the GPU back end in
+//! the `radiosity-gpu` crate) keeps the state that grows with the scene,
+//! each receiver's irradiance and each element's unshot radiosity, and
+//! makes each round's work there: every receiver's walk of each shooting
+//! node's tree, the book-keeping of design.md section 2 step 5 once a
+//! round, the sums of the ledger. A round sends the device its shooters'
+//! sources, pass by pass ([`AdaptiveTransfers::send`]), and reads back
+//! only the ledger's sums, the shooters' powers and the next round as the
+//! device chose it ([`AdaptiveTransfers::book`]); the whole state comes
+//! back at checkpoints (a few times a second, and at the end). The CPU is
+//! the oracle the device is tested against.
 //!
 //! A solve names its device in [`super::Settings::device`]; the CPU when it
 //! names none. A device that fails, at the start, in a shot or at a
@@ -116,9 +118,10 @@ pub struct AdaptiveSolve<'a> {
 
 /// Adaptive shooting on a device that keeps the solve's state: each
 /// receiver's irradiance and each element's unshot radiosity stay there
-/// from shot to shot. The host chooses each shooter from the powers the
-/// device reports and prepares its sources; the device gathers, books and
-/// reports the ledger's sums; the state comes back only at checkpoints.
+/// from round to round. The host chooses each round's shooters from the
+/// powers the device reports and prepares their sources; the device
+/// gathers, books and reports the ledger's sums; the state comes back only
+/// at checkpoints.
 pub trait AdaptiveTransfers: Send {
     /// Takes over the solve's state: each receiver's irradiance so far (in
     /// the solver's order), its direct part (zero where `direct` is

@@ -12,7 +12,9 @@
 //!   ([`super::Energy`]).
 //! * **What shoots** ([`hierarchy`]): the shooter (a node of the element
 //!   tree no larger than the patch size) with the most unshot power, as in
-//!   Wallace et al. (1989) and Cohen et al. (1988).
+//!   Wallace et al. (1989) and Cohen et al. (1988), and with it, in one
+//!   round, every shooter within [`AdaptiveSettings::round`] of its power
+//!   (`round.rs`).
 //! * **Receivers one by one**: the receivers' tree only prunes groups no
 //!   point of the shooter can reach and spreads the work over threads.
 //!   Letting a group far from a dim source share one visibility estimate

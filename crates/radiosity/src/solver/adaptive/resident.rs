@@ -1,12 +1,14 @@
 //! Adaptive shooting ([`super`]) with its state on a device, beyond the
 //! paper (whose solver kept everything on the CPU): from its first shot of
 //! a surface the device holds each receiver's irradiance and each
-//! element's unshot radiosity ([`crate::solver::device`]). Each shot the
-//! host chooses the shooter from the powers the device last reported (the
-//! CPU's rule, written once), reads back that shooter's elements' unshot
-//! radiosity, prepares its sources as the CPU does, and lets the device
-//! gather and book; the whole state comes back at checkpoints. A device
-//! that fails leaves the method at its last checkpoint, on the CPU.
+//! element's unshot radiosity ([`crate::solver::device`]). Each round the
+//! host chooses the shooters from the powers the device last reported (the
+//! CPU's rule, written once: `round.rs`), takes their elements' unshot
+//! radiosity from what the device sent back with the last round (it chose
+//! the same round) or asks for it, prepares their sources as the CPU does,
+//! and lets the device gather each and book the round; the whole state
+//! comes back at checkpoints. A device that fails leaves the method at its
+//! last checkpoint, on the CPU.
 
 use std::time::Instant;
 
@@ -39,7 +41,7 @@ pub(super) struct Resident {
 }
 
 impl AdaptiveShooting {
-    /// One shot on the device; `None` when abandoned, or when the device
+    /// One round on the device; `None` when abandoned, or when the device
     /// failed (then [`AdaptiveShooting::rolled_back`] is set and the
     /// method is back at its last checkpoint, on the CPU).
     pub(super) fn shoot_on_device(
