@@ -12,29 +12,18 @@ mod common;
 
 use common::assert_ledger_balances;
 use radiosity::luminance;
-use radiosity::mesh::{Mesh, MeshSettings};
+use radiosity::mesh::Mesh;
 use radiosity::scene::{self, Scene};
 use radiosity::solver::{Flow, MethodSettings, Settings, Solver};
 
-/// The default settings with overshooting `w`, solved to `converge`, on
-/// the base mesh (no refinement: two solves then share their vertices).
+/// The default settings with `--overshoot` w, solved to `converge`, on the
+/// base mesh.
 fn settings(w: f64, converge: f64) -> Settings {
-    let mut settings = Settings::adaptive();
-    let MethodSettings::Adaptive(adaptive) = &mut settings.method else {
-        panic!("the default method is adaptive shooting");
-    };
-    adaptive.overshoot = w;
-    settings.converge = converge;
-    settings.mesh.refine.refine_levels = 0;
-    settings
+    common::adaptive_on_base_mesh(converge, |a| a.overshoot = w)
 }
 
-fn sized(scene: &Scene, mut settings: Settings) -> Settings {
-    settings.mesh = MeshSettings {
-        refine: settings.mesh.refine,
-        ..settings.mesh.sized_for(scene)
-    };
-    settings
+fn sized(scene: &Scene, settings: Settings) -> Settings {
+    common::sized_for(scene, settings)
 }
 
 /// Solves, checking the ledger after every shot and that the stopping

@@ -13,29 +13,18 @@ mod common;
 
 use common::{assert_ledger_balances, quad};
 use glam::DVec3;
-use radiosity::mesh::{Mesh, MeshSettings};
+use radiosity::mesh::Mesh;
 use radiosity::scene::{self, Scene};
 use radiosity::solver::{Flow, MethodSettings, Settings, Solver, StopReason};
 
-/// The default settings with rounds of `fraction`, solved to `converge`,
-/// on the base mesh (no refinement: two solves then share their vertices).
+/// The default settings with `--round` fraction, solved to `converge`, on the
+/// base mesh.
 fn settings(fraction: f64, converge: f64) -> Settings {
-    let mut settings = Settings::adaptive();
-    let MethodSettings::Adaptive(adaptive) = &mut settings.method else {
-        panic!("the default method is adaptive shooting");
-    };
-    adaptive.round = fraction;
-    settings.converge = converge;
-    settings.mesh.refine.refine_levels = 0;
-    settings
+    common::adaptive_on_base_mesh(converge, |a| a.round = fraction)
 }
 
-fn sized(scene: &Scene, mut settings: Settings) -> Settings {
-    settings.mesh = MeshSettings {
-        refine: settings.mesh.refine,
-        ..settings.mesh.sized_for(scene)
-    };
-    settings
+fn sized(scene: &Scene, settings: Settings) -> Settings {
+    common::sized_for(scene, settings)
 }
 
 /// What a solve gave and cost.

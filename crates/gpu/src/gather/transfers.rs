@@ -38,6 +38,17 @@ use crate::shaders::counter::{self, COUNTERS};
 const NEXT_BYTES: u64 = 16;
 use crate::shaders::{BOOK_WORKGROUP, GatherBinding as G};
 
+/// `f`'s result, and the first validation or memory error `gpu` reported
+/// while it ran.
+fn caught<T>(gpu: &Gpu, f: impl FnOnce() -> T) -> (T, Option<wgpu::Error>) {
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let result = f();
+    let out_of_memory = pollster::block_on(memory.pop());
+    let invalid = pollster::block_on(scope.pop());
+    (result, out_of_memory.or(invalid))
+}
+
 /// A solve on the GPU.
 pub(super) struct GpuTransfers {
     gpu: Arc<Gpu>,
@@ -335,21 +346,24 @@ impl GpuTransfers {
 
     /// `f`, with the device's validation and memory errors caught.
     fn scoped<T>(&self, f: impl FnOnce() -> Result<T, DeviceError>) -> Result<T, DeviceError> {
-        let scope = self
-            .gpu
-            .device
-            .push_error_scope(wgpu::ErrorFilter::Validation);
-        let memory = self
-            .gpu
-            .device
-            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let result = f();
-        let out_of_memory = pollster::block_on(memory.pop());
-        let invalid = pollster::block_on(scope.pop());
-        if let Some(e) = out_of_memory.or(invalid) {
-            return Err(self.failed(e));
+        let (result, error) = caught(&self.gpu, f);
+        match error {
+            Some(e) => Err(self.failed(e)),
+            None => result,
         }
-        result
+    }
+
+    /// [`Self::scoped`] for `f` that changes the solve.
+    fn scoped_mut<T>(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<T, DeviceError>,
+    ) -> Result<T, DeviceError> {
+        let gpu = self.gpu.clone();
+        let (result, error) = caught(&gpu, || f(self));
+        match error {
+            Some(e) => Err(self.failed(e)),
+            None => result,
+        }
     }
 
     fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
@@ -939,39 +953,11 @@ impl AdaptiveTransfers for GpuTransfers {
         if self.order.is_empty() || shot.sources.nodes.is_empty() {
             return Err(DeviceError("a shot with no receivers or no sources".into()));
         }
-        let scope = self
-            .gpu
-            .device
-            .push_error_scope(wgpu::ErrorFilter::Validation);
-        let memory = self
-            .gpu
-            .device
-            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let result = self.pass(shot);
-        let out_of_memory = pollster::block_on(memory.pop());
-        let invalid = pollster::block_on(scope.pop());
-        if let Some(e) = out_of_memory.or(invalid) {
-            return Err(self.failed(e));
-        }
-        result
+        self.scoped_mut(|t| t.pass(shot))
     }
 
     fn book(&mut self) -> Result<Booked, DeviceError> {
-        let scope = self
-            .gpu
-            .device
-            .push_error_scope(wgpu::ErrorFilter::Validation);
-        let memory = self
-            .gpu
-            .device
-            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let result = self.book_round();
-        let out_of_memory = pollster::block_on(memory.pop());
-        let invalid = pollster::block_on(scope.pop());
-        if let Some(e) = out_of_memory.or(invalid) {
-            return Err(self.failed(e));
-        }
-        result
+        self.scoped_mut(Self::book_round)
     }
 
     fn state(

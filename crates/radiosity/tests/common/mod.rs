@@ -210,3 +210,32 @@ pub fn vertex_points(mesh: &radiosity::mesh::Mesh) -> Vec<radiosity::final_gathe
         })
         .collect()
 }
+
+/// The default settings with adaptive shooting's own changed by `change`,
+/// solved to `converge`, on the base mesh (no refinement: two solves then
+/// share their vertices).
+pub fn adaptive_on_base_mesh(
+    converge: f64,
+    change: impl FnOnce(&mut radiosity::solver::adaptive::AdaptiveSettings),
+) -> radiosity::solver::Settings {
+    let mut settings = radiosity::solver::Settings::adaptive();
+    let radiosity::solver::MethodSettings::Adaptive(adaptive) = &mut settings.method else {
+        panic!("the default method is adaptive shooting");
+    };
+    change(adaptive);
+    settings.converge = converge;
+    settings.mesh.refine.refine_levels = 0;
+    settings
+}
+
+/// `settings` with the mesh sizes `scene` suggests (its refinement kept).
+pub fn sized_for(
+    scene: &Scene,
+    mut settings: radiosity::solver::Settings,
+) -> radiosity::solver::Settings {
+    settings.mesh = radiosity::mesh::MeshSettings {
+        refine: settings.mesh.refine,
+        ..settings.mesh.sized_for(scene)
+    };
+    settings
+}

@@ -162,14 +162,7 @@ impl AdaptiveShooting {
         }
         let booked = device.book()?;
         let gather_end = Instant::now();
-        self.keep_record(&members);
-        let (mut power, mut emitted, mut elements) = (DVec3::ZERO, DVec3::ZERO, 0);
-        for m in &members {
-            power += m.plan.power;
-            emitted += self.take_emission(scene, mesh, m.root);
-            elements += self.hierarchy.tree.items_of(m.root).len() as u64;
-            m.plan.leave(self, m.root);
-        }
+        let (power, emitted, elements) = self.end_round(scene, mesh, &members);
         if booked.shooter_power.len() != self.shooter_power.len() {
             return Err(DeviceError(format!(
                 "the device reported {} shooters' powers, not {}",

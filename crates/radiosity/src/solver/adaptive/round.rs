@@ -25,6 +25,8 @@ use glam::DVec3;
 
 use super::overshoot::Plan;
 use super::{AdaptiveShooting, Counters};
+use crate::mesh::Mesh;
+use crate::scene::Scene;
 use crate::solver::Settings;
 use crate::solver::hierarchy::Tree;
 use crate::solver::method::{Shot, ShotInputs, Stats, add_direct, emission_share};
@@ -144,6 +146,27 @@ impl AdaptiveShooting {
             .collect()
     }
 
+    /// The round of `members` has shot (on the CPU or a device): it is
+    /// kept when shots are recorded, each shooter is left with what its
+    /// plan leaves it and its emission is taken. The power the round sent,
+    /// of it the emission's, and the elements shot.
+    pub(super) fn end_round(
+        &mut self,
+        scene: &Scene,
+        mesh: &Mesh,
+        members: &[Member],
+    ) -> (DVec3, DVec3, u64) {
+        self.keep_record(members);
+        let (mut power, mut emitted, mut elements) = (DVec3::ZERO, DVec3::ZERO, 0);
+        for m in members {
+            power += m.plan.power;
+            emitted += self.take_emission(scene, mesh, m.root);
+            elements += self.hierarchy.tree.items_of(m.root).len() as u64;
+            m.plan.leave(self, m.root);
+        }
+        (power, emitted, elements)
+    }
+
     /// A round on the CPU: each shooter's transfers in turn, summed; then
     /// each is left with what its plan leaves it and its emission is
     /// taken. `None` when abandoned, nothing changed.
@@ -164,14 +187,7 @@ impl AdaptiveShooting {
         let (irradiance, direct, counters) =
             self.send_round(inputs, &members, None, &negligible)?;
         let gather_end = Instant::now();
-        self.keep_record(&members);
-        let (mut power, mut emitted, mut elements) = (DVec3::ZERO, DVec3::ZERO, 0);
-        for m in &members {
-            power += m.plan.power;
-            emitted += self.take_emission(scene, mesh, m.root);
-            elements += self.hierarchy.tree.items_of(m.root).len() as u64;
-            m.plan.leave(self, m.root);
-        }
+        let (power, emitted, elements) = self.end_round(scene, mesh, &members);
         self.counters += counters;
         let cost = counters.cost;
         stats.pairs += cost.pairs;
