@@ -222,17 +222,25 @@ impl AdaptiveShooting {
         tree: Option<&Tree>,
         negligible: &[f64],
     ) -> Option<(Vec<DVec3>, Vec<DVec3>, Counters)> {
-        let mut irradiance = vec![DVec3::ZERO; inputs.receivers.len()];
+        let mut irradiance: Option<Vec<DVec3>> = None;
         let mut direct = Vec::new();
         let mut counters = Counters::default();
         for m in members {
             let (gathered, cost) = self.send(inputs, m.root, &m.plan, tree, negligible)?;
-            for (t, e) in irradiance.iter_mut().zip(&gathered) {
-                *t += *e;
-            }
             add_direct(&mut direct, &gathered, m.share);
             counters += cost;
+            match irradiance.as_mut() {
+                // The first shooter's light is the sum so far (a round of
+                // one costs no more than a shot).
+                None => irradiance = Some(gathered),
+                Some(total) => {
+                    for (t, e) in total.iter_mut().zip(&gathered) {
+                        *t += *e;
+                    }
+                }
+            }
         }
+        let irradiance = irradiance.unwrap_or_else(|| vec![DVec3::ZERO; inputs.receivers.len()]);
         Some((irradiance, direct, counters))
     }
 }
