@@ -627,8 +627,9 @@ impl<'a> Solver<'a> {
         self.stats = stats;
     }
 
-    /// One shot: the brightest shooter shoots its unshot radiosity to every
-    /// receiver, then the book-keeping of design.md step 5.
+    /// One step: a light's shot, or the method's round (the brightest
+    /// shooter and those shooting with it send their unshot radiosity to
+    /// every receiver), then the book-keeping of design.md step 5.
     pub fn shoot(&mut self) {
         self.shoot_unless(&Abort::default());
         self.checkpoint();
