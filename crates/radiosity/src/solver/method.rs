@@ -340,6 +340,28 @@ pub struct Stats {
     pub bookkeeping_time: Duration,
 }
 
+impl Stats {
+    /// Books a shot's gathering on the CPU: what its transfers `cost`, the
+    /// wall time `gathering` they took on every thread (what the rays and
+    /// factors did not take was the refinement's), and its `subsources`.
+    pub(crate) fn book_gathering(
+        &mut self,
+        cost: &super::hierarchy::transfer::Cost,
+        gathering: Duration,
+        subsources: u64,
+    ) {
+        self.pairs += cost.pairs;
+        self.rays_cast += cost.rays;
+        self.ray_time += cost.ray_time;
+        self.form_factor_time += cost.form_factor_time;
+        self.pretest_time += gathering
+            .mul_f64(rayon::current_num_threads() as f64)
+            .saturating_sub(cost.ray_time + cost.form_factor_time);
+        self.subsources += subsources;
+        self.gather_time += gathering;
+    }
+}
+
 /// What a shot reads.
 pub struct ShotInputs<'s> {
     /// The scene.

@@ -189,16 +189,7 @@ impl AdaptiveShooting {
         let gather_end = Instant::now();
         let (power, emitted, elements) = self.end_round(scene, mesh, &members);
         self.counters += counters;
-        let cost = counters.cost;
-        stats.pairs += cost.pairs;
-        stats.rays_cast += cost.rays;
-        stats.ray_time += cost.ray_time;
-        stats.form_factor_time += cost.form_factor_time;
-        stats.pretest_time += (gather_end - gather_start)
-            .mul_f64(rayon::current_num_threads() as f64)
-            .saturating_sub(cost.ray_time + cost.form_factor_time);
-        stats.subsources += elements;
-        stats.gather_time += gather_end - gather_start;
+        stats.book_gathering(&counters.cost, gather_end - gather_start, elements);
         Some(Shot {
             irradiance,
             direct,

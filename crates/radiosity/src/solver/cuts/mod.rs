@@ -283,15 +283,7 @@ impl Shooter for CutShooting {
         self.counters.splits += total.splits;
         self.counters.sampled += total.sampled;
         self.counters.kept = self.cuts.iter().map(|c| c.len() as u64).sum();
-        stats.pairs += cost.pairs;
-        stats.rays_cast += cost.rays;
-        stats.ray_time += cost.ray_time;
-        stats.form_factor_time += cost.form_factor_time;
-        stats.pretest_time += (gather_end - gather_start)
-            .mul_f64(rayon::current_num_threads() as f64)
-            .saturating_sub(cost.ray_time + cost.form_factor_time);
-        stats.subsources += shooting;
-        stats.gather_time += gather_end - gather_start;
+        stats.book_gathering(&cost, gather_end - gather_start, shooting);
         self.unshot.fill(DVec3::ZERO);
         let emitted = self.emission.take(
             inputs.scene,
