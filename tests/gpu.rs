@@ -14,8 +14,14 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn run(dir: &Path, args: &[&str]) -> Output {
+    run_cached(dir, args, &dir.join("cache"))
+}
+
+/// [`run`] with the compiled kernels kept in `cache`.
+fn run_cached(dir: &Path, args: &[&str], cache: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radiosity"))
         .env_remove("RADIOSITY_DEVICE")
+        .env("RADIOSITY_CACHE_DIR", cache)
         .current_dir(dir)
         .args(args)
         .output()
@@ -143,12 +149,15 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
     // ledger, which brings the next round's unshot light back with it),
     // the checkpoints counted apart (they come by the clock), but where a
     // round outgrew what came back; its critical path is at least its
-    // mean walk. The same on the CPU: rounds of several shooters.
+    // mean walk; bind groups and uniforms made once a solve (and again
+    // only when an upload outgrows its buffer), not every pass. The same
+    // on the CPU: rounds of several shooters.
     for key in [
         "device_host_waits",
         "device_checkpoints",
         "device_submissions",
         "device_bytes_read",
+        "device_objects_made",
     ] {
         assert_eq!(cpu[key], 0, "{key}");
     }
@@ -168,6 +177,11 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
         "{waits} host waits for {rounds} rounds"
     );
     assert!(count("device_submissions") >= passes);
+    let made = count("device_objects_made");
+    assert!(
+        made > 0 && 4 * made < passes,
+        "{made} objects made in {passes} passes"
+    );
     assert!(count("device_bytes_read") > 0);
     let mean = gpu["device_mean_visits"].as_f64().unwrap();
     assert!(
@@ -177,6 +191,8 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
     // Where a shot's time went, by the device's clock: none on the CPU;
     // on an adapter with timestamps, each stage's seconds.
     assert!(cpu["device_stage_seconds"].is_null());
+    assert!(cpu["device_pipeline_cache"].is_null());
+    assert_eq!(cpu["device_pipeline_seconds"], 0.0);
     if let Some(stages) = gpu["device_stage_seconds"].as_object() {
         let names: Vec<&str> = stages.keys().map(String::as_str).collect();
         assert_eq!(names, ["book", "items", "join", "walk"]);
@@ -207,6 +223,75 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
 
 /// The paper's presets and the settings only the CPU runs are refused on
 /// the GPU by name, before anything is loaded; `auto` runs them on the CPU.
+/// The compiled kernels are kept across runs where the adapter keeps a
+/// pipeline cache: the first run compiles and saves them, the next loads
+/// them and renders the same picture; a damaged file is compiled over and
+/// replaced, never given to the driver; `off` keeps nothing.
+#[test]
+fn the_kernels_are_kept_across_runs() {
+    if !adapter() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("kept");
+    let render = |name: &str, cache: &Path| {
+        let args = [
+            "render",
+            "cornell",
+            "--device",
+            "gpu",
+            "--max-shots",
+            "3",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--output",
+            &format!("{name}.png"),
+            "--stats",
+            &format!("{name}.json"),
+        ];
+        let out = run_cached(dir.path(), &args, cache);
+        assert!(out.status.success(), "{out:?}");
+        let s = stats(&dir.path().join(format!("{name}.json")));
+        assert!(s["device_pipeline_seconds"].as_f64().unwrap() > 0.0, "{s}");
+        s["device_pipeline_cache"].as_str().unwrap().to_string()
+    };
+    let files = || -> Vec<std::path::PathBuf> {
+        std::fs::read_dir(&cache)
+            .map(|d| d.map(|e| e.unwrap().path()).collect())
+            .unwrap_or_default()
+    };
+    let first = render("first", &cache);
+    if first == "unsupported" {
+        eprintln!("the adapter keeps no pipeline cache");
+        assert!(files().is_empty());
+        return;
+    }
+    assert_eq!(first, "compiled");
+    let kept = files();
+    assert_eq!(kept.len(), 1, "{kept:?}");
+    // Whole: the magic, the data's length, its checksum, the data.
+    let is_whole = |bytes: &[u8]| {
+        bytes.starts_with(b"RADPLC01")
+            && bytes.len() >= 24
+            && u64::from_le_bytes(bytes[8..16].try_into().unwrap()) == bytes.len() as u64 - 24
+    };
+    let whole = std::fs::read(&kept[0]).unwrap();
+    assert!(is_whole(&whole));
+    assert_eq!(render("second", &cache), "loaded");
+    let picture = |name: &str| std::fs::read(dir.path().join(format!("{name}.png"))).unwrap();
+    assert_eq!(picture("first"), picture("second"));
+    // Damaged: compiled over and written whole again.
+    std::fs::write(&kept[0], &whole[..whole.len() - 3]).unwrap();
+    assert_eq!(render("damaged", &cache), "compiled");
+    assert!(is_whole(&std::fs::read(&kept[0]).unwrap()));
+    assert_eq!(picture("damaged"), picture("first"));
+    assert_eq!(files().len(), 1);
+    assert_eq!(render("off", Path::new("off")), "off");
+    assert!(!dir.path().join("off").exists());
+}
+
 #[test]
 fn settings_the_gpu_does_not_run_are_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();

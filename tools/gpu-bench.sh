@@ -24,6 +24,9 @@ GPU_LIMIT="${GPU_LIMIT:-90}"
 REPEAT="${REPEAT:-3}"
 # shellcheck source=tools/gpu-env.sh
 . "$(dirname "$0")/gpu-env.sh"
+# A cache of compiled kernels of its own: the first run compiles them,
+# the ones after load them (the table's kernel cache and pipeline columns).
+export RADIOSITY_CACHE_DIR="${RADIOSITY_CACHE_DIR:-$(mktemp -d)}"
 
 run sponza-gpu-1 gpu "$GPU_LIMIT" "$SPONZA"
 run conference-gpu-1 gpu "$GPU_LIMIT" "$CONFERENCE"

@@ -86,10 +86,10 @@ out = sys.argv[1]
 idle = float(open(os.path.join(out, "idle.gpumem")).read().strip() or 0)
 keys = ["total_seconds", "load_seconds", "mesh_seconds", "solve_seconds", "accel_build_seconds",
         "write_seconds", "final_gather_seconds", "device_upload_seconds",
-        "device_kernel_seconds", "device_readback_seconds"]
+        "device_kernel_seconds", "device_readback_seconds", "device_pipeline_seconds"]
 print("run | device | stop | unshot | shots: coarse+all (coarse stop) | rounds | dev shots | " + " | ".join(k.replace("_seconds", "") for k in keys)
       + " | kernel ms/shot | rest of solve ms/shot | device walk/items/join/book s | passes | host waits | checkpoints"
-      + " | submissions | MB read | critical/mean visits | peak host MiB | peak GPU MiB (over idle)")
+      + " | submissions | MB read | critical/mean visits | objects made | kernel cache | peak host MiB | peak GPU MiB (over idle)")
 for path in sorted(glob.glob(os.path.join(out, "*.json"))):
     name = os.path.basename(path)[:-5]
     try:
@@ -113,6 +113,7 @@ for path in sorted(glob.glob(os.path.join(out, "*.json"))):
           + f" | {s.get('device_checkpoints', '-')} | {s.get('device_submissions', '-')}"
           + f" | {(s.get('device_bytes_read') or 0) / 1e6:.1f}"
           + f" | {s.get('device_longest_visits', 0)}/{s.get('device_mean_visits', 0):.0f}"
+          + f" | {s.get('device_objects_made', '-')} | {s.get('device_pipeline_cache', '-')}"
           + f" | {host:.0f} | {peak_gpu:.0f}")
 PY
 

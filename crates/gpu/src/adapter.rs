@@ -10,6 +10,8 @@
 use std::fmt;
 use std::sync::{Arc, Mutex};
 
+use crate::kernel_cache::{CacheState, KernelCache};
+
 /// Which device a run uses (`--device`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum DeviceChoice {
@@ -63,6 +65,8 @@ pub struct Gpu {
     pub(crate) scene: Arc<Mutex<Option<Arc<crate::device_scene::DeviceScene>>>>,
     /// The transfer kernels, compiled once for the solves on this device.
     pub(crate) pipelines: Arc<Mutex<Option<Arc<crate::gather::Pipelines>>>>,
+    /// The compiled kernels kept across runs.
+    pub(crate) kernels: Arc<KernelCache>,
 }
 
 impl fmt::Debug for Gpu {
@@ -126,8 +130,10 @@ impl Gpu {
             // As much as the adapter allows: big scenes need big buffers.
             required_limits: adapter.limits(),
             // Timestamps, where the adapter has them: where a shot's time
-            // goes (`--stats`' device_stage_seconds).
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+            // goes (`--stats`' device_stage_seconds); a pipeline cache,
+            // where it has one: the kernels kept across runs.
+            required_features: adapter.features()
+                & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::PIPELINE_CACHE),
             ..wgpu::DeviceDescriptor::default()
         };
         let (device, queue) =
@@ -137,12 +143,14 @@ impl Gpu {
                     message: e.to_string(),
                 }
             })?;
+        let kernels = Arc::new(KernelCache::open(&device, &info));
         Ok(Some(Gpu {
             device,
             queue,
             info,
             scene: Arc::default(),
             pipelines: Arc::default(),
+            kernels,
         }))
     }
 
@@ -166,6 +174,13 @@ impl Gpu {
     pub fn name(&self) -> String {
         let software = if self.is_software() { ", software" } else { "" };
         format!("{} ({:?}{software})", self.info.name, self.info.backend)
+    }
+
+    /// How this device's kernels were made ([`CacheState`]) and the time
+    /// making them took so far.
+    #[must_use]
+    pub fn kernels(&self) -> (CacheState, std::time::Duration) {
+        (self.kernels.state(), self.kernels.time())
     }
 
     /// Whether the adapter runs on the CPU (lavapipe, WARP, SwiftShader).

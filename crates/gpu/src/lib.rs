@@ -8,7 +8,8 @@
 //! naming it), [`policy`] (the device a run takes: which settings the GPU
 //! runs, what `--device auto|gpu|cpu` opens), [`shaders`] (the kernels'
 //! source, with the numbers they share with Rust generated from it), [`device_scene`] (the scene's triangles and BVH on the
-//! device), `wgpu_io` (buffers, bindings, readbacks, device errors),
+//! device), [`kernel_cache`] (the compiled kernels kept across runs),
+//! `wgpu_io` (buffers, bindings, readbacks, device errors),
 //! [`gather`] (the default method's transfers), [`trace`] (shadow
 //! segments against the scene: a binary
 //! bounding-volume hierarchy over the surfaces' triangles, the very tree
@@ -19,6 +20,7 @@
 pub mod adapter;
 pub mod device_scene;
 pub mod gather;
+pub mod kernel_cache;
 pub mod policy;
 pub mod shaders;
 pub mod trace;
@@ -26,6 +28,7 @@ mod wgpu_io;
 
 pub use adapter::{DeviceChoice, Gpu, GpuError};
 pub use gather::GpuBackend;
+pub use kernel_cache::CacheState;
 
 /// The environment variable that makes the GPU tests require an adapter:
 /// set (to anything but `0`) they fail without one; unset they say they

@@ -109,6 +109,7 @@ impl SceneTracer {
         let uncaptured = catch_uncaptured(gpu);
         let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let made = std::time::Instant::now();
         let module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -123,8 +124,9 @@ impl SceneTracer {
                 module: &module,
                 entry_point: Some("occluded"),
                 compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
+                cache: gpu.kernels.get(),
             });
+        gpu.kernels.made(made.elapsed());
         let scene = DeviceScene::of(gpu, surfaces);
         let out_of_memory = pollster::block_on(memory.pop());
         let invalid = pollster::block_on(scope.pop());

@@ -11,7 +11,6 @@ use std::time::Duration;
 
 use glam::DVec3;
 use radiosity::solver::device::StageTimes;
-use wgpu::util::DeviceExt;
 
 use crate::Gpu;
 
@@ -41,14 +40,17 @@ impl Growing {
     }
 
     /// Writes `bytes` at the start, growing the buffer first if need be
-    /// (a new buffer: commands already submitted read the old one).
-    pub(super) fn write(&mut self, gpu: &Gpu, bytes: &[u8]) {
+    /// (a new buffer: commands already submitted read the old one); true
+    /// if it grew.
+    pub(super) fn write(&mut self, gpu: &Gpu, bytes: &[u8]) -> bool {
         let size = (bytes.len() as u64).max(16).next_multiple_of(4);
-        if size > self.capacity {
+        let grew = size > self.capacity;
+        if grew {
             self.capacity = size.next_power_of_two();
             self.buffer = Growing::make(gpu, self.label, self.capacity);
         }
         gpu.queue.write_buffer(&self.buffer, 0, bytes);
+        grew
     }
 }
 
@@ -81,6 +83,7 @@ impl Pipelines {
     }
 
     pub(super) fn new(gpu: &Gpu) -> Pipelines {
+        let made = std::time::Instant::now();
         let source = crate::shaders::gather_source();
         let module = gpu
             .device
@@ -96,10 +99,10 @@ impl Pipelines {
                     module: &module,
                     entry_point: Some(entry),
                     compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    cache: None,
+                    cache: gpu.kernels.get(),
                 })
         };
-        Pipelines {
+        let pipelines = Pipelines {
             gather: pipeline("gather"),
             size_items: pipeline("size_items"),
             gather_items: pipeline("gather_items"),
@@ -112,7 +115,9 @@ impl Pipelines {
             shooter_powers: pipeline("shooter_powers"),
             choose_next: pipeline("choose_next"),
             collect_next: pipeline("collect_next"),
-        }
+        };
+        gpu.kernels.made(made.elapsed());
+        pipelines
     }
 }
 
@@ -228,16 +233,6 @@ pub(super) fn state_buffer(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
             | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
-}
-
-/// A uniform buffer holding `value`.
-pub(super) fn uniform<T: bytemuck::Pod>(gpu: &Gpu, label: &str, value: &T) -> wgpu::Buffer {
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::bytes_of(value),
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
 }
 
 /// `v` as the device keeps it.

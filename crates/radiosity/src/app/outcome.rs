@@ -253,6 +253,16 @@ pub struct StatsFile {
     pub device_submissions: u64,
     /// Bytes read back from the device over the solve, but for checkpoints.
     pub device_bytes_read: u64,
+    /// Seconds making the device's kernels (compiling them, or loading
+    /// them from the cache kept across runs); 0 on the CPU.
+    pub device_pipeline_seconds: f64,
+    /// That cache: `off`, `unsupported`, `compiled` or `loaded` (`null`
+    /// on the CPU).
+    pub device_pipeline_cache: Option<String>,
+    /// Bind groups and buffers the device's solve made after its setup
+    /// (a buffer grown for a larger upload and the bind groups that read
+    /// it): a few a solve, where each round once made its own.
+    pub device_objects_made: u64,
     /// The device's shots' critical paths summed: each shot's most source
     /// nodes visited by one thread (walks, then split items).
     pub device_longest_visits: u64,
@@ -343,6 +353,9 @@ impl StatsFile {
             device_passes: outcome.device.passes,
             device_submissions: outcome.device.traffic.submissions,
             device_bytes_read: outcome.device.traffic.bytes_read,
+            device_objects_made: outcome.device.traffic.made,
+            device_pipeline_seconds: outcome.device.kernels.time.as_secs_f64(),
+            device_pipeline_cache: outcome.device.kernels.cache.map(str::to_string),
             device_longest_visits: outcome.device.longest_visits,
             device_mean_visits: outcome.device.mean_visits,
             device_upload_seconds: outcome.device.upload_time.as_secs_f64(),

@@ -191,6 +191,24 @@ pub trait AdaptiveTransfers: Send {
     fn traffic(&self) -> Traffic {
         Traffic::default()
     }
+
+    /// How the device's kernels were made.
+    fn kernels(&self) -> Kernels {
+        Kernels::default()
+    }
+}
+
+/// How a device's kernels were made for its solves
+/// ([`AdaptiveTransfers::kernels`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Kernels {
+    /// Time making them on the device in the run so far (compiling them,
+    /// or loading them from a cache kept across runs).
+    pub time: Duration,
+    /// That cache: `off`, `unsupported` (the adapter keeps none),
+    /// `compiled` (none to load: made and saved) or `loaded` (`None`
+    /// where the device does not say).
+    pub cache: Option<&'static str>,
 }
 
 /// What crossed between host and device ([`AdaptiveTransfers::traffic`]),
@@ -209,6 +227,10 @@ pub struct Traffic {
     pub submissions: u64,
     /// Bytes read back from the device, but for checkpoints.
     pub bytes_read: u64,
+    /// Bind groups and buffers made after the solve's setup: a buffer
+    /// grown to hold a larger upload, and the bind groups made anew to
+    /// read it (a few a solve, not some every round).
+    pub made: u64,
 }
 
 /// What one adaptive shot sends.
@@ -480,6 +502,8 @@ pub struct DeviceReport {
     pub stages: Option<StageTimes>,
     /// What crossed between host and device ([`AdaptiveTransfers::traffic`]).
     pub traffic: Traffic,
+    /// How its kernels were made ([`AdaptiveTransfers::kernels`]).
+    pub kernels: Kernels,
     /// Passes the device ran: one a shot, two for a shot that also sends
     /// negative light (overshooting's, or unshot light left below zero by
     /// round-off).

@@ -12,90 +12,31 @@ use glam::DVec3;
 use radiosity::solver::device::{Booked, DeviceError, NextRound};
 use radiosity::solver::method::Received;
 
-use super::{GpuTransfers, NEXT_BYTES};
+use super::{GpuTransfers, NEXT_BYTES, Which};
 use crate::gather::WORKGROUP;
 use crate::gather::buffers::{GpuBook, GpuPartial};
-use crate::gather::kernels::{Stage, dvec3, uniform};
+use crate::gather::kernels::{Stage, dvec3};
+use crate::shaders::BOOK_WORKGROUP;
 use crate::shaders::counter::{self, COUNTERS};
-use crate::shaders::{BOOK_WORKGROUP, GatherBinding as G};
-use crate::wgpu_io::{entry, nonempty};
+use crate::wgpu_io::nonempty;
 
 impl GpuTransfers {
     /// The round's book-keeping and readback (inside an error scope).
     pub(super) fn book_round(&mut self) -> Result<Booked, DeviceError> {
-        let gpu = self.gpu.clone();
         let upload_start = Instant::now();
         let leaves = std::mem::take(&mut self.leaves);
-        self.leave_buffer
-            .write(&gpu, bytemuck::cast_slice(&nonempty(leaves.clone())));
+        self.write_growing(
+            Which::Leaves,
+            bytemuck::cast_slice(&nonempty(leaves.clone())),
+        );
         let book = GpuBook {
             count: leaves.len() as u32,
             fraction: self.fraction,
             ..self.book_data(1.0, DVec3::ZERO)
         };
-        let book = uniform(&self.gpu, "book", &book);
-        let leave = self.bind(
-            &self.pipelines.leave_shooters,
-            &[
-                entry(G::Unshot, &self.unshot),
-                entry(G::Leaves, &self.leave_buffer.buffer),
-                entry(G::Book, &book),
-            ],
-        );
-        let receive = self.bind(
-            &self.pipelines.receive,
-            &[
-                entry(G::Elements, &self.element_buffer),
-                entry(G::RoundIrradiance, &self.round_irradiance),
-                entry(G::Unshot, &self.unshot),
-                entry(G::ElementBook, &self.element_book),
-                entry(G::Partials, &self.partials),
-                entry(G::Book, &book),
-            ],
-        );
-        let accumulate = self.bind(
-            &self.pipelines.accumulate,
-            &[
-                entry(G::Total, &self.total),
-                entry(G::RoundIrradiance, &self.round_irradiance),
-                entry(G::RoundDirect, &self.round_direct),
-                entry(G::Book, &book),
-                entry(G::DirectTotal, &self.direct),
-            ],
-        );
-        let powers = self.bind(
-            &self.pipelines.shooter_powers,
-            &[
-                entry(G::Unshot, &self.unshot),
-                entry(G::ElementBook, &self.element_book),
-                entry(G::ShooterItems, &self.shooter_items),
-                entry(G::Items, &self.items),
-                entry(G::Powers, &self.powers),
-                entry(G::Book, &book),
-            ],
-        );
-        let choose = self.bind(
-            &self.pipelines.choose_next,
-            &[
-                entry(G::ShooterItems, &self.shooter_items),
-                entry(G::Powers, &self.powers),
-                entry(G::Book, &book),
-                entry(G::Next, &self.next),
-                entry(G::RoundOffsets, &self.round_offsets),
-            ],
-        );
-        let collect = self.bind(
-            &self.pipelines.collect_next,
-            &[
-                entry(G::Unshot, &self.unshot),
-                entry(G::Items, &self.items),
-                entry(G::ShooterItems, &self.shooter_items),
-                entry(G::ItemShooter, &self.item_shooter),
-                entry(G::RoundOffsets, &self.round_offsets),
-                entry(G::Book, &book),
-                entry(G::NextUnshot, &self.next_unshot),
-            ],
-        );
+        self.set_uniform(&self.uniforms.round_book, &book);
+        let binds = self.fixed_binds();
+        let leave = self.leave_bind();
         let kernel_start = Instant::now();
         let mut encoder = self.encoder("book");
         let count = self.order.len() as u32;
@@ -107,17 +48,17 @@ impl GpuTransfers {
             ),
             (
                 &self.pipelines.receive,
-                &receive,
+                &binds.receive,
                 self.elements.div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.accumulate,
-                &accumulate,
+                &binds.accumulate,
                 count.div_ceil(BOOK_WORKGROUP).max(1),
             ),
             (
                 &self.pipelines.shooter_powers,
-                &powers,
+                &binds.powers,
                 self.shooters.div_ceil(WORKGROUP).max(1),
             ),
         ];
@@ -129,10 +70,10 @@ impl GpuTransfers {
         // The next round and its elements' unshot radiosity, read back
         // with the ledger: the next round waits for nothing else.
         let next_stages = [
-            (&self.pipelines.choose_next, &choose, 1),
+            (&self.pipelines.choose_next, &binds.choose, 1),
             (
                 &self.pipelines.collect_next,
-                &collect,
+                &binds.collect_next,
                 self.elements.div_ceil(BOOK_WORKGROUP).max(1),
             ),
         ];

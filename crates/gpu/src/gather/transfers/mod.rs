@@ -13,6 +13,7 @@
 //! comes back only when asked ([`AdaptiveTransfers::state`]). A shooter's
 //! pass is `pass.rs`, the round's end `book.rs`.
 
+mod binds;
 mod book;
 mod pass;
 
@@ -20,22 +21,23 @@ use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 use radiosity::solver::device::{
-    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, Traffic,
+    AdaptiveShot, AdaptiveSolve, AdaptiveTransfers, Booked, DeviceError, Kernels, Traffic,
 };
 
 use super::buffers::{GpuBook, GpuLeave, GpuPartial};
-use super::kernels::{Growing, Pipelines, Timer, dvec3, split_bytes, state_buffer, uniform, vec4};
+use super::kernels::{Growing, Pipelines, Timer, dvec3, split_bytes, state_buffer, vec4};
 use super::scene::SceneData;
 use super::{MAX_TREE_DEPTH, STORAGE_BUFFERS, depth};
 use crate::Gpu;
 use crate::device_scene::DeviceScene;
-use crate::wgpu_io::{catch_uncaptured, entry, nonempty, read_back, storage};
+use crate::wgpu_io::{catch_uncaptured, nonempty, read_back, storage};
+use binds::{Binds, Uniforms, Which};
 
 use crate::shaders::counter::COUNTERS;
 
 /// Bytes of the next shooter's record (`next` in `book.wgsl`).
 const NEXT_BYTES: u64 = 16;
-use crate::shaders::{BOOK_WORKGROUP, GatherBinding as G};
+use crate::shaders::BOOK_WORKGROUP;
 
 /// `f`'s result, and the first validation or memory error `gpu` reported
 /// while it ran.
@@ -128,6 +130,10 @@ pub(super) struct GpuTransfers {
     uncaptured: Arc<Mutex<Option<String>>>,
     /// What crossed between host and device so far.
     traffic: std::cell::Cell<Traffic>,
+    /// The uniforms, rewritten in place.
+    uniforms: Uniforms,
+    /// The kernels' bind groups, each until a buffer it reads grows.
+    binds: Binds,
 }
 
 impl GpuTransfers {
@@ -254,6 +260,8 @@ impl GpuTransfers {
             }),
             uncaptured,
             traffic: std::cell::Cell::default(),
+            uniforms: Uniforms::new(&gpu, (r as usize).div_ceil(dispatch_receivers)),
+            binds: Binds::default(),
             gpu,
         };
         let out_of_memory = pollster::block_on(memory.pop());
@@ -295,19 +303,6 @@ impl GpuTransfers {
             direct: direct.as_vec3().to_array(),
             ..GpuBook::default()
         }
-    }
-
-    /// The book-keeping's uniform: `count` elements asked for, a pass
-    /// booked times `sign`, `direct` its direct share.
-    fn book_uniform(&self, count: u32, sign: f64, direct: DVec3) -> wgpu::Buffer {
-        uniform(
-            &self.gpu,
-            "book",
-            &GpuBook {
-                count,
-                ..self.book_data(sign, direct)
-            },
-        )
     }
 
     /// Submits `encoder`, whose last commands copy `bytes` into the
@@ -407,6 +402,14 @@ impl AdaptiveTransfers for GpuTransfers {
         self.traffic.get()
     }
 
+    fn kernels(&self) -> Kernels {
+        let (state, time) = self.gpu.kernels();
+        Kernels {
+            time,
+            cache: Some(state.name()),
+        }
+    }
+
     fn begin(
         &mut self,
         irradiance: &[DVec3],
@@ -442,30 +445,25 @@ impl AdaptiveTransfers for GpuTransfers {
         if elements.is_empty() {
             return Ok(Vec::new());
         }
-        let gpu = self.gpu.clone();
-        self.wanted.write(&gpu, bytemuck::cast_slice(elements));
-        self.scoped(|| {
-            let book = self.book_uniform(elements.len() as u32, 1.0, DVec3::ZERO);
-            let group = self.bind(
-                &self.pipelines.collect,
-                &[
-                    entry(G::Unshot, &self.unshot),
-                    entry(G::Wanted, &self.wanted.buffer),
-                    entry(G::Staging, &self.staging),
-                    entry(G::Book, &book),
-                ],
-            );
-            let mut encoder = self.encoder("collect");
+        self.scoped_mut(|t| {
+            t.write_growing(Which::Wanted, bytemuck::cast_slice(elements));
+            let book = GpuBook {
+                count: elements.len() as u32,
+                ..t.book_data(1.0, DVec3::ZERO)
+            };
+            t.set_uniform(&t.uniforms.wanted_book, &book);
+            let group = t.collect_bind();
+            let mut encoder = t.encoder("collect");
             let workgroups = (elements.len() as u32).div_ceil(BOOK_WORKGROUP);
-            self.dispatch(
+            t.dispatch(
                 &mut encoder,
                 "collect",
-                (&self.pipelines.collect, &group, workgroups),
+                (&t.pipelines.collect, &group, workgroups),
                 None,
             );
             let bytes = 16 * elements.len() as u64;
-            encoder.copy_buffer_to_buffer(&self.staging, 0, &self.readback, 0, bytes);
-            let data = self.finish(encoder, bytes)?;
+            encoder.copy_buffer_to_buffer(&t.staging, 0, &t.readback, 0, bytes);
+            let data = t.finish(encoder, bytes)?;
             let words: &[f32] = bytemuck::cast_slice(&data);
             Ok(words.chunks_exact(4).map(dvec3).collect())
         })

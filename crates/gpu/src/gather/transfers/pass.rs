@@ -13,13 +13,13 @@ use glam::DVec3;
 use radiosity::solver::device::{AdaptiveShot, DeviceError};
 use radiosity::solver::hierarchy::NONE;
 
-use super::GpuTransfers;
+use super::{GpuTransfers, Which};
 use crate::device_scene::split;
 use crate::gather::WORKGROUP;
-use crate::gather::buffers::{GpuBin, GpuLeave, GpuNodeSource, GpuShot};
-use crate::gather::kernels::{Stage, uniform};
-use crate::shaders::{BOOK_WORKGROUP, GatherBinding as G};
-use crate::wgpu_io::{entry, nonempty};
+use crate::gather::buffers::{GpuBin, GpuBook, GpuLeave, GpuNodeSource, GpuShot};
+use crate::gather::kernels::Stage;
+use crate::shaders::BOOK_WORKGROUP;
+use crate::wgpu_io::nonempty;
 
 impl GpuTransfers {
     /// The shot's sources for the kernel: per node of the shooting subtree
@@ -90,9 +90,8 @@ impl GpuTransfers {
         let gpu = self.gpu.clone();
         let upload_start = Instant::now();
         let (nodes, bins) = self.sources(shot);
-        self.sources
-            .write(&gpu, bytemuck::cast_slice(&nonempty(nodes)));
-        self.bins.write(&gpu, bytemuck::cast_slice(&nonempty(bins)));
+        self.write_growing(Which::Sources, bytemuck::cast_slice(&nonempty(nodes)));
+        self.write_growing(Which::Bins, bytemuck::cast_slice(&nonempty(bins)));
         let (origin, origin_lo) = split(shot.origin, self.origin);
         let count = self.order.len();
         let [first, last] = self.ranges[shot.root as usize];
@@ -105,101 +104,47 @@ impl GpuTransfers {
                     element,
                 }));
         }
-        let book = self.book_uniform(0, shot.sign, shot.direct);
+        let book = GpuBook {
+            count: 0,
+            ..self.book_data(shot.sign, shot.direct)
+        };
+        self.set_uniform(&self.uniforms.pass_book, &book);
         let mut encoder = self.encoder("pass");
         if self.round_passes == 0 {
             encoder.clear_buffer(&self.counters, 0, None);
         }
+        // Each chunk's receivers, in its uniform.
         let mut groups = Vec::new();
-        let mut item_binds = Vec::new();
-        for start in (0..count).step_by(self.dispatch_receivers) {
+        for (k, start) in (0..count).step_by(self.dispatch_receivers).enumerate() {
             let n = self.dispatch_receivers.min(count - start);
-            let uniform = uniform(
-                &gpu,
-                "shot",
-                &GpuShot {
-                    root: shot.root,
-                    first: start as u32,
-                    count: n as u32,
-                    negligible: shot.negligible as f32,
-                    origin,
-                    mean: shot.mean_radiosity as f32,
-                    origin_lo,
-                    frontier: self.frontier,
-                    item_groups: self.item_workgroups,
-                    _pad: [0; 3],
-                },
-            );
-            // What the walks and the split walks' items both read.
-            let walk_entries = [
-                entry(G::Nodes, &self.scene.nodes),
-                entry(G::Triangles, &self.scene.triangles),
-                entry(G::Tree, &self.tree),
-                entry(G::Surfaces, &self.surfaces),
-                entry(G::Elements, &self.element_buffer),
-                entry(G::Receivers, &self.receivers),
-                entry(G::Total, &self.total),
-                entry(G::Sources, &self.sources.buffer),
-                entry(G::Bins, &self.bins.buffer),
-                entry(G::Shot, &uniform),
-                entry(G::Counters, &self.counters),
-                entry(G::Panes, &self.panes),
-                entry(G::Split, &self.split),
-            ];
-            let group = self.bind(
-                &self.pipelines.gather,
-                &[
-                    &walk_entries[..],
-                    &[entry(G::ShotIrradiance, &self.shot_irradiance)],
-                ]
-                .concat(),
-            );
-            let items = self.bind(&self.pipelines.gather_items, &walk_entries);
-            let size = self.bind(
-                &self.pipelines.size_items,
-                &[
-                    entry(G::Shot, &uniform),
-                    entry(G::Counters, &self.counters),
-                    entry(G::ItemDispatch, &self.item_dispatch),
-                ],
-            );
-            let join = self.bind(
-                &self.pipelines.join_items,
-                &[
-                    entry(G::ShotIrradiance, &self.shot_irradiance),
-                    entry(G::Shot, &uniform),
-                    entry(G::Counters, &self.counters),
-                    entry(G::Split, &self.split),
-                ],
-            );
-            groups.push([
-                (group, (n as u32).div_ceil(WORKGROUP)),
-                (join, (n as u32).div_ceil(WORKGROUP)),
-            ]);
-            item_binds.push([items, size]);
+            let parameters = GpuShot {
+                root: shot.root,
+                first: start as u32,
+                count: n as u32,
+                negligible: shot.negligible as f32,
+                origin,
+                mean: shot.mean_radiosity as f32,
+                origin_lo,
+                frontier: self.frontier,
+                item_groups: self.item_workgroups,
+                _pad: [0; 3],
+            };
+            self.set_uniform(&self.uniforms.shots[k], &parameters);
+            groups.push((n as u32).div_ceil(WORKGROUP));
         }
-        let gathered = self.bind(
-            &self.pipelines.gathered,
-            &[
-                entry(G::ShotIrradiance, &self.shot_irradiance),
-                entry(G::RoundIrradiance, &self.round_irradiance),
-                entry(G::RoundDirect, &self.round_direct),
-                entry(G::Counters, &self.counters),
-                entry(G::Book, &book),
-            ],
-        );
+        let chunk_binds = self.chunk_binds();
+        let gathered = self.fixed_binds();
         let kernel_start = Instant::now();
         let chunks = groups.len();
         let mut encoder = Some(encoder);
-        for (k, chunk_groups) in groups.iter().enumerate() {
+        for (k, (&workgroups, chunk)) in groups.iter().zip(chunk_binds.iter()).enumerate() {
             if k > 0 && shot.abort.fired() {
                 self.drop_round();
                 return Ok(false);
             }
-            let mut chunk = encoder.take().unwrap_or_else(|| self.encoder("walk"));
+            let mut commands = encoder.take().unwrap_or_else(|| self.encoder("walk"));
             // A pass each: the walks, the items' workgroups, the items
             // the walks left, the joins.
-            let [(walk, walk_groups), (join, join_groups)] = chunk_groups;
             let slots = [Stage::Walk, Stage::Items, Stage::Items, Stage::Join]
                 .map(|stage| self.timer.as_mut().and_then(|t| t.slot(stage)));
             let gathered_slot = if k + 1 == chunks {
@@ -216,36 +161,36 @@ impl GpuTransfers {
                     .forget_lifetime()
             };
             {
-                let mut p = pass(&mut chunk, "walk", slots[0]);
+                let mut p = pass(&mut commands, "walk", slots[0]);
                 p.set_pipeline(&self.pipelines.gather);
-                p.set_bind_group(0, walk, &[]);
-                p.dispatch_workgroups(*walk_groups, 1, 1);
+                p.set_bind_group(0, &chunk.walk, &[]);
+                p.dispatch_workgroups(workgroups, 1, 1);
             }
             {
-                let mut p = pass(&mut chunk, "size items", slots[1]);
+                let mut p = pass(&mut commands, "size items", slots[1]);
                 p.set_pipeline(&self.pipelines.size_items);
-                p.set_bind_group(0, &item_binds[k][1], &[]);
+                p.set_bind_group(0, &chunk.size, &[]);
                 p.dispatch_workgroups(1, 1, 1);
             }
             {
-                let mut p = pass(&mut chunk, "items", slots[2]);
+                let mut p = pass(&mut commands, "items", slots[2]);
                 p.set_pipeline(&self.pipelines.gather_items);
-                p.set_bind_group(0, &item_binds[k][0], &[]);
+                p.set_bind_group(0, &chunk.items, &[]);
                 p.dispatch_workgroups_indirect(&self.item_dispatch, 0);
             }
             {
-                let mut p = pass(&mut chunk, "join", slots[3]);
+                let mut p = pass(&mut commands, "join", slots[3]);
                 p.set_pipeline(&self.pipelines.join_items);
-                p.set_bind_group(0, join, &[]);
-                p.dispatch_workgroups(*join_groups, 1, 1);
+                p.set_bind_group(0, &chunk.join, &[]);
+                p.dispatch_workgroups(workgroups, 1, 1);
             }
             if k + 1 == chunks {
-                let mut p = pass(&mut chunk, "gathered", gathered_slot);
+                let mut p = pass(&mut commands, "gathered", gathered_slot);
                 p.set_pipeline(&self.pipelines.gathered);
-                p.set_bind_group(0, &gathered, &[]);
+                p.set_bind_group(0, &gathered.gathered, &[]);
                 p.dispatch_workgroups((count as u32).div_ceil(BOOK_WORKGROUP).max(1), 1, 1);
             }
-            gpu.queue.submit([chunk.finish()]);
+            gpu.queue.submit([commands.finish()]);
             let mut traffic = self.traffic.get();
             traffic.submissions += 1;
             self.traffic.set(traffic);

@@ -378,7 +378,10 @@ impl AdaptiveShooting {
                 round: method.round,
             };
             match backend.adaptive(&solve) {
-                Ok(device) => shooting.device = Some(device),
+                Ok(device) => {
+                    shooting.report.kernels = device.kernels();
+                    shooting.device = Some(device);
+                }
                 Err(e) => shooting.report.fault = Some(e.0),
             }
         }
