@@ -26,6 +26,13 @@ pub const WORKGROUP: u32 = 64;
 /// [`WORKGROUP`]).
 pub const BOOK_WORKGROUP: u32 = 256;
 
+/// By default, a shooter with at most this many elements has its unshot
+/// power summed by one thread (`shooter_powers`); a larger one by a
+/// workgroup of [`BOOK_WORKGROUP`] threads (`large_shooter_powers`), so no
+/// thread sums more than this many elements or a [`BOOK_WORKGROUP`]th of
+/// a shooter's (`GpuBackend::with_serial_power_items`).
+pub const SERIAL_POWER_ITEMS: u32 = 64;
+
 /// Entries of the transfer kernel's walk stack: the deepest element tree
 /// it holds is two less (a visit pushes two children).
 pub const WALK_STACK: u32 = 64;
@@ -249,6 +256,9 @@ bindings! {
         /// The next round's elements' unshot radiosity (`collect_next`),
         /// read back with the round's ledger.
         NextUnshot = "next_unshot": "storage, read_write" "array<vec4<f32>>",
+        /// The shooters whose powers a workgroup each sums (more than
+        /// [`SERIAL_POWER_ITEMS`] elements, by default).
+        LargeShooters = "large_shooters": "storage, read" "array<u32>",
     }
 }
 

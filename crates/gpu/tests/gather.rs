@@ -152,7 +152,16 @@ fn transfer_buffers_match_their_wgsl_twins() {
             "Book",
             GpuBook,
             [
-                count, pad0, elements, receivers, shooters, sign, fraction, pad2, direct, pad3
+                count,
+                large,
+                elements,
+                receivers,
+                shooters,
+                sign,
+                fraction,
+                serial_items,
+                direct,
+                pad3
             ]
         ),
         layout!("Leave", GpuLeave, [value, element]),
@@ -202,7 +211,8 @@ fn built_in(name: &str) -> (scene::Scene, Settings, Mesh) {
 /// devices: radiosity, and its direct part, within 0.5% L1 of the CPU's,
 /// every shot of a surface
 /// on the GPU, and (the Cornell box) a rerun on the GPU, and one with the
-/// walk cut into dispatches of 1,000 receivers, the same to the last bit.
+/// walk cut into dispatches of 1,000 receivers, the same to the last bit;
+/// one with every shooter's power summed by a workgroup within 0.5% too.
 #[test]
 fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
     let Some(gpu) = gpu() else { return };
@@ -267,6 +277,23 @@ fn gpu_shots_agree_with_the_cpu_on_the_built_in_scenes() {
         assert!(
             cut.iter().zip(&on_gpu).all(|(a, b)| a == b),
             "{name}: the walk in dispatches of 1,000 receivers differs"
+        );
+        // Every shooter's unshot power summed by a workgroup, as the
+        // large shooters' are (pairwise, not one element after another):
+        // the same rounds but for the order of the sums.
+        let pooled = Device::backend(Arc::new(
+            GpuBackend::new(Gpu::open(DeviceChoice::Gpu).unwrap().unwrap())
+                .with_serial_power_items(0),
+        ));
+        let (summed, summed_shots, _, _) = solve(pooled);
+        let l1 = relative_l1(&summed, &cpu);
+        eprintln!(
+            "{name}: every power by a workgroup, {summed_shots} shots: L1 {:.4}%",
+            100.0 * l1
+        );
+        assert!(
+            l1 < 5e-3,
+            "{name}: pooled powers differ from the CPU by {l1} (L1)"
         );
     }
 }

@@ -17,19 +17,14 @@
 //! `RADIOSITY_REQUIRE_GPU` is set (CI sets it, with Mesa's software Vulkan
 //! installed): then they fail.
 
-#[allow(dead_code)]
-#[path = "../../radiosity/tests/common/rng.rs"]
-mod rng;
+mod common;
 
+use common::rng::Rng;
+use common::{Case, EPS, case, f32s, gpu, read, run_kernel, split};
 use glam::DVec3;
 use radiosity::form_factor::analytic::analytic_facing;
 use radiosity::geometry::{self, clip::clip_each};
 use radiosity_gpu::Gpu;
-use rng::Rng;
-use wgpu::util::DeviceExt;
-
-/// `f32`'s unit round-off.
-const EPS: f64 = f32::EPSILON as f64;
 
 /// The test kernel: each case's polygon through each rule.
 const KERNEL: &str = r"
@@ -83,17 +78,6 @@ fn twins(@builtin(global_invocation_id) id: vec3<u32>) {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-struct Case {
-    p: [[f32; 4]; 4],
-    normal: [f32; 4],
-    source_normal: [f32; 4],
-    count: u32,
-    tolerance: f32,
-    pad: [u32; 2],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Out {
     clipped: [[f32; 4]; 6],
     newell: [f32; 4],
@@ -101,81 +85,6 @@ struct Out {
     clipped_count: u32,
     factor: f32,
     pad: [u32; 2],
-}
-
-/// The tests' adapter ([`radiosity_gpu::test_adapter`]).
-fn gpu() -> Option<Gpu> {
-    radiosity_gpu::test_adapter()
-}
-
-/// The outputs of the entry point `entry` of `source` for `cases`: the
-/// cases at binding `bindings.0`, one output each at `bindings.1`.
-fn run_kernel<C: bytemuck::Pod, O: bytemuck::Pod>(
-    gpu: &Gpu,
-    source: &str,
-    entry: &str,
-    bindings: (u32, u32),
-    cases: &[C],
-) -> Vec<O> {
-    let device = &gpu.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(entry),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
-    });
-    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("cases"),
-        contents: bytemuck::cast_slice(cases),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let bytes = (cases.len() * size_of::<O>()) as u64;
-    let output = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("outs"),
-        size: bytes,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(entry),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: bindings.0,
-                resource: input.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: bindings.1,
-                resource: output.as_entire_binding(),
-            },
-        ],
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        let groups = (cases.len() as u32).div_ceil(radiosity_gpu::shaders::WORKGROUP);
-        pass.dispatch_workgroups(groups, 1, 1);
-    }
-    encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, bytes);
-    gpu.queue.submit([encoder.finish()]);
-    let slice = readback.slice(..);
-    slice.map_async(wgpu::MapMode::Read, |r| r.unwrap());
-    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    bytemuck::cast_slice::<u8, O>(&slice.get_mapped_range().unwrap()).to_vec()
 }
 
 /// The polygon kernel's outputs for `cases`: `polygon.wgsl` alone, with
@@ -189,78 +98,6 @@ fn run(gpu: &Gpu, cases: &[Case]) -> Vec<Out> {
             .1
         + KERNEL;
     run_kernel(gpu, &source, "twins", (0, 1), cases)
-}
-
-fn f32s(v: DVec3) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, 0.0]
-}
-
-fn read(v: [f32; 4]) -> DVec3 {
-    DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
-}
-
-/// A random polygon around the receiver (at the origin, its normal
-/// `normal`), of one of the kinds the header lists.
-fn case(rng: &mut Rng, normal: DVec3) -> Case {
-    let count = if rng.chance(0.5) { 3 } else { 4 };
-    let size = rng.range(0.05, 2.0);
-    let centre = rng.point_in(DVec3::splat(-3.0), DVec3::splat(3.0));
-    let u = rng.unit_vector();
-    let mut w = rng.unit_vector().cross(u).normalize_or_zero();
-    if w == DVec3::ZERO {
-        w = u.any_orthonormal_vector();
-    }
-    let mut corners: Vec<DVec3> = (0..count)
-        .map(|k| {
-            let a = std::f64::consts::TAU * (k as f64 + rng.range(-0.3, 0.3)) / count as f64;
-            centre + size * (a.cos() * u + a.sin() * w)
-        })
-        .collect();
-    // Polygons whose plane holds the receiver's normal are not sensible
-    // sources of factors; the analytic twin handles them, the header's
-    // kinds come next.
-    match rng.below(6) {
-        // Grazing: a corner or two on the tangent plane.
-        0 => {
-            for c in corners.iter_mut().take(1 + rng.below(2)) {
-                *c -= normal * normal.dot(*c);
-            }
-        }
-        // Coplanar: all in the tangent plane.
-        1 => {
-            for c in &mut corners {
-                *c -= normal * normal.dot(*c);
-            }
-        }
-        // Behind: clipped to nothing.
-        2 => {
-            for c in &mut corners {
-                let d = normal.dot(*c);
-                *c -= normal * (d.abs() + rng.range(0.01, 1.0) + d);
-            }
-        }
-        // A sliver: two corners almost together.
-        3 => corners[1] = corners[0] + (corners[1] - corners[0]) * 1e-3,
-        _ => {}
-    }
-    // As the device reads them.
-    let corners: Vec<[f32; 4]> = corners.iter().map(|c| f32s(*c)).collect();
-    let back: Vec<DVec3> = corners.iter().map(|c| read(*c)).collect();
-    let source_normal = geometry::normal(&back).unwrap_or(normal);
-    let mut p = [[0.0; 4]; 4];
-    p[..count].copy_from_slice(&corners);
-    Case {
-        p,
-        normal: f32s(normal),
-        source_normal: f32s(source_normal),
-        count: count as u32,
-        tolerance: if rng.chance(0.5) {
-            0.0
-        } else {
-            (size * 1e-3) as f32
-        },
-        pad: [0; 2],
-    }
 }
 
 /// The clipper, Newell's normal, the centroid and the analytic factor on
@@ -416,12 +253,6 @@ struct PlacementCase {
     normal: [f32; 4],
     radius: f32,
     pad: [u32; 3],
-}
-
-/// `v` as the device holds a point: the nearest `f32` and its round-off.
-fn split(v: DVec3) -> ([f32; 4], [f32; 4]) {
-    let hi = f32s(v);
-    (hi, f32s(v - read(hi)))
 }
 
 /// A node's placement against a receiver's tangent plane and whether the

@@ -39,7 +39,8 @@ struct Book {
     // Elements whose unshot radiosity the host asked for (collect), or
     // that are left with a value (leave_shooters).
     count: u32,
-    pad0: u32,
+    // Shooters of more than serial_items elements.
+    large: u32,
     elements: u32,
     receivers: u32,
     shooters: u32,
@@ -47,7 +48,8 @@ struct Book {
     sign: f32,
     // A round takes the shooters above this fraction of the brightest.
     fraction: f32,
-    pad2: u32,
+    // A shooter of more elements is summed in large_shooter_powers.
+    serial_items: u32,
     // The share of the gathered irradiance that is direct, per channel
     // (the shooter's own emission's share of its power).
     direct: vec3<f32>,
@@ -162,20 +164,64 @@ fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     round_direct[id.x] = vec4<f32>(0.0);
 }
 
+// The unshot power element `e` adds to its shooter's.
+fn element_power(e: u32) -> f32 {
+    return abs(luminance(unshot[e].xyz)) * element_book[e].area;
+}
+
 // Each shooter's unshot power (luminance, element by element in
-// magnitude), over its elements in the tree's order.
+// magnitude), over its elements in the tree's order: here a shooter of at
+// most book.serial_items elements, by one thread; a larger one in
+// large_shooter_powers.
 @compute @workgroup_size(WORKGROUP)
 fn shooter_powers(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= book.shooters) {
         return;
     }
     let range = shooter_items[id.x];
+    if (range.y - range.x > book.serial_items) {
+        return;
+    }
     var power = 0.0;
     for (var i = range.x; i < range.y; i += 1u) {
-        let e = items[i];
-        power += abs(luminance(unshot[e].xyz)) * element_book[e].area;
+        power += element_power(items[i]);
     }
     powers[id.x] = power;
+}
+
+var<workgroup> power_sums: array<f32, BOOK_WORKGROUP>;
+
+// The power of a shooter of more than book.serial_items elements, a
+// workgroup each: each thread sums every BOOK_WORKGROUPth element from
+// its own, then the threads' sums are added pairwise. The order depends
+// only on the shooter's elements, so a rerun sums them alike.
+@compute @workgroup_size(BOOK_WORKGROUP)
+fn large_shooter_powers(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) t: u32,
+) {
+    let k = group.x + group.y * groups.x;
+    if (k >= book.large) {
+        return;
+    }
+    let s = large_shooters[k];
+    let range = shooter_items[s];
+    var power = 0.0;
+    for (var i = range.x + t; i < range.y; i += BOOK_WORKGROUP) {
+        power += element_power(items[i]);
+    }
+    power_sums[t] = power;
+    workgroupBarrier();
+    for (var half = BOOK_WORKGROUP / 2u; half > 0u; half /= 2u) {
+        if (t < half) {
+            power_sums[t] += power_sums[t + half];
+        }
+        workgroupBarrier();
+    }
+    if (t == 0u) {
+        powers[s] = power_sums[0];
+    }
 }
 
 var<workgroup> best_power: array<f32, BOOK_WORKGROUP>;

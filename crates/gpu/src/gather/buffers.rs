@@ -226,8 +226,9 @@ pub struct GpuBook {
     /// Elements the host asked for (`collect`), or left with a value
     /// (`leave_shooters`).
     pub count: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// Shooters of more than `serial_items` elements
+    /// (`large_shooter_powers`).
+    pub large: u32,
     /// Elements.
     pub elements: u32,
     /// Receivers.
@@ -240,8 +241,9 @@ pub struct GpuBook {
     /// A round takes the shooters whose power is above this fraction of
     /// the brightest's (`choose_next`).
     pub fraction: f32,
-    /// Padding.
-    pub pad2: u32,
+    /// A shooter of more elements has its power summed by a workgroup
+    /// (`large_shooter_powers`), one of at most this many by one thread.
+    pub serial_items: u32,
     /// The share of the gathered irradiance that is direct, per channel.
     pub direct: [f32; 3],
     /// Padding.

@@ -54,10 +54,15 @@ fn element_polygon(e: u32, r: Receiver) -> Polygon {
 // triangles about the first corner).
 fn front_point_factor(e: u32, r: Receiver) -> f32 {
     let part = clip(element_polygon(e, r), r.normal, 0.0);
+    return polygon_point_factor(part, surfaces[elements[e].surface].normal, r.normal);
+}
+
+// transfer::polygon_point_factor: polygon `part` (relative to the
+// receiver, in front of it, of `normal`) as a corrected point source.
+fn polygon_point_factor(part: Polygon, normal: vec3<f32>, receiver_normal: vec3<f32>) -> f32 {
     if (part.count < 3u) {
         return 0.0;
     }
-    let normal = surfaces[elements[e].surface].normal;
     let first = part.p[0];
     var area = 0.0;
     var first_moment = vec3<f32>(0.0);
@@ -86,7 +91,7 @@ fn front_point_factor(e: u32, r: Receiver) -> f32 {
     source.diagonal = diagonal / area - c * c;
     source.off_diagonal = off_diagonal / area - vec3<f32>(c.x * c.y, c.x * c.z, c.y * c.z);
     // The polygon is relative to the receiver: the receiver is at 0.
-    return abs(area) * point_factor(source, vec3<f32>(0.0), r.normal);
+    return abs(area) * point_factor(source, vec3<f32>(0.0), receiver_normal);
 }
 
 fn element_factor(e: u32, r: Receiver) -> f32 {

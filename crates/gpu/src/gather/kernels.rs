@@ -66,6 +66,7 @@ pub(crate) struct Pipelines {
     pub(super) receive: wgpu::ComputePipeline,
     pub(super) accumulate: wgpu::ComputePipeline,
     pub(super) shooter_powers: wgpu::ComputePipeline,
+    pub(super) large_shooter_powers: wgpu::ComputePipeline,
     pub(super) choose_next: wgpu::ComputePipeline,
     pub(super) collect_next: wgpu::ComputePipeline,
 }
@@ -113,6 +114,7 @@ impl Pipelines {
             receive: pipeline("receive"),
             accumulate: pipeline("accumulate"),
             shooter_powers: pipeline("shooter_powers"),
+            large_shooter_powers: pipeline("large_shooter_powers"),
             choose_next: pipeline("choose_next"),
             collect_next: pipeline("collect_next"),
         };

@@ -95,6 +95,13 @@ impl DeviceMemory {
             ("next round's unshot", bytes(elements, 16)),
             ("next round's offsets", bytes(elements, 4)),
             ("item shooters", bytes(elements, 4)),
+            (
+                "large shooters",
+                bytes(
+                    elements.div_ceil(crate::shaders::SERIAL_POWER_ITEMS as usize),
+                    4,
+                ),
+            ),
             ("readback", bytes(2 * receivers + elements, 16)),
             ("sources", bytes(2 * elements, size_of::<GpuNodeSource>())),
             ("bins", bytes(2 * elements, size_of::<GpuBin>())),

@@ -62,7 +62,7 @@ pub const MAX_WORKGROUPS: u32 = 65_535;
 pub const FRONTIER: u32 = 32;
 
 pub use crate::shaders::MAX_FRONTIER;
-use crate::shaders::{WALK_STACK, WORKGROUP};
+use crate::shaders::{SERIAL_POWER_ITEMS, WALK_STACK, WORKGROUP};
 
 /// The deepest element tree the kernel's walk stack holds: two less than
 /// its entries (a visit pushes two children).
@@ -84,6 +84,8 @@ pub struct GpuBackend {
     item_workgroups: u32,
     /// Nodes a receiver's walk may leave to other threads.
     frontier: u32,
+    /// Elements of a shooter whose power one thread sums at most.
+    serial_power_items: u32,
 }
 
 impl GpuBackend {
@@ -96,6 +98,7 @@ impl GpuBackend {
             dispatch_receivers: None,
             item_workgroups: MAX_WORKGROUPS,
             frontier: FRONTIER,
+            serial_power_items: SERIAL_POWER_ITEMS,
         }
     }
 
@@ -129,6 +132,16 @@ impl GpuBackend {
     #[must_use]
     pub fn with_frontier(mut self, nodes: u32) -> GpuBackend {
         self.frontier = nodes.clamp(1, MAX_FRONTIER);
+        self
+    }
+
+    /// The same, the unshot power of a shooter of more than `items`
+    /// elements summed by a workgroup, of fewer by one thread
+    /// ([`SERIAL_POWER_ITEMS`] by default; 0 sums every shooter by a
+    /// workgroup): the answer is the same but for the order of its sums.
+    #[must_use]
+    pub fn with_serial_power_items(mut self, items: u32) -> GpuBackend {
+        self.serial_power_items = items;
         self
     }
 
@@ -214,6 +227,7 @@ impl Backend for GpuBackend {
             chunk,
             self.frontier,
             self.item_workgroups,
+            self.serial_power_items,
         )?))
     }
 }

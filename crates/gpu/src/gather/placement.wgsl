@@ -7,11 +7,16 @@
 // Transfer::side: where element `e` lies against the receiver's tangent
 // plane.
 fn element_side(e: u32, r: Receiver, graze: f32) -> u32 {
-    let poly = element_polygon(e, r);
+    return polygon_side(element_polygon(e, r), r.normal, graze);
+}
+
+// transfer::side: where a polygon relative to the receiver lies against
+// its tangent plane (of `normal`).
+fn polygon_side(poly: Polygon, normal: vec3<f32>, graze: f32) -> u32 {
     var low = 3.0e38;
     var high = -3.0e38;
     for (var i = 0u; i < poly.count; i += 1u) {
-        let h = dot(r.normal, poly.p[i]);
+        let h = dot(normal, poly.p[i]);
         low = min(low, h);
         high = max(high, h);
     }
@@ -27,6 +32,22 @@ fn node_offset(n: TreeNode, r: Receiver) -> vec3<f32> {
 
 // Transfer::faces: whether any point of the node can light the receiver.
 fn faces(n: TreeNode, r: Receiver) -> bool {
+    var s: Surface;
+    if (n.group != NONE) {
+        s = surfaces[n.surface];
+    }
+    return faces_plane(n, r, s.normal, s.corner, s.corner_lo);
+}
+
+// transfer::faces, a node within one surface on the plane through
+// `corner` (and its round-off) of `normal`.
+fn faces_plane(
+    n: TreeNode,
+    r: Receiver,
+    normal: vec3<f32>,
+    corner: vec3<f32>,
+    corner_lo: vec3<f32>,
+) -> bool {
     if (dot(r.normal, node_offset(n, r)) < -n.radius) {
         return false;
     }
@@ -36,8 +57,7 @@ fn faces(n: TreeNode, r: Receiver) -> bool {
     if (n.group == r.group) {
         return false;
     }
-    let s = surfaces[n.surface];
-    return dot(s.normal, minus(r.point, r.point_lo, s.corner, s.corner_lo)) > 0.0;
+    return dot(normal, minus(r.point, r.point_lo, corner, corner_lo)) > 0.0;
 }
 
 fn straddles(n: TreeNode, r: Receiver) -> bool {
@@ -110,6 +130,15 @@ struct Geometry {
 // smallest angles any point of the box makes; 3e38 when the receiver is
 // inside the box.
 fn bound(node: TreeNode, weight: f32, r: Receiver) -> f32 {
+    var sending = vec3<f32>(0.0);
+    if (node.group != NONE) {
+        sending = surfaces[node.surface].normal;
+    }
+    return box_bound(node, weight, r, sending);
+}
+
+// transfer::bound, `sending` the normal of a node within one surface.
+fn box_bound(node: TreeNode, weight: f32, r: Receiver, sending_normal: vec3<f32>) -> f32 {
     let middle = node_offset(node, r) + node.box_middle;
     let clearance = length(max(abs(middle) - node.box_half, vec3<f32>(0.0)));
     if (clearance <= 0.0) {
@@ -119,7 +148,7 @@ fn bound(node: TreeNode, weight: f32, r: Receiver) -> f32 {
     let receiving = clamp(high / clearance, 0.0, 1.0);
     var sending = 1.0;
     if (node.group != NONE) {
-        let normal = surfaces[node.surface].normal;
+        let normal = sending_normal;
         let low = dot(normal, middle) - dot(abs(normal), node.box_half);
         sending = clamp(-low / clearance, 0.0, 1.0);
     }

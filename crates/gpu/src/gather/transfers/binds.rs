@@ -66,6 +66,7 @@ pub(super) struct FixedBinds {
     pub(super) receive: wgpu::BindGroup,
     pub(super) accumulate: wgpu::BindGroup,
     pub(super) powers: wgpu::BindGroup,
+    pub(super) large_powers: wgpu::BindGroup,
     pub(super) choose: wgpu::BindGroup,
     pub(super) collect_next: wgpu::BindGroup,
 }
@@ -143,7 +144,7 @@ impl GpuTransfers {
     pub(super) fn fixed_binds(&mut self) -> Arc<FixedBinds> {
         let mut binds = std::mem::take(&mut self.binds);
         let mut made = 0;
-        let fixed = cached(&mut binds.fixed, &mut made, |_| 6, || self.make_fixed());
+        let fixed = cached(&mut binds.fixed, &mut made, |_| 7, || self.make_fixed());
         self.binds = binds;
         self.count_made(made);
         fixed
@@ -296,6 +297,18 @@ impl GpuTransfers {
                     entry(G::Items, &self.items),
                     entry(G::Powers, &self.powers),
                     entry(G::Book, book),
+                ],
+            ),
+            large_powers: self.bind(
+                &p.large_shooter_powers,
+                &[
+                    entry(G::Unshot, &self.unshot),
+                    entry(G::ElementBook, &self.element_book),
+                    entry(G::ShooterItems, &self.shooter_items),
+                    entry(G::Items, &self.items),
+                    entry(G::Powers, &self.powers),
+                    entry(G::Book, book),
+                    entry(G::LargeShooters, &self.large_shooters),
                 ],
             ),
             choose: self.bind(

@@ -13,9 +13,9 @@ use radiosity::solver::device::{Booked, DeviceError, NextRound};
 use radiosity::solver::method::Received;
 
 use super::{GpuTransfers, NEXT_BYTES, Which};
-use crate::gather::WORKGROUP;
 use crate::gather::buffers::{GpuBook, GpuPartial};
 use crate::gather::kernels::{Stage, dvec3};
+use crate::gather::{MAX_WORKGROUPS, WORKGROUP};
 use crate::shaders::BOOK_WORKGROUP;
 use crate::shaders::counter::{self, COUNTERS};
 use crate::wgpu_io::nonempty;
@@ -66,6 +66,18 @@ impl GpuTransfers {
         for stage in stages {
             let slot = self.timer.as_mut().and_then(|t| t.slot(Stage::Book));
             self.dispatch(&mut encoder, "book", stage, slot);
+        }
+        if self.large > 0 {
+            // A workgroup a large shooter, in rows within the limit.
+            let slot = self.timer.as_mut().and_then(|t| t.slot(Stage::Book));
+            let columns = self.large.min(MAX_WORKGROUPS);
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("large shooters' powers"),
+                timestamp_writes: self.timestamps(slot),
+            });
+            pass.set_pipeline(&self.pipelines.large_shooter_powers);
+            pass.set_bind_group(0, &binds.large_powers, &[]);
+            pass.dispatch_workgroups(columns, self.large.div_ceil(columns), 1);
         }
         // The next round and its elements' unshot radiosity, read back
         // with the ledger: the next round waits for nothing else.

@@ -121,6 +121,11 @@ pub(super) struct GpuTransfers {
     round_offsets: wgpu::Buffer,
     item_shooter: wgpu::Buffer,
     next_unshot: wgpu::Buffer,
+    /// The shooters of more than `serial_items` elements, and how many.
+    large_shooters: wgpu::Buffer,
+    large: u32,
+    /// Elements of a shooter whose power one thread sums at most.
+    serial_items: u32,
     /// `--round` ([`AdaptiveSolve::round`]).
     fraction: f32,
     /// Elements of the next round read back with a round: twice the most
@@ -143,6 +148,7 @@ impl GpuTransfers {
         dispatch_receivers: usize,
         frontier: u32,
         item_workgroups: u32,
+        serial_items: u32,
     ) -> Result<GpuTransfers, DeviceError> {
         let limits = gpu.device.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
@@ -177,6 +183,12 @@ impl GpuTransfers {
             panes,
         } = SceneData::of(solve, origin);
         let largest_shooter = shooter_items.iter().map(|r| r[1] - r[0]).max().unwrap_or(0) as u64;
+        let large: Vec<u32> = (0..shooter_items.len() as u32)
+            .filter(|&s| {
+                let [first, last] = shooter_items[s as usize];
+                last - first > serial_items
+            })
+            .collect();
 
         let pipelines = Pipelines::on(&gpu);
         let r = receivers.len() as u64;
@@ -248,6 +260,9 @@ impl GpuTransfers {
             round_offsets: state_buffer(&gpu, "next round's offsets", 4 * s),
             item_shooter: storage(&gpu, "item shooters", &nonempty(item_shooter)),
             next_unshot: state_buffer(&gpu, "next round's unshot", e * vec4_bytes),
+            large: large.len() as u32,
+            serial_items,
+            large_shooters: storage(&gpu, "large shooters", &nonempty(large)),
             fraction: solve.round as f32,
             prefetch: largest_shooter as u32,
             sources: Growing::new(&gpu, "sources"),
@@ -296,6 +311,8 @@ impl GpuTransfers {
     /// `direct` its direct share.
     fn book_data(&self, sign: f64, direct: DVec3) -> GpuBook {
         GpuBook {
+            large: self.large,
+            serial_items: self.serial_items,
             elements: self.elements,
             receivers: self.order.len() as u32,
             shooters: self.shooters,

@@ -176,17 +176,11 @@ impl Transfer<'_> {
     /// receiver's own surface, or (within one surface) the receiver is
     /// behind its plane.
     pub(crate) fn faces(&self, node: &Node, r: &Receiver) -> bool {
-        if r.normal.dot(node.centre - r.point) < -node.radius {
-            return false;
-        }
-        if node.group == NONE {
-            return true;
-        }
-        if node.group == r.group {
-            return false;
-        }
-        let surface = self.plane_of(node);
-        surface.normal.dot(r.point) - surface.offset > 0.0
+        let plane = (node.group != NONE).then(|| {
+            let surface = self.plane_of(node);
+            (surface.normal, surface.offset)
+        });
+        faces(node, r, plane)
     }
 
     /// The most irradiance (luminance) node `n` can send the receiver
@@ -197,18 +191,8 @@ impl Transfer<'_> {
     /// receiver is inside the box.
     pub(crate) fn bound(&self, n: u32, weight: f64, r: &Receiver) -> f64 {
         let node = self.source_node(n);
-        let clearance = box_distance(node, r.point);
-        if clearance <= 0.0 {
-            return f64::INFINITY;
-        }
-        let receiving = (box_extent(node, r.point, r.normal).1 / clearance).clamp(0.0, 1.0);
-        let sending = if node.group == NONE {
-            1.0
-        } else {
-            let normal = self.plane_of(node).normal;
-            (-box_extent(node, r.point, normal).0 / clearance).clamp(0.0, 1.0)
-        };
-        weight * receiving * sending / (std::f64::consts::PI * clearance * clearance)
+        let sending = (node.group != NONE).then(|| self.plane_of(node).normal);
+        bound(node, weight, r, sending)
     }
 
     /// A node that can send the receiver little, as up to six sources by
@@ -473,30 +457,18 @@ impl Transfer<'_> {
         self.corners(e, polygon);
         geometry::clip_to_half_space(polygon, r.point, r.normal, 0.0, &mut scratch.clipped);
         let normal = self.scene.surfaces[element.surface as usize].normal;
-        PointSource::of_polygon(&scratch.clipped, normal).map_or(0.0, |(source, area)| {
-            area * source.factor(DVec3::ZERO, r.point, r.normal)
-        })
+        polygon_point_factor(&scratch.clipped, normal, r)
     }
 
     /// Which side of the receiver's tangent plane element `e` lies on, by
     /// its corners: in front also when it reaches behind by no more than
     /// `graze`.
     pub(crate) fn side(&self, e: u32, r: &Receiver, graze: f64) -> Side {
-        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
-        for &v in self.mesh.elements[e as usize].vertices() {
-            let h = r
-                .normal
-                .dot(self.mesh.vertices[v as usize].position - r.point);
-            low = low.min(h);
-            high = high.max(h);
-        }
-        if high <= 0.0 {
-            Side::Behind
-        } else if low >= -graze {
-            Side::Front
-        } else {
-            Side::Across
-        }
+        let corners = self.mesh.elements[e as usize]
+            .vertices()
+            .iter()
+            .map(|&v| self.mesh.vertices[v as usize].position);
+        side(corners, r, graze)
     }
 
     /// One element as a source: its polygon's factor (clipped to the
@@ -730,6 +702,68 @@ pub fn placement(node: &Node, r: &Receiver) -> Side {
 /// refined down to elements, whose factors clip exactly.
 pub fn straddles(node: &Node, r: &Receiver) -> bool {
     r.normal.dot(node.centre - r.point).abs() < node.radius
+}
+
+/// Whether any point of `node` can light the receiver: some of it in
+/// front of the receiver's tangent plane and, for a node within one
+/// surface whose plane (normal, offset) is `plane`, the receiver in front
+/// of that plane and on another surface group.
+pub fn faces(node: &Node, r: &Receiver, plane: Option<(DVec3, f64)>) -> bool {
+    if r.normal.dot(node.centre - r.point) < -node.radius {
+        return false;
+    }
+    let Some((normal, offset)) = plane else {
+        return true;
+    };
+    if node.group == r.group {
+        return false;
+    }
+    normal.dot(r.point) - offset > 0.0
+}
+
+/// The most irradiance (luminance) a node of power `weight` can send the
+/// receiver whatever its visibility and however its power lies within
+/// its box: all of it from the box's nearest point, at the smallest
+/// angles to the receiver's normal and (for a node within one surface,
+/// whose normal is `sending`) to the surface's normal that any point of
+/// the box makes; infinite when the receiver is inside the box.
+pub fn bound(node: &Node, weight: f64, r: &Receiver, sending: Option<DVec3>) -> f64 {
+    let clearance = box_distance(node, r.point);
+    if clearance <= 0.0 {
+        return f64::INFINITY;
+    }
+    let receiving = (box_extent(node, r.point, r.normal).1 / clearance).clamp(0.0, 1.0);
+    let sending = sending.map_or(1.0, |normal| {
+        (-box_extent(node, r.point, normal).0 / clearance).clamp(0.0, 1.0)
+    });
+    weight * receiving * sending / (std::f64::consts::PI * clearance * clearance)
+}
+
+/// Which side of the receiver's tangent plane a polygon with `corners`
+/// lies on: in front also when it reaches behind by no more than `graze`.
+pub fn side(corners: impl IntoIterator<Item = DVec3>, r: &Receiver, graze: f64) -> Side {
+    let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+    for corner in corners {
+        let h = r.normal.dot(corner - r.point);
+        low = low.min(h);
+        high = high.max(h);
+    }
+    if high <= 0.0 {
+        Side::Behind
+    } else if low >= -graze {
+        Side::Front
+    } else {
+        Side::Across
+    }
+}
+
+/// The factor of a polygon `part` (in front of the receiver, of normal
+/// `normal`) as a corrected point source of its area, centroid and
+/// covariance ([`PointSource::of_polygon`]).
+pub fn polygon_point_factor(part: &[DVec3], normal: DVec3, r: &Receiver) -> f64 {
+    PointSource::of_polygon(part, normal).map_or(0.0, |(source, area)| {
+        area * source.factor(DVec3::ZERO, r.point, r.normal)
+    })
 }
 
 #[cfg(test)]
