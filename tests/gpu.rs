@@ -147,8 +147,7 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
     // What crossed between host and device, counted the same on any
     // adapter: none on the CPU; on the GPU at most one wait a round (its
     // ledger, which brings the next round's unshot light back with it),
-    // the checkpoints counted apart (they come by the clock), but where a
-    // round outgrew what came back; its critical path is at least its
+    // the checkpoints counted apart (they come by the clock); its critical path is at least its
     // mean walk; bind groups and uniforms made once a solve (and again
     // only when an upload outgrows its buffer), not every pass. The same
     // on the CPU: rounds of several shooters.
@@ -173,7 +172,7 @@ fn a_default_render_on_the_gpu_agrees_with_the_cpu() {
     assert_eq!(cpu["rounds"], gpu["rounds"]);
     assert!(4 * rounds < count("shots"), "{rounds} rounds");
     assert!(
-        (rounds..=rounds + rounds / 4).contains(&waits),
+        waits > 0 && waits <= rounds,
         "{waits} host waits for {rounds} rounds"
     );
     assert!(count("device_submissions") >= passes);

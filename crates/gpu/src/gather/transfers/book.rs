@@ -20,6 +20,10 @@ use crate::shaders::BOOK_WORKGROUP;
 use crate::shaders::counter::{self, COUNTERS};
 use crate::wgpu_io::nonempty;
 
+/// How many times the largest round so far the next round's readback
+/// holds (a larger round's light comes back in a read of its own).
+const PREFETCH_GROWTH: u32 = 4;
+
 impl GpuTransfers {
     /// The round's book-keeping and readback (inside an error scope).
     pub(super) fn book_round(&mut self) -> Result<Booked, DeviceError> {
@@ -174,11 +178,13 @@ impl GpuTransfers {
                 .map(dvec3)
                 .collect(),
         });
-        // Room for twice the largest round so far: rounds grow as the
-        // light spreads over more shooters of like power.
+        // Room for four times the largest round so far: rounds grow as
+        // the light spreads over more shooters of like power, early on by
+        // more than twice a round (the Cornell box: 49, 164, 345, 426, 919
+        // elements).
         self.prefetch = self
             .prefetch
-            .max(next[2].saturating_mul(2))
+            .max(next[2].saturating_mul(PREFETCH_GROWTH))
             .min(self.elements);
         Ok(Booked {
             received: Received { incident, absorbed },

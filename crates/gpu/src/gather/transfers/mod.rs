@@ -128,8 +128,9 @@ pub(super) struct GpuTransfers {
     serial_items: u32,
     /// `--round` ([`AdaptiveSolve::round`]).
     fraction: f32,
-    /// Elements of the next round read back with a round: twice the most
-    /// a round has taken (at least the largest shooter's, at most all).
+    /// Elements of the next round read back with a round: four times the
+    /// most a round has taken (at least the largest shooter's, at most
+    /// all).
     prefetch: u32,
     readback: wgpu::Buffer,
     uncaptured: Arc<Mutex<Option<String>>>,
