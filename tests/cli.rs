@@ -376,6 +376,7 @@ fn cornell_writes_picture_vertices_and_stats() {
     assert_eq!(
         keys(&stats),
         [
+            "absorbed_fraction",
             "accel_build",
             "accel_build_seconds",
             "base_elements",
@@ -406,6 +407,7 @@ fn cornell_writes_picture_vertices_and_stats() {
             "device_upload_seconds",
             "element_sources",
             "elements",
+            "escaped_fraction",
             "estimated_memory_bytes",
             "final_gather_seconds",
             "form_factor_thread_seconds",
@@ -479,6 +481,17 @@ fn cornell_writes_picture_vertices_and_stats() {
     assert_eq!(stats["stop_reason"], "converged");
     assert!(!keys(&stats["accel_build"]).is_empty());
     assert!(stats["unshot_fraction"].as_f64().unwrap() < 0.01);
+    // The ledger: what was emitted is unshot, absorbed or escaped (the
+    // box is open at the front: about a third of the light leaves it).
+    let fraction = |key: &str| stats[key].as_f64().unwrap();
+    let total =
+        fraction("unshot_fraction") + fraction("absorbed_fraction") + fraction("escaped_fraction");
+    assert!((total - 1.0).abs() < 1e-6, "the ledger sums to {total}");
+    assert!(
+        (0.2..0.45).contains(&fraction("escaped_fraction")),
+        "{}",
+        stats["escaped_fraction"]
+    );
     let csv = std::fs::read_to_string(p("c.csv")).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some("x,y,z,nx,ny,nz,surface,r,g,b"));

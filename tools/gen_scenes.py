@@ -726,6 +726,131 @@ def tworooms():
     return scene
 
 
+def suite():
+    """Rooms off a corridor, joined by doors; only the first room has a light.
+
+    Room A (x 0..4, z 0..4) holds the light; a door at its +x wall opens on a
+    corridor (x 4.2..10.2, z 0..1.6, 1.6 m wide and 6 m long), off which a
+    door leads to room B (x 5.2..9.2, z 1.8..5.8) and, at its far end,
+    another to room C (x 10.4..14.4, z 0..4). Walls are 0.2 m thick, each
+    doorway 1 x 2.1 m with its jambs and lintel; rooms B and C are
+    cluttered (a table, a cabinet, a shelf, a crate). All the light in the
+    corridor and in rooms B and C is indirect, most of it after two or
+    three bounces: a hold-out for light lost between enclosures, not a
+    scene any constant was tuned to. Scored by `radiosity experiment
+    validate` (not a built-in scene).
+    """
+    H, T, DH = 2.6, 0.2, 2.1
+    scene = Scene(
+        "suite",
+        ["Rooms off a corridor joined by doors; only room A has a light, so all",
+         "the light in the corridor and in rooms B and C is indirect.",
+         "Room A x 0..4, corridor x 4.2..10.2 z 0..1.6, room B x 5.2..9.2 z 1.8..5.8,",
+         "room C x 10.4..14.4; height 2.6 m; y up."],
+        ((4.4, 1.6, 0.8), (14.0, 1.0, 1.0), (0.0, 1.0, 0.0), 70.0))
+    scene.material("wall", (0.75, 0.74, 0.70), note="off-white walls")
+    scene.material("wall_b", (0.55, 0.62, 0.70), note="room B: pale blue walls")
+    scene.material("wall_c", (0.72, 0.62, 0.45), note="room C: ochre walls")
+    scene.material("ceiling", (0.82, 0.82, 0.80), note="white ceilings")
+    scene.material("floor", (0.45, 0.33, 0.22), note="wooden floors")
+    scene.material("block", (0.60, 0.25, 0.18), note="red-brown blocks")
+    scene.material("table", (0.50, 0.50, 0.55), note="grey furniture")
+    scene.material("light", (0.0, 0.0, 0.0), ke=(60.0, 58.0, 52.0), note="ceiling panel, 1 x 1 m")
+
+    def x_wall(mat, side, x, z0, z1, door=None):
+        """A wall in the plane x, over z0..z1, with a doorway door = (d0, d1)."""
+        if door is None:
+            scene.rect(mat, side, (x, 0.0, z0), (x, H, z1))
+            return
+        d0, d1 = door
+        scene.rect(mat, side, (x, 0.0, z0), (x, H, d0))
+        scene.rect(mat, side, (x, 0.0, d1), (x, H, z1))
+        scene.rect(mat, side, (x, DH, d0), (x, H, d1))
+
+    def z_wall(mat, side, z, x0, x1, door=None):
+        """A wall in the plane z, over x0..x1, with a doorway door = (d0, d1)."""
+        if door is None:
+            scene.rect(mat, side, (x0, 0.0, z), (x1, H, z))
+            return
+        d0, d1 = door
+        scene.rect(mat, side, (x0, 0.0, z), (d0, H, z))
+        scene.rect(mat, side, (d1, 0.0, z), (x1, H, z))
+        scene.rect(mat, side, (d0, DH, z), (d1, H, z))
+
+    def floor_ceiling(x0, z0, x1, z1):
+        scene.rect("floor", "+y", (x0, 0.0, z0), (x1, 0.0, z1))
+        scene.rect("ceiling", "-y", (x0, H, z0), (x1, H, z1))
+
+    def x_doorway(x0, x1, d0, d1):
+        """The threshold, jambs and lintel of a doorway through the wall
+        x0..x1."""
+        scene.rect("floor", "+y", (x0, 0.0, d0), (x1, 0.0, d1))
+        scene.rect("wall", "+z", (x0, 0.0, d0), (x1, DH, d0))
+        scene.rect("wall", "-z", (x0, 0.0, d1), (x1, DH, d1))
+        scene.rect("wall", "-y", (x0, DH, d0), (x1, DH, d1))
+
+    def z_doorway(z0, z1, d0, d1):
+        scene.rect("floor", "+y", (d0, 0.0, z0), (d1, 0.0, z1))
+        scene.rect("wall", "+x", (d0, 0.0, z0), (d0, DH, z1))
+        scene.rect("wall", "-x", (d1, 0.0, z0), (d1, DH, z1))
+        scene.rect("wall", "-y", (d0, DH, z0), (d1, DH, z1))
+
+    door_a, door_b, door_c = (0.3, 1.3), (6.6, 7.6), (0.3, 1.3)
+    scene.object("room_a")
+    floor_ceiling(0.0, 0.0, 4.0, 4.0)
+    x_wall("wall", "+x", 0.0, 0.0, 4.0)
+    z_wall("wall", "+z", 0.0, 0.0, 4.0)
+    z_wall("wall", "-z", 4.0, 0.0, 4.0)
+    x_wall("wall", "-x", 4.0, 0.0, 4.0, door_a)
+    scene.object("corridor")
+    floor_ceiling(4.2, 0.0, 10.2, 1.6)
+    x_wall("wall", "+x", 4.2, 0.0, 1.6, door_a)
+    x_wall("wall", "-x", 10.2, 0.0, 1.6, door_c)
+    z_wall("wall", "+z", 0.0, 4.2, 10.2)
+    z_wall("wall", "-z", 1.6, 4.2, 10.2, door_b)
+    scene.object("room_b")
+    floor_ceiling(5.2, 1.8, 9.2, 5.8)
+    x_wall("wall_b", "+x", 5.2, 1.8, 5.8)
+    x_wall("wall_b", "-x", 9.2, 1.8, 5.8)
+    z_wall("wall_b", "-z", 5.8, 5.2, 9.2)
+    z_wall("wall_b", "+z", 1.8, 5.2, 9.2, door_b)
+    scene.object("room_c")
+    floor_ceiling(10.4, 0.0, 14.4, 4.0)
+    x_wall("wall_c", "-x", 14.4, 0.0, 4.0)
+    z_wall("wall_c", "+z", 0.0, 10.4, 14.4)
+    z_wall("wall_c", "-z", 4.0, 10.4, 14.4)
+    x_wall("wall_c", "+x", 10.4, 0.0, 4.0, door_c)
+    scene.object("doorways")
+    x_doorway(4.0, 4.2, *door_a)
+    z_doorway(1.6, 1.8, *door_b)
+    x_doorway(10.2, 10.4, *door_c)
+    # The walls' thickness, for the interpenetration check.
+    scene.solid((4.0, 0.0, 0.0), (4.2, H, door_a[0]))
+    scene.solid((4.0, 0.0, door_a[1]), (4.2, H, 1.6))
+    scene.solid((10.2, 0.0, 0.0), (10.4, H, door_c[0]))
+    scene.solid((10.2, 0.0, door_c[1]), (10.4, H, 1.6))
+    scene.solid((5.2, 0.0, 1.6), (door_b[0], H, 1.8))
+    scene.solid((door_b[1], 0.0, 1.6), (9.2, H, 1.8))
+    scene.object("light")
+    scene.rect("light", "-y", (1.5, H - 0.001, 1.5), (2.5, H - 0.001, 2.5))
+    scene.object("block_a")
+    scene.box("block", (2.6, 0.0, 2.6), (3.4, 0.8, 3.4), omit=("-y",))
+    scene.object("table_b")
+    scene.box("table", (6.0, 0.0, 3.4), (7.6, 0.75, 4.4), omit=("-y",))
+    scene.object("cabinet_b")
+    scene.box("table", (8.0, 0.0, 5.2), (9.0, 1.8, 5.8), omit=("-y", "+z"))
+    scene.object("shelf_c")
+    scene.box("table", (13.8, 0.0, 0.8), (14.4, 2.0, 2.4), omit=("-y", "+x"))
+    scene.object("crate_c")
+    scene.box("block", (11.5, 0.0, 2.4), (12.5, 0.6, 3.4), omit=("-y",))
+    return scene
+
+
+# The experiments' scenes: scored by `radiosity experiment validate`, not
+# built in.
+EXPERIMENT_DIR = os.path.join(REPO, "crates", "experiments", "scenes")
+
+
 # --------------------------------------------------------------------------
 
 def main():
@@ -740,7 +865,8 @@ def main():
 
     print(f"mesh sizes: patch P = {num(args.patch_size)} m, element E = {num(args.element_size)} m")
     stale = []
-    for build in (cornell, room, tworooms):
+    for build, folder in ((cornell, SCENE_DIR), (room, SCENE_DIR), (tworooms, SCENE_DIR),
+                          (suite, EXPERIMENT_DIR)):
         try:
             scene = build()
             check(scene)
@@ -751,7 +877,7 @@ def main():
         print(f"{scene.name:8} {faces:4} faces {patches:5} patches "
               f"{elements:6} elements {vertices:6} vertices   ({hint})")
         for ext, text in (("obj", obj_text(scene)), ("mtl", mtl_text(scene))):
-            path = os.path.join(SCENE_DIR, f"{scene.name}.{ext}")
+            path = os.path.join(folder, f"{scene.name}.{ext}")
             if args.check:
                 try:
                     with open(path, encoding="utf-8", newline="") as f:

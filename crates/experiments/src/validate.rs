@@ -58,7 +58,7 @@ pub struct SceneCase {
 }
 
 /// The scenes `validate` scores.
-pub const SCENES: [SceneCase; 6] = [
+pub const SCENES: [SceneCase; 7] = [
     SceneCase {
         name: "room",
         source: "room",
@@ -103,11 +103,22 @@ pub const SCENES: [SceneCase; 6] = [
         // window and skylight brings the reference's noise below 0.5%.
         reference: "--paths 16384 --sky-rays 262144",
     },
+    // Rooms off a corridor, joined by doors, lit in one room alone
+    // (`tools/gen_scenes.py`'s `suite`): light crossing enclosures.
+    SceneCase {
+        name: "suite",
+        source: "suite",
+        shared: false,
+        lights: None,
+        reference: "",
+    },
 ];
 
-/// The rooms lit by lights that are not surfaces, shipped with the
-/// experiments (written by `scenes/make_light_scenes.py`): name, OBJ, MTL.
-const LIGHT_SCENES: [(&str, &str, &str); 2] = [
+/// The scenes shipped with the experiments rather than built in: the
+/// rooms lit by lights that are not surfaces (written by
+/// `scenes/make_light_scenes.py`) and the rooms off a corridor (written by
+/// `tools/gen_scenes.py`): name, OBJ, MTL.
+const EXPERIMENT_SCENES: [(&str, &str, &str); 3] = [
     (
         "lamp_room",
         include_str!("../scenes/lamp_room.obj"),
@@ -117,6 +128,11 @@ const LIGHT_SCENES: [(&str, &str, &str); 2] = [
         "window_room",
         include_str!("../scenes/window_room.obj"),
         include_str!("../scenes/window_room.mtl"),
+    ),
+    (
+        "suite",
+        include_str!("../scenes/suite.obj"),
+        include_str!("../scenes/suite.mtl"),
     ),
 ];
 
@@ -237,7 +253,7 @@ pub fn scene_file(context: &Context, case: &SceneCase) -> Result<PathBuf, Error>
     if case.shared {
         return reference::shared_scene(context, case.source);
     }
-    let embedded = LIGHT_SCENES
+    let embedded = EXPERIMENT_SCENES
         .iter()
         .find(|(name, _, _)| *name == case.source)
         .map(|(name, obj, mtl)| (*obj, format!("{name}.mtl"), *mtl));

@@ -198,6 +198,7 @@ fn report(
         counters: solver.counters(),
         stop: solved.stop,
         unshot_fraction: solver.unshot_fraction(),
+        energy: *solver.energy(),
         load_time: prepared.load_time,
         mesh_time: prepared.mesh_time,
         solve_time: solved.solve_time,

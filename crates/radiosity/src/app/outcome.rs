@@ -26,6 +26,8 @@ pub struct Outcome {
     pub stop: StopReason,
     /// Unshot fraction at the end.
     pub unshot_fraction: f64,
+    /// Where the emitted power went ([`crate::solver::Solver::energy`]).
+    pub energy: crate::solver::Energy,
     /// Time to read the scene and merge its coplanar faces.
     pub load_time: Duration,
     /// Time to build the element mesh.
@@ -196,6 +198,14 @@ pub struct StatsFile {
     pub counters: Vec<(&'static str, Counter)>,
     /// Unshot power left over emitted power.
     pub unshot_fraction: f64,
+    /// Shot power that arrived at no element, over the emitted power
+    /// (luminance): light that left through an opening, and the difference
+    /// between the exact transfers and their estimate at the vertices
+    /// (each element takes its corners' mean irradiance), which in a closed
+    /// scene is light lost.
+    pub escaped_fraction: f64,
+    /// Power absorbed over the emitted power (luminance).
+    pub absorbed_fraction: f64,
     /// Why the solve stopped ([`StopReason::describe`]).
     pub stop_reason: &'static str,
     /// Reading the scene and merging its coplanar faces.
@@ -323,6 +333,8 @@ impl StatsFile {
             solver: outcome.stats.clone(),
             counters: outcome.counters.clone(),
             unshot_fraction: outcome.unshot_fraction,
+            escaped_fraction: share(outcome.energy.escaped, outcome.energy.emitted),
+            absorbed_fraction: share(outcome.energy.absorbed, outcome.energy.emitted),
             stop_reason: outcome.stop.describe(),
             load_seconds: outcome.load_time.as_secs_f64(),
             mesh_seconds: outcome.mesh_time.as_secs_f64(),
@@ -377,5 +389,15 @@ impl StatsFile {
         let value = serde_json::to_value(self)?;
         serde_json::to_writer_pretty(&mut *w, &value)?;
         w.write_all(b"\n")
+    }
+}
+
+/// `part` over `whole`, by luminance (0 for no emission).
+fn share(part: glam::DVec3, whole: glam::DVec3) -> f64 {
+    let whole = crate::luminance(whole);
+    if whole > 0.0 {
+        crate::luminance(part) / whole
+    } else {
+        0.0
     }
 }
