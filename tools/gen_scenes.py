@@ -757,25 +757,22 @@ def suite():
     scene.material("table", (0.50, 0.50, 0.55), note="grey furniture")
     scene.material("light", (0.0, 0.0, 0.0), ke=(60.0, 58.0, 52.0), note="ceiling panel, 1 x 1 m")
 
-    def x_wall(mat, side, x, z0, z1, door=None):
-        """A wall in the plane x, over z0..z1, with a doorway door = (d0, d1)."""
+    def wall(mat, side, at, lo, hi, door=None):
+        """A wall in the plane x = `at` (side +-x, spanning z lo..hi) or
+        z = `at` (side +-z, spanning x lo..hi), with a doorway
+        door = (d0, d1) along it."""
+        def rect(a, b, y0):
+            if side[1] == "x":
+                scene.rect(mat, side, (at, y0, a), (at, H, b))
+            else:
+                scene.rect(mat, side, (a, y0, at), (b, H, at))
         if door is None:
-            scene.rect(mat, side, (x, 0.0, z0), (x, H, z1))
+            rect(lo, hi, 0.0)
             return
         d0, d1 = door
-        scene.rect(mat, side, (x, 0.0, z0), (x, H, d0))
-        scene.rect(mat, side, (x, 0.0, d1), (x, H, z1))
-        scene.rect(mat, side, (x, DH, d0), (x, H, d1))
-
-    def z_wall(mat, side, z, x0, x1, door=None):
-        """A wall in the plane z, over x0..x1, with a doorway door = (d0, d1)."""
-        if door is None:
-            scene.rect(mat, side, (x0, 0.0, z), (x1, H, z))
-            return
-        d0, d1 = door
-        scene.rect(mat, side, (x0, 0.0, z), (d0, H, z))
-        scene.rect(mat, side, (d1, 0.0, z), (x1, H, z))
-        scene.rect(mat, side, (d0, DH, z), (d1, H, z))
+        rect(lo, d0, 0.0)
+        rect(d1, hi, 0.0)
+        rect(d0, d1, DH)
 
     def floor_ceiling(x0, z0, x1, z1):
         scene.rect("floor", "+y", (x0, 0.0, z0), (x1, 0.0, z1))
@@ -798,28 +795,28 @@ def suite():
     door_a, door_b, door_c = (0.3, 1.3), (6.6, 7.6), (0.3, 1.3)
     scene.object("room_a")
     floor_ceiling(0.0, 0.0, 4.0, 4.0)
-    x_wall("wall", "+x", 0.0, 0.0, 4.0)
-    z_wall("wall", "+z", 0.0, 0.0, 4.0)
-    z_wall("wall", "-z", 4.0, 0.0, 4.0)
-    x_wall("wall", "-x", 4.0, 0.0, 4.0, door_a)
+    wall("wall", "+x", 0.0, 0.0, 4.0)
+    wall("wall", "+z", 0.0, 0.0, 4.0)
+    wall("wall", "-z", 4.0, 0.0, 4.0)
+    wall("wall", "-x", 4.0, 0.0, 4.0, door_a)
     scene.object("corridor")
     floor_ceiling(4.2, 0.0, 10.2, 1.6)
-    x_wall("wall", "+x", 4.2, 0.0, 1.6, door_a)
-    x_wall("wall", "-x", 10.2, 0.0, 1.6, door_c)
-    z_wall("wall", "+z", 0.0, 4.2, 10.2)
-    z_wall("wall", "-z", 1.6, 4.2, 10.2, door_b)
+    wall("wall", "+x", 4.2, 0.0, 1.6, door_a)
+    wall("wall", "-x", 10.2, 0.0, 1.6, door_c)
+    wall("wall", "+z", 0.0, 4.2, 10.2)
+    wall("wall", "-z", 1.6, 4.2, 10.2, door_b)
     scene.object("room_b")
     floor_ceiling(5.2, 1.8, 9.2, 5.8)
-    x_wall("wall_b", "+x", 5.2, 1.8, 5.8)
-    x_wall("wall_b", "-x", 9.2, 1.8, 5.8)
-    z_wall("wall_b", "-z", 5.8, 5.2, 9.2)
-    z_wall("wall_b", "+z", 1.8, 5.2, 9.2, door_b)
+    wall("wall_b", "+x", 5.2, 1.8, 5.8)
+    wall("wall_b", "-x", 9.2, 1.8, 5.8)
+    wall("wall_b", "-z", 5.8, 5.2, 9.2)
+    wall("wall_b", "+z", 1.8, 5.2, 9.2, door_b)
     scene.object("room_c")
     floor_ceiling(10.4, 0.0, 14.4, 4.0)
-    x_wall("wall_c", "-x", 14.4, 0.0, 4.0)
-    z_wall("wall_c", "+z", 0.0, 10.4, 14.4)
-    z_wall("wall_c", "-z", 4.0, 10.4, 14.4)
-    x_wall("wall_c", "+x", 10.4, 0.0, 4.0, door_c)
+    wall("wall_c", "-x", 14.4, 0.0, 4.0)
+    wall("wall_c", "+z", 0.0, 10.4, 14.4)
+    wall("wall_c", "-z", 4.0, 10.4, 14.4)
+    wall("wall_c", "+x", 10.4, 0.0, 4.0, door_c)
     scene.object("doorways")
     x_doorway(4.0, 4.2, *door_a)
     z_doorway(1.6, 1.8, *door_b)

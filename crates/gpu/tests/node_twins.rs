@@ -23,7 +23,7 @@
 mod common;
 
 use common::rng::Rng;
-use common::{Case, EPS, case, f32s, gpu, read, run_kernel, split};
+use common::{Case, EPS, NodeBox, case, f32s, gpu, node_box, read, run_kernel, split};
 use glam::DVec3;
 use radiosity::geometry;
 use radiosity::solver::Receiver;
@@ -278,15 +278,14 @@ fn the_node_rules_agree_with_their_rust_twins() {
     let mut cases = Vec::new();
     let mut twins = Vec::new();
     for _ in 0..8000 {
-        let half = DVec3::new(
-            rng.range(0.01, 2.0),
-            rng.range(0.0, 2.0),
-            rng.range(0.01, 2.0),
-        );
-        let middle = rng.point_in(DVec3::splat(-5.0), DVec3::splat(5.0));
-        let (lo, hi) = (middle - half, middle + half);
-        let centre = rng.point_in(lo, hi);
-        let radius = (hi - lo).length() / 2.0 + centre.distance(middle);
+        let NodeBox {
+            lo,
+            hi,
+            middle,
+            half,
+            centre,
+            radius,
+        } = node_box(&mut rng);
         // The receiver: inside the box, just outside a face, or anywhere.
         let point = match rng.below(3) {
             0 => rng.point_in(lo, hi),

@@ -20,7 +20,7 @@
 mod common;
 
 use common::rng::Rng;
-use common::{Case, EPS, case, f32s, gpu, read, run_kernel, split};
+use common::{Case, EPS, NodeBox, case, f32s, gpu, node_box, read, run_kernel, split};
 use glam::DVec3;
 use radiosity::form_factor::analytic::analytic_facing;
 use radiosity::geometry::{self, clip::clip_each};
@@ -272,20 +272,14 @@ fn the_placement_rules_agree_with_their_rust_twins() {
     let mut nodes = Vec::new();
     let mut cases = Vec::new();
     for _ in 0..8000 {
-        let half = DVec3::new(
-            rng.range(0.01, 2.0),
-            rng.range(0.0, 2.0),
-            rng.range(0.01, 2.0),
-        );
-        let middle = rng.point_in(DVec3::splat(-5.0), DVec3::splat(5.0));
-        let (lo, hi) = (middle - half, middle + half);
-        let centre = rng.point_in(lo, hi);
-        let radius = [lo, hi]
-            .iter()
-            .flat_map(|a| [lo, hi].map(move |b| (a, b)))
-            .flat_map(|(a, b)| [lo, hi].map(move |c| DVec3::new(a.x, b.y, c.z)))
-            .map(|corner| corner.distance(centre))
-            .fold(0.0, f64::max);
+        let NodeBox {
+            lo,
+            hi,
+            middle,
+            half,
+            centre,
+            radius,
+        } = node_box(&mut rng);
         let normal = rng.unit_vector();
         // The receiver's plane at a chosen height over the node: through
         // the sphere, near its lowest box corner, or anywhere.

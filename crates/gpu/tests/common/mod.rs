@@ -181,3 +181,42 @@ pub fn split(v: DVec3) -> ([f32; 4], [f32; 4]) {
     let hi = f32s(v);
     (hi, f32s(v - read(hi)))
 }
+
+/// A random node's box about the origin (`lo`, `hi`: up to 2 m across,
+/// flat in y at times), its middle and half extent, and a centre inside
+/// it with the radius of the sphere about it that holds the box.
+pub struct NodeBox {
+    pub lo: DVec3,
+    pub hi: DVec3,
+    pub middle: DVec3,
+    pub half: DVec3,
+    pub centre: DVec3,
+    pub radius: f64,
+}
+
+/// A [`NodeBox`] drawn from `rng`.
+pub fn node_box(rng: &mut Rng) -> NodeBox {
+    let half = DVec3::new(
+        rng.range(0.01, 2.0),
+        rng.range(0.0, 2.0),
+        rng.range(0.01, 2.0),
+    );
+    let middle = rng.point_in(DVec3::splat(-5.0), DVec3::splat(5.0));
+    let (lo, hi) = (middle - half, middle + half);
+    let centre = rng.point_in(lo, hi);
+    // The farthest corner from the centre.
+    let radius = [lo, hi]
+        .iter()
+        .flat_map(|a| [lo, hi].map(move |b| (a, b)))
+        .flat_map(|(a, b)| [lo, hi].map(move |c| DVec3::new(a.x, b.y, c.z)))
+        .map(|corner| corner.distance(centre))
+        .fold(0.0, f64::max);
+    NodeBox {
+        lo,
+        hi,
+        middle,
+        half,
+        centre,
+        radius,
+    }
+}

@@ -256,6 +256,15 @@ impl GpuTransfers {
     fn make_fixed(&self) -> FixedBinds {
         let p = &self.pipelines;
         let book = &self.uniforms.round_book;
+        // What the shooters' powers read, small and large.
+        let powers = [
+            entry(G::Unshot, &self.unshot),
+            entry(G::ElementBook, &self.element_book),
+            entry(G::ShooterItems, &self.shooter_items),
+            entry(G::Items, &self.items),
+            entry(G::Powers, &self.powers),
+            entry(G::Book, book),
+        ];
         FixedBinds {
             gathered: self.bind(
                 &p.gathered,
@@ -288,28 +297,14 @@ impl GpuTransfers {
                     entry(G::DirectTotal, &self.direct),
                 ],
             ),
-            powers: self.bind(
-                &p.shooter_powers,
-                &[
-                    entry(G::Unshot, &self.unshot),
-                    entry(G::ElementBook, &self.element_book),
-                    entry(G::ShooterItems, &self.shooter_items),
-                    entry(G::Items, &self.items),
-                    entry(G::Powers, &self.powers),
-                    entry(G::Book, book),
-                ],
-            ),
+            powers: self.bind(&p.shooter_powers, &powers),
             large_powers: self.bind(
                 &p.large_shooter_powers,
                 &[
-                    entry(G::Unshot, &self.unshot),
-                    entry(G::ElementBook, &self.element_book),
-                    entry(G::ShooterItems, &self.shooter_items),
-                    entry(G::Items, &self.items),
-                    entry(G::Powers, &self.powers),
-                    entry(G::Book, book),
-                    entry(G::LargeShooters, &self.large_shooters),
-                ],
+                    &powers[..],
+                    &[entry(G::LargeShooters, &self.large_shooters)],
+                ]
+                .concat(),
             ),
             choose: self.bind(
                 &p.choose_next,
