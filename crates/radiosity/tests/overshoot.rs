@@ -53,15 +53,6 @@ fn solve(scene: &Scene, settings: &Settings) -> (Vec<glam::DVec3>, u64, bool) {
     (solver.radiosity().to_vec(), solver.stats().shots, negative)
 }
 
-fn l1(a: &[glam::DVec3], b: &[glam::DVec3]) -> f64 {
-    let diff: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (*x - *y).abs().element_sum())
-        .sum();
-    diff / b.iter().map(|y| y.abs().element_sum()).sum::<f64>()
-}
-
 /// The closed furnace (rho 0.5, E 1: radiosity 2 everywhere): with
 /// overshooting every vertex is within 1% of 2, as without, in at most
 /// two thirds of the shots; one shooter a round and in the default's
@@ -118,7 +109,7 @@ fn the_room_converges_to_the_same_radiosity_in_fewer_shots() {
     let (plain, plain_shots, _) = solve(&room, &sized(&room, settings(0.0, default_converge)));
     let (over, over_shots, negative) = solve(&room, &sized(&room, settings(1.0, default_converge)));
     assert!(negative);
-    let (plain_error, over_error) = (l1(&plain, &tight), l1(&over, &tight));
+    let (plain_error, over_error) = (common::l1(&plain, &tight), common::l1(&over, &tight));
     println!(
         "room: L1 against the tight solve {over_error} overshooting ({over_shots} shots), \
          {plain_error} without ({plain_shots} shots)"

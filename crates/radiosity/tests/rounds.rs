@@ -62,15 +62,6 @@ fn solve(scene: &Scene, settings: &Settings) -> Solved {
     }
 }
 
-fn l1(a: &[DVec3], b: &[DVec3]) -> f64 {
-    let diff: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (*x - *y).abs().element_sum())
-        .sum();
-    diff / b.iter().map(|y| y.abs().element_sum()).sum::<f64>()
-}
-
 /// The closed furnace (rho 0.5, E 1: radiosity 2 everywhere) in rounds:
 /// every vertex within 1% of 2, in fewer rounds than shooters shot.
 #[test]
@@ -110,8 +101,8 @@ fn rounds_land_where_one_shooter_at_a_time_does() {
     let single = solve(&room, &sized(&room, settings(1.0, converge)));
     let rounds = solve(&room, &sized(&room, settings(default_round, converge)));
     let (single_error, round_error) = (
-        l1(&single.radiosity, &tight.radiosity),
-        l1(&rounds.radiosity, &tight.radiosity),
+        common::l1(&single.radiosity, &tight.radiosity),
+        common::l1(&rounds.radiosity, &tight.radiosity),
     );
     println!(
         "room: L1 against the tight solve {round_error} in {} rounds ({} shots, work {}), \
@@ -172,9 +163,9 @@ fn rounds_book_each_shooter_s_direct_light_apart() {
     let one_by_one = solve(&lamps(0.7), &at(1.0));
     let walls_black = solve(&lamps(0.0), &at(0.7));
     let (against_one, against_black, of_all) = (
-        l1(&in_rounds.direct, &one_by_one.direct),
-        l1(&in_rounds.direct, &walls_black.direct),
-        l1(&in_rounds.direct, &in_rounds.irradiance),
+        common::l1(&in_rounds.direct, &one_by_one.direct),
+        common::l1(&in_rounds.direct, &walls_black.direct),
+        common::l1(&in_rounds.direct, &in_rounds.irradiance),
     );
     println!(
         "lamps: {} rounds of {} shots; direct L1 against one at a time {against_one}, against \

@@ -239,3 +239,13 @@ pub fn sized_for(
     };
     settings
 }
+
+/// The L1 distance of `a` from `b` relative to `b`, over every channel.
+pub fn l1(a: &[DVec3], b: &[DVec3]) -> f64 {
+    let diff: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).abs().element_sum())
+        .sum();
+    diff / b.iter().map(|y| y.abs().element_sum()).sum::<f64>()
+}

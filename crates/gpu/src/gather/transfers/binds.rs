@@ -82,22 +82,6 @@ pub(super) struct Binds {
     collect: Option<Arc<wgpu::BindGroup>>,
 }
 
-/// The value in `slot`, made by `make` (counting `count` objects made in
-/// `made`) where there is none.
-fn cached<T>(
-    slot: &mut Option<Arc<T>>,
-    made: &mut u64,
-    count: impl Fn(&T) -> u64,
-    make: impl FnOnce() -> T,
-) -> Arc<T> {
-    slot.get_or_insert_with(|| {
-        let value = make();
-        *made += count(&value);
-        Arc::new(value)
-    })
-    .clone()
-}
-
 impl GpuTransfers {
     /// Writes `bytes` to the growing buffer `which`, dropping the bind
     /// groups that read the old one if it grew.
@@ -125,78 +109,69 @@ impl GpuTransfers {
         self.traffic.set(traffic);
     }
 
+    /// The bind groups in `slot` of the cache, made by `make` (counting
+    /// `count` of them made) where there are none.
+    fn cached<T>(
+        &mut self,
+        slot: fn(&mut Binds) -> &mut Option<Arc<T>>,
+        count: impl Fn(&T) -> u64,
+        make: impl FnOnce(&Self) -> T,
+    ) -> Arc<T> {
+        if let Some(value) = slot(&mut self.binds) {
+            return value.clone();
+        }
+        let value = make(self);
+        self.count_made(count(&value));
+        let value = Arc::new(value);
+        *slot(&mut self.binds) = Some(value.clone());
+        value
+    }
+
     /// The chunks' bind groups.
     pub(super) fn chunk_binds(&mut self) -> Arc<Vec<ChunkBinds>> {
-        let mut binds = std::mem::take(&mut self.binds);
-        let mut made = 0;
-        let chunks = cached(
-            &mut binds.chunks,
-            &mut made,
-            |c| 4 * c.len() as u64,
-            || self.make_chunks(),
-        );
-        self.binds = binds;
-        self.count_made(made);
-        chunks
+        self.cached(|b| &mut b.chunks, |c| 4 * c.len() as u64, Self::make_chunks)
     }
 
     /// The bind groups that read no growing buffer.
     pub(super) fn fixed_binds(&mut self) -> Arc<FixedBinds> {
-        let mut binds = std::mem::take(&mut self.binds);
-        let mut made = 0;
-        let fixed = cached(&mut binds.fixed, &mut made, |_| 7, || self.make_fixed());
-        self.binds = binds;
-        self.count_made(made);
-        fixed
+        self.cached(|b| &mut b.fixed, |_| 7, Self::make_fixed)
     }
 
     /// `leave_shooters`' bind group.
     pub(super) fn leave_bind(&mut self) -> Arc<wgpu::BindGroup> {
-        let mut binds = std::mem::take(&mut self.binds);
-        let mut made = 0;
-        let group = cached(
-            &mut binds.leave,
-            &mut made,
+        self.cached(
+            |b| &mut b.leave,
             |_| 1,
-            || {
-                self.bind(
-                    &self.pipelines.leave_shooters,
+            |t| {
+                t.bind(
+                    &t.pipelines.leave_shooters,
                     &[
-                        entry(G::Unshot, &self.unshot),
-                        entry(G::Leaves, &self.leave_buffer.buffer),
-                        entry(G::Book, &self.uniforms.round_book),
+                        entry(G::Unshot, &t.unshot),
+                        entry(G::Leaves, &t.leave_buffer.buffer),
+                        entry(G::Book, &t.uniforms.round_book),
                     ],
                 )
             },
-        );
-        self.binds = binds;
-        self.count_made(made);
-        group
+        )
     }
 
     /// `collect`'s bind group.
     pub(super) fn collect_bind(&mut self) -> Arc<wgpu::BindGroup> {
-        let mut binds = std::mem::take(&mut self.binds);
-        let mut made = 0;
-        let group = cached(
-            &mut binds.collect,
-            &mut made,
+        self.cached(
+            |b| &mut b.collect,
             |_| 1,
-            || {
-                self.bind(
-                    &self.pipelines.collect,
+            |t| {
+                t.bind(
+                    &t.pipelines.collect,
                     &[
-                        entry(G::Unshot, &self.unshot),
-                        entry(G::Wanted, &self.wanted.buffer),
-                        entry(G::Staging, &self.staging),
-                        entry(G::Book, &self.uniforms.wanted_book),
+                        entry(G::Unshot, &t.unshot),
+                        entry(G::Wanted, &t.wanted.buffer),
+                        entry(G::Staging, &t.staging),
+                        entry(G::Book, &t.uniforms.wanted_book),
                     ],
                 )
             },
-        );
-        self.binds = binds;
-        self.count_made(made);
-        group
+        )
     }
 
     fn make_chunks(&self) -> Vec<ChunkBinds> {
